@@ -1,0 +1,233 @@
+"""Vehicle parameters: a frozen, validated dataclass with YAML presets.
+
+Every field carries its SI unit in its docstring. Presets are shipped as YAML
+files in ``roadgrip/data/vehicles`` and documented in :data:`PRESET_SOURCES`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, fields
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from roadgrip.constants import GRAVITY
+
+__all__ = ["PRESETS", "PRESET_SOURCES", "VehicleParams", "load_vehicle"]
+
+_DRIVES = ("fwd", "rwd", "awd")
+
+
+@dataclass(frozen=True)
+class VehicleParams:
+    """Single-track vehicle parameters (SI units).
+
+    Attributes
+    ----------
+    name : str
+        Label.
+    mass : float
+        Total mass [kg].
+    yaw_inertia : float
+        Yaw moment of inertia about the CG [kg m²].
+    lf : float
+        Distance CG to front axle [m].
+    lr : float
+        Distance CG to rear axle [m].
+    cg_height : float
+        CG height above ground [m] (longitudinal load transfer).
+    wheel_radius : float
+        Effective rolling radius [m].
+    track_width : float
+        Track width [m].
+    wheel_inertia : float
+        Spin inertia of one wheel with its drive-line share [kg m²].
+    cornering_stiffness_front : float
+        Front-axle cornering stiffness (both wheels) [N/rad].
+    cornering_stiffness_rear : float
+        Rear-axle cornering stiffness (both wheels) [N/rad].
+    drive : str
+        Driven axles: ``'fwd'``, ``'rwd'`` or ``'awd'``.
+    max_steer : float
+        Largest front road-wheel angle [rad].
+    gear_ratio : float
+        Motor revolutions per wheel revolution [-] (1 where no motor speed is used).
+    """
+
+    name: str
+    mass: float
+    yaw_inertia: float
+    lf: float
+    lr: float
+    cg_height: float
+    wheel_radius: float
+    track_width: float
+    wheel_inertia: float = 1.0
+    cornering_stiffness_front: float = 1.0e5
+    cornering_stiffness_rear: float = 1.0e5
+    drive: str = "fwd"
+    max_steer: float = 0.6
+    gear_ratio: float = 1.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            if f.name in ("name", "drive"):
+                continue
+            value = getattr(self, f.name)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ValueError(f"vehicle field {f.name!r} must be a number, got {value!r}")
+            if not math.isfinite(value) or value <= 0:
+                raise ValueError(f"vehicle field {f.name!r} must be positive and finite, got {value!r}")
+            object.__setattr__(self, f.name, float(value))
+        if self.drive not in _DRIVES:
+            raise ValueError(f"vehicle field 'drive' must be one of {_DRIVES}, got {self.drive!r}")
+        if self.max_steer >= math.pi / 2:
+            raise ValueError(f"vehicle field 'max_steer' must be below pi/2 rad, got {self.max_steer!r}")
+
+    # -- derived quantities ------------------------------------------------------------
+    @property
+    def wheelbase(self) -> float:
+        """``lf + lr`` [m]."""
+        return self.lf + self.lr
+
+    @property
+    def fz_front(self) -> float:
+        """Static front-axle load ``m g lr / l`` [N] (paper 000, eq. 2)."""
+        return self.mass * GRAVITY * self.lr / self.wheelbase
+
+    @property
+    def fz_rear(self) -> float:
+        """Static rear-axle load ``m g lf / l`` [N] (paper 000, eq. 2)."""
+        return self.mass * GRAVITY * self.lf / self.wheelbase
+
+    @property
+    def understeer_gradient(self) -> float:
+        """Linear understeer gradient ``K = m/l (lr/Cf - lf/Cr)`` [rad s²/m]."""
+        return (self.mass / self.wheelbase) * (
+            self.lr / self.cornering_stiffness_front - self.lf / self.cornering_stiffness_rear
+        )
+
+    def axle_loads(self, ax: Any) -> tuple[Any, Any]:
+        """Axle normal loads with longitudinal load transfer.
+
+        Parameters
+        ----------
+        ax : array_like
+            Longitudinal acceleration [m/s²], positive forward.
+
+        Returns
+        -------
+        fz_front, fz_rear : ndarray
+            ``m (g lr - ax h) / l`` and ``m (g lf + ax h) / l`` [N], clipped at zero.
+        """
+        import numpy as np
+
+        ax = np.asarray(ax, dtype=float)
+        dfz = self.mass * ax * self.cg_height / self.wheelbase
+        return np.maximum(self.fz_front - dfz, 0.0), np.maximum(self.fz_rear + dfz, 0.0)
+
+    # -- (de)serialisation -------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> VehicleParams:
+        """Build from a mapping; unknown keys and missing required keys are errors."""
+        if not isinstance(d, dict):
+            raise ValueError(f"vehicle description must be a mapping, got {type(d).__name__}")
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise ValueError(f"unknown vehicle field(s) {unknown}; known fields: {sorted(known)}")
+        required = [
+            f.name
+            for f in fields(cls)
+            if f.default is dataclasses.MISSING and f.name not in d
+        ]
+        if required:
+            raise ValueError(f"missing vehicle field(s) {required}")
+        return cls(**d)
+
+    def to_yaml(self, path: str | Path) -> None:
+        Path(path).write_text(yaml.safe_dump(self.to_dict(), sort_keys=False))
+
+    @classmethod
+    def from_yaml(cls, path: str | Path) -> VehicleParams:
+        try:
+            data = yaml.safe_load(Path(path).read_text())
+        except FileNotFoundError:
+            raise ValueError(f"vehicle file not found: {path}") from None
+        except yaml.YAMLError as exc:
+            raise ValueError(f"vehicle file {path} is not valid YAML: {exc}") from None
+        return cls.from_dict(data)
+
+    def replace(self, **changes: Any) -> VehicleParams:
+        return dataclasses.replace(self, **changes)
+
+
+PRESET_SOURCES: dict[str, str] = {
+    "suv": (
+        "Mid-size SUV of the class used in Berntorp's GP-SSM study (paper 000). The paper does "
+        "not list its parameters; mass, inertia and axle distances are typical data-sheet "
+        "values for a ~2.1 t SUV, the same order as the vehicle of Berntorp et al., 'Models and "
+        "methodology for optimal trajectory generation in safety-critical road-vehicle "
+        "manoeuvres', Vehicle System Dynamics 52(10), 2014 (m = 2100 kg, Izz = 3900 kg m², "
+        "lf = 1.3 m, lr = 1.5 m). Cornering stiffnesses follow from the snow tire (B C D Fz)."
+    ),
+    "sedan": (
+        "C-segment passenger sedan, representative data-sheet values (1.5 t, wheelbase 2.7 m, "
+        "inertia from the m a b rule of thumb Izz ~ 0.9 m lf lr), cornering stiffnesses of "
+        "dry-road passenger-car tires (about 15/rad per unit load)."
+    ),
+    "f1tenth": (
+        "F1/10 Traxxas-based car of Amine et al. (paper 003, appendix) and ../shared/data "
+        "README: m = 3.33 kg, Iz = 0.0687 kg m², lf = 0.112 m, lr = 0.208 m, h = 0.075 m, "
+        "tire circumference 0.319 m (radius 0.0508 m), gear ratio 11.85, axle cornering "
+        "stiffness 150 N/rad as in the paper's appendix; track width of the F1TENTH chassis."
+    ),
+    "jetracer": (
+        "DART 1:10 JetRacer (Lyons et al., TU Delft 2024; ../shared/data README): m = 1.58 kg, "
+        "lf = 0.0805 m, lr = 0.0930 m, Iz = 0.0048 kg m², rear-wheel drive. Wheel radius and "
+        "CG height are measured-scale estimates; cornering stiffness is from the authors' "
+        "Pacejka-like fit (about 0.84 peak, slope near 6/rad per unit load)."
+    ),
+}
+
+
+def _preset_dir() -> Any:
+    return resources.files("roadgrip") / "data" / "vehicles"
+
+
+def _load_presets() -> dict[str, VehicleParams]:
+    out = {}
+    for name in PRESET_SOURCES:
+        text = (_preset_dir() / f"{name}.yaml").read_text()
+        out[name] = VehicleParams.from_dict(yaml.safe_load(text))
+    return out
+
+
+PRESETS: dict[str, VehicleParams] = _load_presets()
+"""Shipped presets by name; see :data:`PRESET_SOURCES`."""
+
+
+def load_vehicle(spec: str | Path | VehicleParams) -> VehicleParams:
+    """A preset name, a YAML path or a :class:`VehicleParams` -> :class:`VehicleParams`.
+
+    Raises
+    ------
+    ValueError
+        Unknown preset, missing file, unknown or invalid fields.
+    """
+    if isinstance(spec, VehicleParams):
+        return spec
+    s = str(spec)
+    if s in PRESETS:
+        return PRESETS[s]
+    p = Path(s)
+    if p.suffix in (".yaml", ".yml") or p.exists():
+        return VehicleParams.from_yaml(p)
+    raise ValueError(f"unknown vehicle {s!r}: not a preset ({sorted(PRESETS)}) nor a YAML file")

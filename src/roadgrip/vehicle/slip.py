@@ -1,0 +1,110 @@
+r"""Tire slip quantities: axle slip angles and wheel longitudinal slip.
+
+Sign convention (ISO 8855, as paper 000 eq. 4): the slip angle of a wheel is
+``alpha = -arctan(v_y,w / v_x,w)`` with the velocities in the wheel frame, so a
+positive slip angle produces a positive (leftward) lateral force. For the
+single-track model this gives
+
+``alpha_f = delta - arctan((vy + lf r) / vx)``,   ``alpha_r = -arctan((vy - lr r) / vx)``.
+
+Paper 002 (eq. 3) writes the same angles with the opposite sign; roadgrip uses
+the convention above everywhere.
+
+Low-speed regularisation: the speed in each denominator is replaced by
+``sign(vx) * sqrt(vx**2 + v_eps**2)`` (``v_eps`` defaults to
+:data:`roadgrip.constants.V_EPS`). Slips then stay finite and continuous down to
+standstill and shrink to zero there, instead of the singular ``0/0`` of the
+textbook definitions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from roadgrip.constants import V_EPS
+from roadgrip.vehicle.params import VehicleParams
+
+__all__ = ["longitudinal_slip", "regularized_speed", "slip_angles"]
+
+
+def regularized_speed(vx: ArrayLike, v_eps: float = V_EPS) -> NDArray[np.float64]:
+    """``sign(vx) sqrt(vx² + v_eps²)`` [m/s]: never zero, equal to ``vx`` at speed."""
+    vx = np.asarray(vx, dtype=float)
+    return np.where(vx >= 0.0, 1.0, -1.0) * np.sqrt(vx * vx + v_eps * v_eps)
+
+
+def slip_angles(
+    vx: ArrayLike,
+    vy: ArrayLike,
+    yaw_rate: ArrayLike,
+    steer: ArrayLike,
+    params: VehicleParams,
+    *,
+    exact: bool = True,
+    v_eps: float = V_EPS,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Front and rear axle slip angles [rad], vectorised over any shape.
+
+    Parameters
+    ----------
+    vx, vy : array_like
+        CG velocity in body axes [m/s].
+    yaw_rate : array_like
+        [rad/s], positive counter-clockwise.
+    steer : array_like
+        Front road-wheel angle [rad].
+    params : VehicleParams
+        Uses ``lf`` and ``lr``.
+    exact : bool
+        ``True``: arctan form. ``False``: the linearised form
+        ``alpha_f = delta - (vy + lf r)/vx``, ``alpha_r = -(vy - lr r)/vx``.
+    v_eps : float
+        Low-speed regularisation [m/s] (module docstring).
+
+    Returns
+    -------
+    alpha_f, alpha_r : ndarray
+        Broadcast shape of the inputs.
+    """
+    u = regularized_speed(vx, v_eps)
+    vy = np.asarray(vy, dtype=float)
+    r = np.asarray(yaw_rate, dtype=float)
+    steer = np.asarray(steer, dtype=float)
+    qf = (vy + params.lf * r) / u
+    qr = (vy - params.lr * r) / u
+    if exact:
+        return steer - np.arctan(qf), -np.arctan(qr)
+    return steer - qf, -qr
+
+
+def longitudinal_slip(
+    omega: ArrayLike,
+    vx_wheel: ArrayLike,
+    wheel_radius: float,
+    *,
+    v_eps: float = V_EPS,
+) -> NDArray[np.float64]:
+    """Longitudinal slip ``(r w - vx) / max(vx, r w)`` (paper 002, eq. 2), regularised.
+
+    Parameters
+    ----------
+    omega : array_like
+        Wheel angular speed [rad/s].
+    vx_wheel : array_like
+        Longitudinal speed of the wheel centre in the wheel frame [m/s].
+    wheel_radius : float
+        Rolling radius [m].
+    v_eps : float
+        The denominator is ``sqrt(max(|vx|, |r w|)² + v_eps²)`` [m/s], so the slip
+        is finite at standstill and lies in ``(-1, 1)`` for forward motion.
+
+    Returns
+    -------
+    ndarray
+        Slip ratio [-]; positive when driving (wheel faster than the ground).
+    """
+    rw = wheel_radius * np.asarray(omega, dtype=float)
+    vx = np.asarray(vx_wheel, dtype=float)
+    den = np.sqrt(np.maximum(np.abs(vx), np.abs(rw)) ** 2 + v_eps * v_eps)
+    return (rw - vx) / den
