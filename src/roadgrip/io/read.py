@@ -1,0 +1,104 @@
+"""``read_drive``: one entry point for every drive file and data set."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from roadgrip.drive import Drive
+from roadgrip.io.canonical import read_canonical_csv, read_canonical_parquet
+from roadgrip.io.dart import is_dart_csv, read_dart
+from roadgrip.io.frictionmaps import is_frictionmaps_dir, read_frictionmaps
+from roadgrip.vehicle.params import VehicleParams, load_vehicle
+
+__all__ = ["FORMATS", "detect_format", "read_drive"]
+
+FORMATS = ("canonical", "dart", "frictionmaps")
+"""Accepted values of ``format``."""
+
+
+def detect_format(path: str | Path) -> str:
+    """Tell the format of ``path``.
+
+    A folder containing ``imuData.csv`` (or a file inside one) is
+    ``'frictionmaps'``; a CSV whose header names ``elapsed time sensors`` is
+    ``'dart'``; any other ``.csv`` / ``.parquet`` / ``.pq`` file is ``'canonical'``.
+
+    Raises
+    ------
+    ValueError
+        Missing path, empty file, or a format that cannot be told.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise ValueError(f"no such file or folder: {p}")
+    if p.is_dir():
+        if is_frictionmaps_dir(p):
+            return "frictionmaps"
+        raise ValueError(
+            f"cannot tell the format of folder {p}: a frictionmaps run folder contains "
+            "imuData.csv; otherwise give a .csv or .parquet file"
+        )
+    if p.stat().st_size == 0:
+        raise ValueError(f"{p} is empty")
+    if p.name in ("imuData.csv", "odomData.csv", "commandData.csv", "pfPoseData.csv") and (
+        is_frictionmaps_dir(p.parent)
+    ):
+        return "frictionmaps"
+    suffix = p.suffix.lower()
+    if suffix in (".parquet", ".pq"):
+        return "canonical"
+    if suffix == ".csv":
+        return "dart" if is_dart_csv(p) else "canonical"
+    raise ValueError(
+        f"cannot tell the format of {p.name!r}: expected .csv or .parquet, or pass "
+        f"--format ({'|'.join(FORMATS)})"
+    )
+
+
+def read_drive(
+    path: str | Path,
+    format: str | None = None,
+    vehicle: str | Path | VehicleParams | None = None,
+) -> Drive:
+    """Read a drive: canonical CSV/Parquet, or a shared real data set.
+
+    Parameters
+    ----------
+    path : str or Path
+        Canonical ``.csv`` / ``.parquet`` file, a DART run CSV, or a frictionmaps
+        ``DSn`` folder.
+    format : {None, 'canonical', 'dart', 'frictionmaps'}
+        ``None`` detects it (:func:`detect_format`).
+    vehicle : preset name, YAML path or VehicleParams, optional
+        Overrides the file's vehicle. Required for a plain CSV without roadgrip
+        metadata; the data-set readers default to ``'jetracer'`` (dart) and
+        ``'f1tenth'`` (frictionmaps).
+
+    Returns
+    -------
+    Drive
+
+    Raises
+    ------
+    ValueError
+        With a one-line message: missing or empty file, unknown format, missing
+        vehicle, or failed validation (:class:`~roadgrip.drive.DriveValidationError`).
+    """
+    p = Path(path)
+    if format is not None and format not in FORMATS:
+        raise ValueError(f"unknown format {format!r}; expected one of {', '.join(FORMATS)}")
+    if not p.exists():
+        raise ValueError(f"no such file or folder: {p}")
+    fmt = format or detect_format(p)
+    veh = load_vehicle(vehicle) if vehicle is not None else None
+    if fmt == "dart":
+        return read_dart(p, veh)
+    if fmt == "frictionmaps":
+        return read_frictionmaps(p, veh)
+    if p.is_dir():
+        raise ValueError(f"{p} is a folder; a canonical drive is a .csv or .parquet file")
+    if p.stat().st_size == 0:
+        raise ValueError(f"{p} is empty")
+    if p.suffix.lower() in (".parquet", ".pq"):
+        return read_canonical_parquet(p, veh)
+    return read_canonical_csv(p, veh)
