@@ -1,0 +1,58 @@
+"""Evaluation: accuracy metrics against truth, the scenario suite and the benchmark.
+
+* :mod:`roadgrip.evaluate.metrics`: metric functions on plain arrays.
+* :mod:`roadgrip.evaluate.suite`: which estimator runs on which scenario or
+  real data set, how each run is scored, and ``roadgrip bench``.
+"""
+
+from roadgrip.evaluate.metrics import (
+    ClassificationMetrics,
+    CurveMetrics,
+    DetectionEvent,
+    MapMetrics,
+    band_coverage,
+    cell_truth,
+    classification_accuracy,
+    confident_wrong_class_rate,
+    confident_wrong_rate,
+    count_switches,
+    covered_mask,
+    curve_error,
+    detection_delays,
+    map_metrics,
+    peak_error,
+    sustained,
+    true_peak_series,
+    truth_excitation,
+    truth_grip_class,
+)
+
+__all__ = [
+    "ClassificationMetrics",
+    "CurveMetrics",
+    "DetectionEvent",
+    "MapMetrics",
+    "band_coverage",
+    "bench_cli",
+    "cell_truth",
+    "classification_accuracy",
+    "confident_wrong_class_rate",
+    "confident_wrong_rate",
+    "count_switches",
+    "covered_mask",
+    "curve_error",
+    "detection_delays",
+    "map_metrics",
+    "peak_error",
+    "sustained",
+    "true_peak_series",
+    "truth_excitation",
+    "truth_grip_class",
+]
+
+
+def bench_cli(output, *, quick: bool = False, seed: int = 0, console=None):
+    """``roadgrip bench``: see :func:`roadgrip.evaluate.suite.bench_cli`."""
+    from roadgrip.evaluate.suite import bench_cli as _bench_cli
+
+    return _bench_cli(output, quick=quick, seed=seed, console=console)

@@ -1,0 +1,630 @@
+r"""Accuracy metrics for friction estimators, computed against known truth.
+
+Every function here takes plain arrays (so it can be checked on hand-made
+cases with known answers) and returns a small frozen result object. The
+helpers at the end (:func:`true_peak_series`, :func:`truth_grip_class`,
+:func:`truth_excitation`, :func:`cell_truth`) derive the truth arrays from a
+simulated :class:`~roadgrip.drive.Drive`.
+
+Definitions
+-----------
+Covered slip range
+    The slip axis is cut into bins of width ``bin_width`` [rad]; a bin is
+    *covered* when the drive visited it at least ``min_visits`` times. Curve
+    errors and band coverage are taken over the curve grid points that fall in
+    covered bins only: a curve is not judged where the data never went.
+95 % band coverage
+    Fraction of evaluation points where ``lower <= truth <= upper``.
+Grip classes
+    ``'high'`` / ``'low'``; the truth class of a sample is ``'high'`` when the
+    true peak friction is at least ``threshold`` (default 0.7, between gravel
+    0.6 and wet asphalt 0.75 of :data:`roadgrip.tire.SURFACES`).
+Sufficient excitation (for detection delays)
+    A sample is *sufficiently excited* when the horizontal acceleration
+    ``sqrt(ax² + ay²)`` has stayed at or above ``min_accel`` [m/s²] for at least
+    ``min_duration`` [s] up to and including it. This is measured on the drive's
+    signals, independently of each estimator's own excitation flag.
+Detection delay
+    For each change of the truth class at ``t_c``: the first sufficiently
+    excited time ``t_e >= t_c`` and the first time ``t_d >= t_c`` at which the
+    estimate equals the new class and keeps it for ``hold`` seconds. The delay
+    is reported both from the change (``t_d - t_c``) and from the first
+    excitation (``max(t_d - t_e, 0)``).
+Confident wrong claim
+    A friction estimate is *confident* when its 95 % band is no wider than
+    ``2 * tol`` (and, where the estimator says so, the peak was observed); it is
+    *wrong* when ``|estimate - truth| > tol``. A class estimate is confident when
+    it is ``'high'`` or ``'low'`` (not ``'unknown'``), wrong when it differs from
+    the truth class. The rate is over all evaluated samples.
+Map cells and calibration
+    Cells with at least ``min_obs`` excited observations are evaluated: mean
+    absolute error, the fraction within ``tol``, and the fraction whose truth
+    lies inside ``mean ± z(p) std`` for nominal levels ``p`` (a calibration
+    curve; a calibrated map has empirical ≈ nominal). Never-excited cells must
+    report wide uncertainty; the fraction that do is returned.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.stats import norm
+
+__all__ = [
+    "ClassificationMetrics",
+    "CurveMetrics",
+    "DetectionEvent",
+    "MapMetrics",
+    "band_coverage",
+    "cell_truth",
+    "classification_accuracy",
+    "confident_wrong_class_rate",
+    "confident_wrong_rate",
+    "count_switches",
+    "covered_mask",
+    "curve_error",
+    "detection_delays",
+    "map_metrics",
+    "peak_error",
+    "sustained",
+    "true_peak_series",
+    "truth_excitation",
+    "truth_grip_class",
+]
+
+GRIP_THRESHOLD = 0.7
+"""Default true peak friction [-] that separates 'high' from 'low' grip."""
+
+
+def _f(name: str, x: ArrayLike) -> NDArray[np.float64]:
+    a = np.asarray(x, dtype=float)
+    if a.ndim != 1:
+        raise ValueError(f"{name} must be one-dimensional, got shape {a.shape}")
+    return a
+
+
+def _same_len(**arrays: np.ndarray) -> int:
+    lens = {k: len(v) for k, v in arrays.items()}
+    if len(set(lens.values())) > 1:
+        raise ValueError(f"arrays must have equal length, got {lens}")
+    return next(iter(lens.values()))
+
+
+# -- friction curves ------------------------------------------------------------------
+@dataclass(frozen=True)
+class CurveMetrics:
+    """Error of one friction curve over the covered slip range.
+
+    Attributes
+    ----------
+    mae : float
+        Mean absolute error of the mean curve [-] over covered grid points.
+    max_error : float
+        Largest absolute error there [-].
+    coverage : float
+        Fraction of covered grid points whose truth lies in the band (NaN without band).
+    slip_range : tuple of float
+        Smallest and largest covered grid slip [rad].
+    n_points : int
+        Number of covered grid points (0: nothing covered, the other fields are NaN).
+    """
+
+    mae: float
+    max_error: float
+    coverage: float
+    slip_range: tuple[float, float]
+    n_points: int
+
+
+def covered_mask(
+    grid: ArrayLike, visited: ArrayLike, *, bin_width: float = 0.005, min_visits: int = 20
+) -> NDArray[np.bool_]:
+    """Grid points whose slip bin was visited at least ``min_visits`` times.
+
+    Parameters
+    ----------
+    grid : array_like, shape (G,)
+        Slip values [rad] at which a curve is evaluated.
+    visited : array_like, shape (n,)
+        Slip values the drive actually went through [rad].
+    bin_width : float
+        Bin width [rad]; bins are aligned on multiples of ``bin_width``.
+    min_visits : int
+        Visits a bin needs to count as covered.
+
+    Returns
+    -------
+    ndarray of bool, shape (G,)
+
+    Examples
+    --------
+    >>> covered_mask([0.0, 0.012], [0.001] * 20 + [0.011] * 3, bin_width=0.005).tolist()
+    [True, False]
+    """
+    grid = _f("grid", grid)
+    visited = _f("visited", visited)
+    if bin_width <= 0:
+        raise ValueError(f"bin_width must be positive, got {bin_width}")
+    visited = visited[np.isfinite(visited)]
+    vb = np.floor(visited / bin_width).astype(np.int64)
+    gb = np.floor(grid / bin_width).astype(np.int64)
+    if vb.size == 0:
+        return np.zeros(grid.shape, bool)
+    uniq, counts = np.unique(vb, return_counts=True)
+    idx = np.searchsorted(uniq, gb)
+    idx = np.clip(idx, 0, len(uniq) - 1)
+    return (uniq[idx] == gb) & (counts[idx] >= min_visits)
+
+
+def curve_error(
+    grid: ArrayLike,
+    mu_mean: ArrayLike,
+    mu_true: ArrayLike | Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    visited: ArrayLike,
+    *,
+    mu_lower: ArrayLike | None = None,
+    mu_upper: ArrayLike | None = None,
+    bin_width: float = 0.005,
+    min_visits: int = 20,
+) -> CurveMetrics:
+    """Friction-curve error and band coverage over the covered slip range.
+
+    Parameters
+    ----------
+    grid : array_like, shape (G,)
+        Slip grid [rad].
+    mu_mean : array_like, shape (G,)
+        Estimated (posterior-mean) friction on the grid [-].
+    mu_true : array_like, shape (G,), or callable
+        True friction on the grid, or a function of slip (e.g. ``tire.mu``).
+    visited : array_like, shape (n,)
+        Slip values visited by the drive [rad] (e.g. ``alpha_f_true``).
+    mu_lower, mu_upper : array_like, shape (G,), optional
+        95 % band.
+    bin_width, min_visits
+        See :func:`covered_mask`.
+
+    Examples
+    --------
+    A constant estimate 0.3 against the line ``mu = alpha`` on [0.2, 0.4]:
+
+    >>> g = np.linspace(0.2, 0.4, 201)
+    >>> m = curve_error(g, np.full(201, 0.3), lambda a: a, g.repeat(50), bin_width=0.001)
+    >>> round(m.mae, 3)
+    0.05
+    """
+    grid = _f("grid", grid)
+    mean = _f("mu_mean", mu_mean)
+    truth = _f("mu_true", mu_true(grid) if callable(mu_true) else mu_true)
+    _same_len(grid=grid, mu_mean=mean, mu_true=truth)
+    mask = covered_mask(grid, visited, bin_width=bin_width, min_visits=min_visits)
+    mask &= np.isfinite(mean) & np.isfinite(truth)
+    n = int(mask.sum())
+    if n == 0:
+        return CurveMetrics(np.nan, np.nan, np.nan, (np.nan, np.nan), 0)
+    err = np.abs(mean[mask] - truth[mask])
+    cov = np.nan
+    if mu_lower is not None and mu_upper is not None:
+        lo, hi = _f("mu_lower", mu_lower), _f("mu_upper", mu_upper)
+        _same_len(grid=grid, mu_lower=lo, mu_upper=hi)
+        cov = band_coverage(truth[mask], lo[mask], hi[mask])
+    g = grid[mask]
+    return CurveMetrics(float(err.mean()), float(err.max()), cov, (float(g.min()), float(g.max())), n)
+
+
+def peak_error(estimate: float, truth: float) -> float:
+    """Signed peak-friction error ``estimate - truth`` [-]; raises on non-finite input.
+
+    >>> round(peak_error(0.32, 0.3), 6)
+    0.02
+    """
+    if not (np.isfinite(estimate) and np.isfinite(truth)):
+        raise ValueError(f"peak_error needs finite values, got estimate={estimate}, truth={truth}")
+    return float(estimate) - float(truth)
+
+
+def band_coverage(truth: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> float:
+    """Fraction of points with ``lower <= truth <= upper``.
+
+    Points where any of the three is NaN are left out; if none remain the
+    result is NaN. Raises when ``lower > upper`` anywhere (a malformed band).
+
+    >>> band_coverage([0.5, 0.5, 0.5, 0.5], [0.4, 0.6, 0.0, 0.5], [0.6, 0.7, 1.0, 0.5])
+    0.75
+    """
+    truth, lower, upper = _f("truth", truth), _f("lower", lower), _f("upper", upper)
+    _same_len(truth=truth, lower=lower, upper=upper)
+    ok = np.isfinite(truth) & np.isfinite(lower) & np.isfinite(upper)
+    if np.any(lower[ok] > upper[ok]):
+        raise ValueError("band has lower > upper at some points")
+    if not ok.any():
+        return float("nan")
+    inside = (truth[ok] >= lower[ok]) & (truth[ok] <= upper[ok])
+    return float(inside.mean())
+
+
+# -- classification -------------------------------------------------------------------
+@dataclass(frozen=True)
+class ClassificationMetrics:
+    """Accuracy of a grip-class trace.
+
+    Attributes
+    ----------
+    accuracy : float
+        Fraction of evaluated samples whose class equals the truth class
+        (``'unknown'`` counts as wrong).
+    unknown_fraction : float
+        Fraction of evaluated samples classified ``'unknown'``.
+    n_samples : int
+        Evaluated samples.
+    """
+
+    accuracy: float
+    unknown_fraction: float
+    n_samples: int
+
+
+def classification_accuracy(
+    predicted: Sequence[str] | NDArray, truth: Sequence[str] | NDArray, mask: ArrayLike | None = None
+) -> ClassificationMetrics:
+    """Fraction of samples (where ``mask``) classified as the truth class.
+
+    >>> classification_accuracy(['high', 'low', 'unknown', 'low'], ['high'] * 2 + ['low'] * 2).accuracy
+    0.5
+    """
+    pred = np.asarray(predicted).astype(str)
+    tru = np.asarray(truth).astype(str)
+    _same_len(predicted=pred, truth=tru)
+    m = np.ones(len(pred), bool) if mask is None else np.asarray(mask, bool)
+    _same_len(predicted=pred, mask=m)
+    n = int(m.sum())
+    if n == 0:
+        return ClassificationMetrics(np.nan, np.nan, 0)
+    return ClassificationMetrics(
+        float((pred[m] == tru[m]).mean()), float((pred[m] == "unknown").mean()), n
+    )
+
+
+@dataclass(frozen=True)
+class DetectionEvent:
+    """One change of the true class and how the estimate followed it.
+
+    Attributes
+    ----------
+    t_change : float
+        Time of the true change [s].
+    new_class : str
+        Class after the change.
+    t_excited : float
+        First sufficiently excited time at or after the change [s] (NaN: none).
+    t_detected : float
+        First time the estimate took the new class and held it [s] (NaN: never).
+    delay_from_change, delay_from_excitation : float
+        ``t_detected - t_change`` and ``max(t_detected - t_excited, 0)`` [s].
+    """
+
+    t_change: float
+    new_class: str
+    t_excited: float
+    t_detected: float
+    delay_from_change: float
+    delay_from_excitation: float
+
+    @property
+    def detected(self) -> bool:
+        return bool(np.isfinite(self.t_detected))
+
+
+def sustained(flag: ArrayLike, t: ArrayLike, min_duration: float) -> NDArray[np.bool_]:
+    """``True`` where ``flag`` has been true for at least ``min_duration`` seconds.
+
+    >>> sustained([0, 1, 1, 1, 0, 1], np.arange(6) * 0.1, 0.1).tolist()
+    [False, False, True, True, False, False]
+    """
+    f = np.asarray(flag, bool)
+    t = _f("t", t)
+    _same_len(flag=f, t=t)
+    # Start time of the current run of True values at every sample.
+    starts = np.where(f & ~np.r_[False, f[:-1]], t, -np.inf)
+    run_start = np.maximum.accumulate(starts)
+    return f & (t - run_start >= min_duration - 1e-12)
+
+
+def detection_delays(
+    t: ArrayLike,
+    predicted: Sequence[str] | NDArray,
+    truth: Sequence[str] | NDArray,
+    excited: ArrayLike,
+    *,
+    hold: float = 0.0,
+) -> list[DetectionEvent]:
+    """Delays with which a class estimate follows each change of the truth class.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Time [s].
+    predicted, truth : sequence of str, shape (n,)
+        Estimated and true class per sample.
+    excited : array_like of bool, shape (n,)
+        Sufficient excitation (see :func:`truth_excitation`).
+    hold : float
+        The estimate must keep the new class this long [s] to count as detected.
+
+    Examples
+    --------
+    Truth switches to 'low' at t = 1 s, excitation starts at 1.5 s and the
+    estimate follows at 2 s:
+
+    >>> t = np.arange(0, 4, 0.5)
+    >>> ev = detection_delays(t, ['high'] * 4 + ['low'] * 4, ['high'] * 2 + ['low'] * 6,
+    ...                       t >= 1.5)[0]
+    >>> ev.delay_from_change, ev.delay_from_excitation
+    (1.0, 0.5)
+    """
+    t = _f("t", t)
+    pred = np.asarray(predicted).astype(str)
+    tru = np.asarray(truth).astype(str)
+    exc = np.asarray(excited, bool)
+    _same_len(t=t, predicted=pred, truth=tru, excited=exc)
+    changes = np.flatnonzero(tru[1:] != tru[:-1]) + 1
+    bounds = [*changes.tolist(), len(t)]
+    events = []
+    for k, i in enumerate(changes):
+        end = bounds[k + 1]  # the truth keeps this class until the next change
+        new = tru[i]
+        seg = slice(i, end)
+        e_idx = np.flatnonzero(exc[seg])
+        t_exc = float(t[i + e_idx[0]]) if e_idx.size else np.nan
+        match = pred[seg] == new
+        held = np.flatnonzero(sustained(match, t[seg], hold) if hold > 0 else match)
+        t_det = np.nan
+        if held.size:
+            # The detection time is the start of the first run that held long enough.
+            starts = np.flatnonzero(match & ~np.r_[False, match[:-1]])
+            t_det = float(t[i + starts[starts <= held[0]][-1]])
+        d_change = t_det - float(t[i]) if np.isfinite(t_det) else np.nan
+        d_exc = max(t_det - t_exc, 0.0) if np.isfinite(t_det) and np.isfinite(t_exc) else np.nan
+        events.append(DetectionEvent(float(t[i]), str(new), t_exc, t_det, d_change, d_exc))
+    return events
+
+
+def count_switches(classes: Sequence[str] | NDArray) -> int:
+    """Number of changes between confident classes (``'unknown'`` samples are skipped).
+
+    >>> count_switches(['high', 'unknown', 'high', 'low', 'unknown', 'high'])
+    2
+    """
+    c = np.asarray(classes).astype(str)
+    c = c[c != "unknown"]
+    return int(np.sum(c[1:] != c[:-1])) if c.size else 0
+
+
+def confident_wrong_class_rate(
+    predicted: Sequence[str] | NDArray, truth: Sequence[str] | NDArray
+) -> float:
+    """Fraction of samples with a confident class ('high'/'low') that differs from the truth.
+
+    >>> confident_wrong_class_rate(['high', 'low', 'unknown', 'low'], ['high'] * 4)
+    0.5
+    """
+    pred = np.asarray(predicted).astype(str)
+    tru = np.asarray(truth).astype(str)
+    _same_len(predicted=pred, truth=tru)
+    if pred.size == 0:
+        return float("nan")
+    return float(((pred != "unknown") & (pred != tru)).mean())
+
+
+def confident_wrong_rate(
+    estimate: ArrayLike,
+    lower: ArrayLike,
+    upper: ArrayLike,
+    truth: ArrayLike,
+    *,
+    tol: float = 0.1,
+    observed: ArrayLike | None = None,
+) -> float:
+    """Fraction of samples with a confident friction estimate more than ``tol`` off.
+
+    Confident: finite band no wider than ``2 * tol`` and (when ``observed`` is
+    given) the estimator reports the peak as observed. Samples with NaN truth
+    are left out.
+
+    >>> confident_wrong_rate([0.5, 0.5, 0.9], [0.45, 0.1, 0.85], [0.55, 0.9, 0.95], [0.5, 1.0, 0.5])
+    0.3333333333333333
+    """
+    est, lo, hi, tru = (_f(n, a) for n, a in
+                        (("estimate", estimate), ("lower", lower), ("upper", upper), ("truth", truth)))
+    _same_len(estimate=est, lower=lo, upper=hi, truth=tru)
+    ok = np.isfinite(tru)
+    if not ok.any():
+        return float("nan")
+    width = hi - lo
+    confident = np.isfinite(width) & (width <= 2.0 * tol) & np.isfinite(est)
+    if observed is not None:
+        obs = np.asarray(observed, bool)
+        _same_len(estimate=est, observed=obs)
+        confident &= obs
+    wrong = np.abs(np.where(np.isfinite(est), est, 0.0) - np.where(ok, tru, 0.0)) > tol
+    return float((confident & wrong)[ok].mean())
+
+
+# -- maps ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class MapMetrics:
+    """Accuracy and calibration of a friction grid against true cell friction.
+
+    Attributes
+    ----------
+    n_cells : int
+        Cells with at least ``min_obs`` observations and a known truth.
+    mae : float
+        Mean absolute error of the cell means [-].
+    within_tol : float
+        Fraction of evaluated cells within ``tol`` of the truth.
+    coverage95 : float
+        Fraction of evaluated cells whose truth lies in ``mean ± 1.96 std``.
+    calibration : tuple of (float, float)
+        ``(nominal, empirical)`` coverage pairs at several nominal levels.
+    unobserved_wide : float
+        Fraction of never-observed cells whose std is at least ``wide_std`` (NaN: none).
+    """
+
+    n_cells: int
+    mae: float
+    within_tol: float
+    coverage95: float
+    calibration: tuple[tuple[float, float], ...]
+    unobserved_wide: float
+
+
+def map_metrics(
+    mean: ArrayLike,
+    std: ArrayLike,
+    n_obs: ArrayLike,
+    truth: ArrayLike,
+    *,
+    min_obs: int = 10,
+    tol: float = 0.1,
+    wide_std: float = 0.2,
+    levels: Sequence[float] = (0.5, 0.8, 0.9, 0.95, 0.99),
+) -> MapMetrics:
+    """Cell error, tolerance hit rate and calibration of a friction map.
+
+    Parameters
+    ----------
+    mean, std : array_like, shape (C,)
+        Cell mean and standard deviation of friction [-] (NaN allowed for
+        unobserved cells).
+    n_obs : array_like, shape (C,)
+        Excited observations fused into each cell.
+    truth : array_like, shape (C,)
+        True friction of each cell (NaN where unknown).
+
+    Examples
+    --------
+    >>> m = map_metrics([0.5, 0.8, 0.3], [0.05, 0.05, 1.0], [20, 20, 0], [0.52, 0.5, 0.6])
+    >>> m.n_cells, round(m.mae, 3), m.within_tol, m.unobserved_wide
+    (2, 0.16, 0.5, 1.0)
+    """
+    mean, std, nobs, tru = (_f(n, a) for n, a in
+                            (("mean", mean), ("std", std), ("n_obs", n_obs), ("truth", truth)))
+    _same_len(mean=mean, std=std, n_obs=nobs, truth=tru)
+    if np.any(std[np.isfinite(std)] < 0):
+        raise ValueError("map std must be non-negative")
+    ev = (nobs >= min_obs) & np.isfinite(tru) & np.isfinite(mean) & np.isfinite(std)
+    never = nobs <= 0
+    unobs_wide = float(np.mean(~np.isfinite(std[never]) | (std[never] >= wide_std))) if never.any() else np.nan
+    n = int(ev.sum())
+    if n == 0:
+        return MapMetrics(0, np.nan, np.nan, np.nan, tuple((p, np.nan) for p in levels), unobs_wide)
+    err = np.abs(mean[ev] - tru[ev])
+    s = np.maximum(std[ev], 1e-12)
+    cal = tuple((float(p), float(np.mean(err <= norm.ppf(0.5 + p / 2.0) * s))) for p in levels)
+    cov95 = float(np.mean(err <= 1.959963984540054 * s))
+    return MapMetrics(n, float(err.mean()), float(np.mean(err <= tol)), cov95, cal, unobs_wide)
+
+
+def cell_truth(
+    cell_x: ArrayLike,
+    cell_y: ArrayLike,
+    cell_size: float,
+    x: ArrayLike,
+    y: ArrayLike,
+    mu_true: ArrayLike,
+) -> NDArray[np.float64]:
+    """True friction of each cell: mean ``mu_true`` of the drive samples inside it.
+
+    Parameters
+    ----------
+    cell_x, cell_y : array_like, shape (C,)
+        Cell centres [m].
+    cell_size : float
+        Cell edge length [m].
+    x, y, mu_true : array_like, shape (n,)
+        Sample positions [m] and true friction there.
+
+    Returns
+    -------
+    ndarray, shape (C,)
+        NaN for cells with no sample.
+
+    Examples
+    --------
+    >>> cell_truth([0.5, 1.5, 5.5], [0.5, 0.5, 0.5], 1.0, [0.2, 0.7, 1.1], [0.5] * 3, [0.4, 0.6, 0.9])
+    array([0.5, 0.9, nan])
+    """
+    cx, cy = _f("cell_x", cell_x), _f("cell_y", cell_y)
+    x, y, mu = _f("x", x), _f("y", y), _f("mu_true", mu_true)
+    _same_len(x=x, y=y, mu_true=mu)
+    if cell_size <= 0:
+        raise ValueError(f"cell_size must be positive, got {cell_size}")
+    key_c = np.floor(np.c_[cx, cy] / cell_size).astype(np.int64)
+    key_s = np.floor(np.c_[x, y] / cell_size).astype(np.int64)
+    out = np.full(len(cx), np.nan)
+    if len(x) == 0:
+        return out
+    uniq, inv = np.unique(key_s, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    sums = np.bincount(inv, weights=mu, minlength=len(uniq))
+    cnts = np.bincount(inv, minlength=len(uniq))
+    lookup = {tuple(k): i for i, k in enumerate(uniq.tolist())}
+    for j, k in enumerate(key_c.tolist()):
+        i = lookup.get(tuple(k))
+        if i is not None:
+            out[j] = sums[i] / cnts[i]
+    return out
+
+
+# -- truth from a simulated drive -----------------------------------------------------
+def true_peak_series(drive, axle: str = "front", direction: str = "lateral") -> NDArray[np.float64]:
+    """True peak friction of ``axle`` at every sample of a simulated drive, shape (n,).
+
+    Uses the surface label of each sample and the drive's true tire models;
+    falls back to the ``mu_true`` column when the drive carries no per-surface
+    tire models. Raises when the drive carries no truth at all.
+    """
+    truth = drive.meta.truth or {}
+    surfaces = truth.get("surfaces")
+    if surfaces and "surface" in drive.data.columns:
+        labels = drive.data["surface"].astype(str).to_numpy()
+        out = np.full(len(labels), np.nan)
+        for name in np.unique(labels):
+            if name in surfaces:
+                out[labels == name] = drive.true_tire(axle, direction, name).peak()[1]
+        if np.isfinite(out).all():
+            return out
+    if "mu_true" in drive.data.columns:
+        return drive.col("mu_true")
+    raise ValueError(f"drive from {drive.meta.source} carries no friction truth")
+
+
+def truth_grip_class(mu_peak: ArrayLike, threshold: float = GRIP_THRESHOLD) -> NDArray[np.str_]:
+    """'high' where the true peak friction is at least ``threshold``, else 'low'.
+
+    >>> truth_grip_class([1.0, 0.6, 0.7]).tolist()
+    ['high', 'low', 'high']
+    """
+    mu = np.asarray(mu_peak, float)
+    return np.where(mu >= threshold, "high", "low")
+
+
+def truth_excitation(
+    drive, *, min_accel: float = 2.0, min_duration: float = 0.3
+) -> NDArray[np.bool_]:
+    """Sufficient excitation of each sample, from the measured accelerations.
+
+    A sample is sufficiently excited when ``sqrt(ax² + ay²) >= min_accel``
+    [m/s²] has held for ``min_duration`` [s] (see the module docstring).
+    Missing ``ax`` or ``ay`` counts as zero; a drive with neither raises.
+    """
+    if not (drive.has("ax") or drive.has("ay")):
+        raise ValueError(f"drive from {drive.meta.source} has neither 'ax' nor 'ay'")
+    ax = drive.col("ax") if drive.has("ax") else 0.0
+    ay = drive.col("ay") if drive.has("ay") else 0.0
+    a = np.hypot(ax, ay) * np.ones(drive.n)
+    return sustained(a >= min_accel, drive.t, min_duration)

@@ -1,0 +1,214 @@
+"""Metrics of roadgrip.evaluate on hand-made cases with known answers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from roadgrip.drive import Drive
+from roadgrip.evaluate import (
+    band_coverage,
+    cell_truth,
+    classification_accuracy,
+    confident_wrong_class_rate,
+    confident_wrong_rate,
+    count_switches,
+    covered_mask,
+    curve_error,
+    detection_delays,
+    map_metrics,
+    peak_error,
+    sustained,
+    true_peak_series,
+    truth_excitation,
+    truth_grip_class,
+)
+from roadgrip.tire import SURFACES
+from roadgrip.vehicle import PRESETS
+
+
+# -- friction curves ------------------------------------------------------------------
+def test_constant_estimate_against_magic_formula_matches_quadrature():
+    """A constant estimate against the snow curve: MAE equals the integral mean of |c - mu|."""
+    tire = SURFACES["snow"].lateral
+    grid = np.linspace(-0.2, 0.2, 4001)
+    visited = np.random.default_rng(1).uniform(0.0, 0.1, 200_000)  # covers [0, 0.1) only
+    c = 0.2
+    m = curve_error(grid, np.full_like(grid, c), tire.mu, visited, bin_width=0.01, min_visits=20)
+    # Independent answer: the covered range is exactly [0, 0.1); average |c - mu| there.
+    fine = np.linspace(0.0, 0.1, 200_001)[:-1]
+    expected = np.mean(np.abs(c - tire.mu(fine)))
+    assert m.slip_range[0] == pytest.approx(0.0, abs=1e-4)
+    assert m.slip_range[1] == pytest.approx(0.1, abs=2e-4)
+    assert m.mae == pytest.approx(expected, abs=2e-4)
+    assert m.max_error == pytest.approx(max(c, tire.peak()[1] - c), abs=1e-4)
+
+
+def test_curve_error_ignores_rarely_visited_bins():
+    grid = np.array([0.0025, 0.0075, 0.0125])
+    visited = np.r_[np.full(20, 0.001), np.full(19, 0.006), np.full(100, 0.011)]
+    assert covered_mask(grid, visited, bin_width=0.005, min_visits=20).tolist() == [True, False, True]
+    m = curve_error(grid, [0.1, 5.0, 0.3], [0.0, 0.0, 0.0], visited, bin_width=0.005)
+    assert m.n_points == 2
+    assert m.mae == pytest.approx(0.2)  # the wrong middle point is not judged
+
+
+def test_curve_error_band_coverage_of_known_band():
+    grid = np.linspace(0, 1, 101)
+    truth = grid.copy()
+    lower = truth - 0.05
+    upper = truth + 0.05
+    upper[:30] = truth[:30] - 0.01  # band misses the truth on the first 30 points
+    lower[:30] = truth[:30] - 0.1
+    m = curve_error(grid, truth, truth, grid.repeat(30), mu_lower=lower, mu_upper=upper,
+                    bin_width=0.01, min_visits=20)
+    assert m.mae == 0.0
+    assert m.coverage == pytest.approx(71 / 101)
+
+
+def test_curve_error_nothing_covered_is_nan_not_zero():
+    m = curve_error([0.1, 0.2], [0.3, 0.3], [0.3, 0.3], [0.5] * 100)
+    assert m.n_points == 0 and np.isnan(m.mae)
+
+
+def test_band_coverage_and_malformed_band():
+    assert band_coverage([1, 2, 3, 4], [0, 0, 0, 0], [1, 1, 3.5, 3.9]) == pytest.approx(0.5)
+    assert band_coverage([1, np.nan], [0, 0], [2, 2]) == 1.0
+    with pytest.raises(ValueError, match="lower > upper"):
+        band_coverage([1.0], [2.0], [1.5])
+
+
+def test_peak_error_sign_and_finite_check():
+    assert peak_error(0.25, 0.3) == pytest.approx(-0.05)
+    with pytest.raises(ValueError, match="finite"):
+        peak_error(np.nan, 0.3)
+
+
+# -- classification --------------------------------------------------------------------
+def _trace(delay_s=0.7, dt=0.01):
+    """Truth high for 10 s, low 10 s, high 10 s; estimate follows each change after delay_s."""
+    t = np.arange(0, 30, dt)
+    truth = np.where((t >= 10) & (t < 20), "low", "high")
+    pred = np.where((t >= 10 + delay_s) & (t < 20 + delay_s), "low", "high")
+    return t, truth, pred
+
+
+def test_detection_delay_of_a_shifted_trace():
+    t, truth, pred = _trace(0.7)
+    excited = ((t >= 10.2) & (t < 11)) | ((t >= 20.5) & (t < 21))
+    ev = detection_delays(t, pred, truth, excited)
+    assert [e.new_class for e in ev] == ["low", "high"]
+    assert [e.t_change for e in ev] == pytest.approx([10.0, 20.0])
+    assert [e.delay_from_change for e in ev] == pytest.approx([0.7, 0.7], abs=1e-9)
+    assert [e.delay_from_excitation for e in ev] == pytest.approx([0.5, 0.2], abs=1e-9)
+    acc = classification_accuracy(pred, truth)
+    assert acc.accuracy == pytest.approx(1 - 2 * 70 / len(t))
+
+
+def test_detection_requires_hold_and_reports_misses():
+    t = np.arange(0, 10, 0.1)
+    truth = np.where(t >= 2, "low", "high")
+    pred = np.full(len(t), "high", dtype=object)
+    pred[(t >= 3) & (t < 3.25)] = "low"  # a flicker of 0.2 s (3.0, 3.1, 3.2)
+    pred[t >= 6] = "low"
+    ev = detection_delays(t, pred, truth, np.ones(len(t), bool), hold=1.0)[0]
+    assert ev.t_detected == pytest.approx(6.0)
+    assert ev.delay_from_change == pytest.approx(4.0)
+    never = detection_delays(t, np.full(len(t), "high"), truth, np.zeros(len(t), bool))[0]
+    assert not never.detected and np.isnan(never.t_excited)
+
+
+def test_unknown_counts_as_wrong_but_not_as_confident_wrong():
+    pred = ["unknown"] * 5 + ["low"] * 2 + ["high"] * 3
+    truth = ["high"] * 10
+    acc = classification_accuracy(pred, truth)
+    assert acc.accuracy == pytest.approx(0.3)
+    assert acc.unknown_fraction == pytest.approx(0.5)
+    assert confident_wrong_class_rate(pred, truth) == pytest.approx(0.2)
+    assert count_switches(pred) == 1
+
+
+def test_classification_mask():
+    acc = classification_accuracy(["high", "low", "low"], ["high", "high", "low"], [True, False, True])
+    assert acc.accuracy == 1.0 and acc.n_samples == 2
+
+
+def test_sustained_excitation():
+    t = np.arange(0, 1, 0.1)
+    flag = [0, 1, 1, 1, 1, 0, 1, 1, 0, 0]
+    assert sustained(flag, t, 0.2).tolist() == [0, 0, 0, 1, 1, 0, 0, 0, 0, 0]
+
+
+def test_truth_excitation_from_accelerations():
+    t = np.arange(0, 2, 0.01)
+    ay = np.where((t >= 0.5) & (t < 1.5), 3.0, 0.5)
+    d = Drive.from_frame(pd.DataFrame({"t": t, "ax": 0 * t, "ay": ay}), PRESETS["sedan"])
+    exc = truth_excitation(d, min_accel=2.0, min_duration=0.3)
+    on = t[exc]
+    assert on.min() == pytest.approx(0.8) and on.max() == pytest.approx(1.49)
+
+
+def test_truth_class_threshold():
+    assert truth_grip_class([1.0, 0.75, 0.6, 0.3]).tolist() == ["high", "high", "low", "low"]
+
+
+def test_true_peak_series_uses_surface_labels():
+    t = np.arange(4) * 0.1
+    df = pd.DataFrame({"t": t, "surface": ["dry_asphalt", "dry_asphalt", "gravel", "gravel"]})
+    truth = {"surfaces": {n: {"front": SURFACES[n].lateral.to_dict(), "rear": SURFACES[n].lateral.to_dict(),
+                              "mu": SURFACES[n].mu_peak} for n in ("dry_asphalt", "gravel")}}
+    d = Drive.from_frame(df, PRESETS["sedan"], truth=truth)
+    peaks = true_peak_series(d, "front")
+    assert peaks == pytest.approx([SURFACES["dry_asphalt"].lateral.peak()[1]] * 2
+                                  + [SURFACES["gravel"].lateral.peak()[1]] * 2)
+
+
+# -- confident wrong claims -------------------------------------------------------------
+def test_confident_wrong_rate_counts_only_narrow_wrong_estimates():
+    n = 100
+    truth = np.full(n, 0.3)
+    est = np.full(n, 0.3)
+    lo, hi = est - 0.05, est + 0.05
+    est[:10] = 0.6  # confident and wrong
+    lo[:10], hi[:10] = 0.55, 0.65
+    est[10:30] = 0.6  # wrong but honest: wide band
+    lo[10:30], hi[10:30] = 0.1, 0.9
+    assert confident_wrong_rate(est, lo, hi, truth, tol=0.1) == pytest.approx(0.10)
+    observed = np.ones(n, bool)
+    observed[:5] = False  # a lower bound, not a claim of the peak
+    assert confident_wrong_rate(est, lo, hi, truth, tol=0.1, observed=observed) == pytest.approx(0.05)
+
+
+# -- maps --------------------------------------------------------------------------------
+def test_map_metrics_known_cells_and_calibration():
+    rng = np.random.default_rng(3)
+    n = 4000
+    truth = rng.uniform(0.3, 1.0, n)
+    std = np.full(n, 0.05)
+    mean = truth + rng.normal(0.0, 0.05, n)  # errors drawn from the stated std: calibrated
+    nobs = np.full(n, 50)
+    m = map_metrics(mean, std, nobs, truth)
+    assert m.n_cells == n
+    assert m.mae == pytest.approx(0.05 * np.sqrt(2 / np.pi), rel=0.05)
+    for nominal, empirical in m.calibration:
+        assert empirical == pytest.approx(nominal, abs=0.03)
+    over = map_metrics(mean, std / 3, nobs, truth)  # overconfident map
+    assert over.coverage95 < 0.6
+
+
+def test_map_metrics_excludes_thin_cells_and_checks_unobserved_width():
+    m = map_metrics([0.5, 0.9, np.nan, 0.5], [0.01, 0.01, np.nan, 0.05], [10, 9, 0, 0],
+                    [0.55, 0.1, 0.7, 0.7])
+    assert m.n_cells == 1 and m.mae == pytest.approx(0.05)
+    assert m.coverage95 == 0.0  # 0.05 off with std 0.01
+    assert m.unobserved_wide == pytest.approx(0.5)  # NaN std counts as wide, 0.05 does not
+
+
+def test_cell_truth_bins_samples():
+    x = np.array([0.1, 0.4, 1.2, 1.3, -0.2])
+    y = np.array([0.1, 0.2, 0.3, 0.1, 0.1])
+    mu = np.array([0.4, 0.6, 0.9, 0.7, 0.2])
+    out = cell_truth([0.25, 1.25, -0.25, 3.0], [0.25, 0.25, 0.25, 3.0], 0.5, x, y, mu)
+    assert out[:3] == pytest.approx([0.5, 0.8, 0.2])
+    assert np.isnan(out[3])
