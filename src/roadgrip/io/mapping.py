@@ -1,0 +1,204 @@
+"""Foreign logs through a column-mapping file.
+
+A mapping is a YAML file that says, for each canonical column, which source
+column holds it, in which unit, with which sign; the conversion happens once,
+on the way in. Example::
+
+    # mapping for logger X
+    vehicle: sedan            # optional; read_mapped(vehicle=...) overrides it
+    time_zero: true           # optional; shift t to start at 0 (default false)
+    keep: [brake_pressure]    # optional; source columns kept as extra columns
+    columns:
+      t:        {column: time_ms, unit: ms}
+      ax:       {column: AccX, unit: g}
+      ay:       {column: AccY, unit: g, sign: -1, axis: "sensor y points right"}
+      yaw_rate: {column: GyroZ, unit: deg/s, sign: -1, axis: "sensor z points down"}
+      steer:    {column: SWA, unit: deg, scale: 0.0625, axis: "steering-wheel angle / 16"}
+      vx:       {column: speed, unit: km/h}
+
+Each entry takes ``column`` (required), ``unit`` (required; see
+:data:`UNITS`), ``sign`` (+1 or -1, default +1), ``scale`` (a dimensionless
+factor applied after the unit, e.g. one over a steering ratio; default 1),
+and ``axis`` (free-text remark). Units must fit the column's quantity: an
+acceleration takes ``m/s^2`` or ``g``, an angle ``rad`` or ``deg``, and so on.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from roadgrip.constants import GRAVITY
+from roadgrip.drive import SIGNAL_COLUMNS, Drive
+from roadgrip.vehicle.params import VehicleParams, load_vehicle
+
+__all__ = ["QUANTITY_OF", "UNITS", "load_mapping", "read_mapped"]
+
+UNITS: dict[str, tuple[str, float]] = {
+    "m/s^2": ("acceleration", 1.0),
+    "m/s2": ("acceleration", 1.0),
+    "g": ("acceleration", GRAVITY),
+    "rad/s": ("rate", 1.0),
+    "deg/s": ("rate", math.pi / 180.0),
+    "rpm": ("rate", 2.0 * math.pi / 60.0),
+    "rad": ("angle", 1.0),
+    "deg": ("angle", math.pi / 180.0),
+    "m/s": ("speed", 1.0),
+    "km/h": ("speed", 1.0 / 3.6),
+    "s": ("time", 1.0),
+    "ms": ("time", 1.0e-3),
+    "m": ("length", 1.0),
+}
+"""Unit name -> (quantity, factor to SI)."""
+
+QUANTITY_OF: dict[str, str] = {
+    "t": "time",
+    "ax": "acceleration",
+    "ay": "acceleration",
+    "yaw_rate": "rate",
+    "steer": "angle",
+    "vx": "speed",
+    "omega_fl": "rate",
+    "omega_fr": "rate",
+    "omega_rl": "rate",
+    "omega_rr": "rate",
+    "x": "length",
+    "y": "length",
+    "psi": "angle",
+}
+"""Canonical column -> the quantity its unit must measure."""
+
+_TOP_KEYS = {"columns", "vehicle", "time_zero", "keep", "source", "description"}
+_ENTRY_KEYS = {"column", "unit", "sign", "scale", "axis"}
+
+
+def load_mapping(spec: str | Path | dict[str, Any]) -> dict[str, Any]:
+    """Read and check a mapping (YAML path or an already-parsed mapping).
+
+    Raises
+    ------
+    ValueError
+        Unreadable file, unknown keys, a non-canonical target column, a unit
+        that is unknown or does not fit the column, a sign other than +-1.
+    """
+    if isinstance(spec, dict):
+        m, name = spec, "mapping"
+    else:
+        p = Path(spec)
+        name = p.name
+        try:
+            m = yaml.safe_load(p.read_text())
+        except FileNotFoundError:
+            raise ValueError(f"mapping file not found: {p}") from None
+        except yaml.YAMLError as exc:
+            raise ValueError(f"mapping file {name} is not valid YAML: {exc}") from None
+    if not isinstance(m, dict) or not isinstance(m.get("columns"), dict) or not m["columns"]:
+        raise ValueError(f"{name}: a mapping needs a non-empty 'columns' section")
+    unknown = sorted(set(m) - _TOP_KEYS)
+    if unknown:
+        raise ValueError(f"{name}: unknown key(s) {unknown}; known: {sorted(_TOP_KEYS)}")
+    cols = m["columns"]
+    if "t" not in cols:
+        raise ValueError(f"{name}: the mapping must give the time column 't'")
+    for target, entry in cols.items():
+        where = f"{name}: column {target!r}"
+        if target not in QUANTITY_OF:
+            raise ValueError(f"{where} is not a canonical signal column ({', '.join(SIGNAL_COLUMNS)})")
+        if not isinstance(entry, dict):
+            raise ValueError(f"{where}: expected a mapping with 'column' and 'unit'")
+        bad = sorted(set(entry) - _ENTRY_KEYS)
+        if bad:
+            raise ValueError(f"{where}: unknown key(s) {bad}; known: {sorted(_ENTRY_KEYS)}")
+        for req in ("column", "unit"):
+            if req not in entry:
+                raise ValueError(f"{where}: missing {req!r}")
+        unit = str(entry["unit"])
+        if unit not in UNITS:
+            raise ValueError(f"{where}: unknown unit {unit!r}; known: {', '.join(UNITS)}")
+        if UNITS[unit][0] != QUANTITY_OF[target]:
+            raise ValueError(
+                f"{where}: unit {unit!r} measures {UNITS[unit][0]}, but {target!r} is a "
+                f"{QUANTITY_OF[target]}"
+            )
+        sign = entry.get("sign", 1)
+        if sign not in (1, -1):
+            raise ValueError(f"{where}: sign must be +1 or -1, got {sign!r}")
+        scale = entry.get("scale", 1.0)
+        if isinstance(scale, bool) or not isinstance(scale, int | float) or not math.isfinite(scale) or scale == 0:
+            raise ValueError(f"{where}: scale must be a finite non-zero number, got {scale!r}")
+    keep = m.get("keep", [])
+    if not isinstance(keep, list):
+        raise ValueError(f"{name}: 'keep' must be a list of source column names")
+    return m
+
+
+def read_mapped(
+    csv_path: str | Path,
+    mapping_yaml: str | Path | dict[str, Any],
+    vehicle: str | Path | VehicleParams | None = None,
+) -> Drive:
+    """Read a foreign CSV log through a column mapping.
+
+    Parameters
+    ----------
+    csv_path : str or Path
+        The log.
+    mapping_yaml : str, Path or dict
+        Mapping file (module docstring) or the parsed mapping.
+    vehicle : preset name, YAML path or VehicleParams, optional
+        Overrides the mapping's ``vehicle``; one of the two is required.
+
+    Returns
+    -------
+    Drive
+        Canonical columns in SI units, the ``keep`` columns as extras;
+        ``meta.extra['mapping']`` records the mapping used.
+    """
+    m = load_mapping(mapping_yaml)
+    p = Path(csv_path)
+    if not p.is_file():
+        raise ValueError(f"no such file: {p}")
+    veh_spec = vehicle if vehicle is not None else m.get("vehicle")
+    if veh_spec is None:
+        raise ValueError("read_mapped needs a vehicle: in the mapping ('vehicle:') or as argument")
+    veh = load_vehicle(veh_spec)
+    try:
+        src = pd.read_csv(p, float_precision="round_trip")
+    except pd.errors.EmptyDataError:
+        raise ValueError(f"{p.name} is empty") from None
+    out: dict[str, np.ndarray] = {}
+    for target, entry in m["columns"].items():
+        col = str(entry["column"])
+        if col not in src.columns:
+            raise ValueError(
+                f"{p.name}: source column {col!r} (for {target!r}) not found; "
+                f"present: {list(src.columns)}"
+            )
+        if not pd.api.types.is_numeric_dtype(src[col]):
+            raise ValueError(f"{p.name}: source column {col!r} (for {target!r}) is not numeric")
+        factor = UNITS[str(entry["unit"])][1] * float(entry.get("sign", 1)) * float(entry.get("scale", 1.0))
+        out[target] = src[col].to_numpy(float) * factor
+    extra_cols = {}
+    for col in m.get("keep", []):
+        if col not in src.columns:
+            raise ValueError(f"{p.name}: column {col!r} listed in 'keep' not found")
+        if col in out:
+            raise ValueError(f"{p.name}: kept column {col!r} clashes with a canonical column")
+        extra_cols[col] = src[col].to_numpy()
+    df = pd.DataFrame({**out, **extra_cols})
+    t_offset = 0.0
+    if m.get("time_zero", False) and len(df):
+        t_offset = float(df["t"].iloc[0])
+        df["t"] = df["t"] - t_offset
+    order = [c for c in SIGNAL_COLUMNS if c in df.columns] + list(extra_cols)
+    extra = {
+        "format": "mapped",
+        "mapping": {k: dict(v) for k, v in m["columns"].items()},
+        "t_offset_s": t_offset,
+    }
+    return Drive.from_frame(df[order], veh, source=str(p), extra=extra)
