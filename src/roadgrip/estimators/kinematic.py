@@ -1,0 +1,557 @@
+r"""Friction-independent kinematic state estimation: speed, sideslip and tire slips.
+
+The upstream stage of the paper 002 classifiers (its ref. [26], Selmanaj et al.,
+"Vehicle sideslip estimation: a kinematic based approach", 2017): nothing here
+uses a tire model or the friction, so the classifiers' inputs do not depend on
+the quantity they classify. Other estimators can reuse it.
+
+Model (body axes, ISO 8855; ``ax``, ``ay`` the accelerometer specific force)::
+
+    d vx / dt = ax + r vy          d vy / dt = ay - r vx
+
+integrated with forward Euler at the sample times and corrected by
+complementary-filter gains (``k = dt / tau``, at most 1) from:
+
+* **wheel speeds** (speed). Each measured wheel speed ``R omega`` is moved to the
+  CG (track offset ``-/+ r w / 2`` for left/right, the steering rotation for the
+  front wheels). Robust selection against spin and braking slip: in traction
+  (``ax > accel_threshold``) the undriven wheels are used, or the slowest wheel
+  when all are driven; in braking (``ax < -accel_threshold``) the fastest
+  wheel; otherwise the mean. A selected speed that disagrees with the
+  prediction by more than ``gate_abs + gate_rel |vx|`` is treated as slip and
+  ignored (the estimate then coasts on ``ax``).
+* **pose** (speed and lateral velocity), when the drive carries a map pose
+  ``x, y, psi`` (motion capture, RTK GNSS): the body velocity from the
+  backward difference of consecutive poses. Used when ``velocity_aid`` is
+  ``'pose'``, or ``'auto'`` and not all four wheel speeds are present.
+* **sideslip drift correction** (lateral velocity, without pose): the
+  integrated ``vy`` is pulled towards the zero-rear-slip value ``lr r`` with a
+  weight ``exp(-(ay / a_linear)^2)``, i.e. only in quasi-linear driving where
+  the rear slip angle is small for any friction, which removes the integration
+  drift without assuming a tire stiffness. Below ``v_min`` the lateral velocity
+  relaxes to zero.
+
+Slips from the estimated state: per-wheel longitudinal slip (paper 002 eq. 2,
+:func:`roadgrip.vehicle.slip.longitudinal_slip`, wheel-frame speeds including
+track and steering) and axle slip angles (eq. 3, :func:`roadgrip.vehicle.slip.slip_angles`,
+roadgrip sign convention: positive alpha gives positive lateral force).
+
+The per-sample update is one compiled function used by both the online step
+and the batch loop, so ``run`` equals stepping exactly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numba
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from roadgrip.constants import V_EPS
+from roadgrip.drive import WHEEL_COLUMNS, Drive
+from roadgrip.vehicle.params import VehicleParams
+from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
+
+__all__ = [
+    "KinematicConfig",
+    "KinematicEstimator",
+    "KinematicInput",
+    "KinematicOutput",
+    "KinematicState",
+    "estimate_kinematics",
+    "inputs_from_drive",
+    "kinematic_init",
+    "kinematic_step",
+    "resolve_aid",
+    "slip_v_eps",
+    "to_frame",
+    "wheel_slips",
+]
+
+_AID = {"wheels": 0, "pose": 1}
+_DRIVE_MASK = {"fwd": (1, 1, 0, 0), "rwd": (0, 0, 1, 1), "awd": (1, 1, 1, 1)}
+
+
+@dataclass(frozen=True)
+class KinematicConfig:
+    """Tuning of the kinematic estimator (all SI).
+
+    Attributes
+    ----------
+    velocity_aid : {'auto', 'wheels', 'pose'}
+        Source of the speed correction (module docstring).
+    tau_vx : float
+        Time constant of the wheel-speed correction [s].
+    tau_pose : float
+        Time constant of the pose-velocity correction of ``vx`` and ``vy`` [s].
+    tau_beta : float
+        Time constant of the quasi-linear sideslip drift correction [s].
+    a_linear : float
+        Lateral acceleration scale of the quasi-linear region [m/s²].
+    accel_threshold : float
+        ``|ax|`` above which the vehicle counts as driving or braking [m/s²].
+    gate_abs, gate_rel : float
+        Slip gate on the wheel-speed innovation: ``gate_abs`` [m/s] + ``gate_rel`` [-] times speed.
+    v_min : float
+        Speed below which the lateral velocity relaxes to zero [m/s].
+    v_eps : float or None
+        Low-speed regularisation of the slips [m/s]; ``None`` uses
+        :data:`roadgrip.constants.V_EPS` for wheelbases of 1 m and more and one
+        tenth of it for model-scale cars (whose speeds are a few m/s).
+    """
+
+    velocity_aid: str = "auto"
+    tau_vx: float = 0.3
+    tau_pose: float = 0.15
+    tau_beta: float = 1.0
+    a_linear: float = 1.5
+    accel_threshold: float = 0.5
+    gate_abs: float = 0.3
+    gate_rel: float = 0.05
+    v_min: float = 0.2
+    v_eps: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.velocity_aid not in ("auto", "wheels", "pose"):
+            raise ValueError(
+                f"velocity_aid must be 'auto', 'wheels' or 'pose', got {self.velocity_aid!r}"
+            )
+        for name in ("tau_vx", "tau_pose", "tau_beta", "a_linear", "accel_threshold", "v_min"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or v <= 0:
+                raise ValueError(f"{name} must be positive, got {v!r}")
+        for name in ("gate_abs", "gate_rel"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or v < 0:
+                raise ValueError(f"{name} must be >= 0, got {v!r}")
+
+
+class KinematicState(NamedTuple):
+    """Estimator state. ``vx``, ``vy`` [m/s] at the CG; the previous sample's time and pose."""
+
+    vx: float
+    vy: float
+    t: float
+    x: float
+    y: float
+    psi: float
+    started: bool
+
+
+class KinematicInput(NamedTuple):
+    """One sample. Absent signals are NaN (wheel speeds, pose, ``vx`` column).
+
+    Attributes
+    ----------
+    t : float [s]
+    ax, ay : float [m/s²]
+    yaw_rate : float [rad/s]
+    steer : float [rad]
+    omega : ndarray, shape (4,)
+        Wheel speeds ``fl, fr, rl, rr`` [rad/s], NaN where not measured.
+    x, y, psi : float
+        Map pose [m, m, rad], NaN where absent.
+    vx_meas : float
+        A measured ground speed [m/s], NaN where absent (used only without wheels and pose).
+    """
+
+    t: float
+    ax: float
+    ay: float
+    yaw_rate: float
+    steer: float
+    omega: NDArray[np.float64]
+    x: float
+    y: float
+    psi: float
+    vx_meas: float
+
+
+class KinematicOutput(NamedTuple):
+    """Estimates of one sample (or arrays of them, leading axis time).
+
+    Attributes
+    ----------
+    vx, vy : float [m/s]
+    beta : float
+        Sideslip ``arctan(vy / vx)`` [rad].
+    kappa : ndarray, shape (4,) or (T, 4)
+        Longitudinal slip ``fl, fr, rl, rr`` [-], 0 where the wheel speed is absent.
+    alpha_f, alpha_r : float
+        Axle slip angles [rad].
+    wheels_valid : ndarray of bool, shape (4,) or (T, 4)
+        Which wheel speeds were measured.
+    """
+
+    vx: float | NDArray[np.float64]
+    vy: float | NDArray[np.float64]
+    beta: float | NDArray[np.float64]
+    kappa: NDArray[np.float64]
+    alpha_f: float | NDArray[np.float64]
+    alpha_r: float | NDArray[np.float64]
+    wheels_valid: NDArray[np.bool_]
+
+
+def _aid_code(cfg: KinematicConfig, have_all_wheels: bool, have_pose: bool) -> int:
+    if cfg.velocity_aid == "pose":
+        if not have_pose:
+            raise ValueError("velocity_aid='pose' needs the pose columns x, y, psi")
+        return _AID["pose"]
+    if cfg.velocity_aid == "wheels":
+        return _AID["wheels"]
+    return _AID["pose"] if (have_pose and not have_all_wheels) else _AID["wheels"]
+
+
+@numba.njit(cache=True)
+def _wheel_vx(omega, steer, r, vy, R, lf, half_track):  # pragma: no cover - compiled
+    """CG-equivalent speeds of the four wheels (NaN where absent)."""
+    out = np.empty(4)
+    c = np.cos(steer)
+    s = np.sin(steer)
+    lat_f = (vy + lf * r) * s
+    for i in range(4):
+        v = R * omega[i]
+        side = half_track * r if (i % 2 == 0) else -half_track * r  # left: vx - r w/2
+        if i < 2:
+            out[i] = (v - lat_f) / max(c, 0.2) + side
+        else:
+            out[i] = v + side
+    return out
+
+
+@numba.njit(cache=True)
+def _kin_update(
+    vx, vy, t_prev, x_prev, y_prev, psi_prev, started,
+    t, ax, ay, r, steer, omega, x, y, psi, vx_meas,
+    aid, driven, R, lf, lr, half_track,
+    tau_vx, tau_pose, tau_beta, a_lin, a_thr, gate_abs, gate_rel, v_min,
+):  # pragma: no cover - compiled
+    """One estimator update; returns the new (vx, vy)."""
+    wv = _wheel_vx(omega, steer, r, vy, R, lf, half_track)
+    n_ok = 0
+    for i in range(4):
+        if wv[i] == wv[i]:
+            n_ok += 1
+    have_pose = (x == x) and (y == y) and (psi == psi)
+    if not started:
+        v0 = np.nan
+        if n_ok > 0:
+            acc = 0.0
+            for i in range(4):
+                if wv[i] == wv[i]:
+                    acc += wv[i]
+            v0 = acc / n_ok
+        elif vx_meas == vx_meas:
+            v0 = vx_meas
+        if v0 != v0:
+            v0 = 0.0
+        return v0, 0.0
+    dt = t - t_prev
+    # prediction: kinematic integration
+    vx_p = vx + dt * (ax + r * vy)
+    vy_p = vy + dt * (ay - r * vx)
+    use_pose = aid == 1 and have_pose and (x_prev == x_prev)
+    if use_pose:
+        dx = (x - x_prev) / dt
+        dy = (y - y_prev) / dt
+        pm = 0.5 * (psi + psi_prev)
+        vxm = np.cos(pm) * dx + np.sin(pm) * dy
+        vym = -np.sin(pm) * dx + np.cos(pm) * dy
+        k = min(dt / tau_pose, 1.0)
+        return vx_p + k * (vxm - vx_p), vy_p + k * (vym - vy_p)
+    # speed from wheels, robust to spin (traction) and slip (braking)
+    vsel = np.nan
+    if n_ok > 0:
+        if ax > a_thr:
+            acc = 0.0
+            m = 0
+            lo = np.inf
+            for i in range(4):
+                if wv[i] == wv[i]:
+                    lo = min(lo, wv[i])
+                    if driven[i] == 0:
+                        acc += wv[i]
+                        m += 1
+            vsel = acc / m if m > 0 else lo
+        elif ax < -a_thr:
+            hi = -np.inf
+            for i in range(4):
+                if wv[i] == wv[i]:
+                    hi = max(hi, wv[i])
+            vsel = hi
+        else:
+            acc = 0.0
+            for i in range(4):
+                if wv[i] == wv[i]:
+                    acc += wv[i]
+            vsel = acc / n_ok
+    elif vx_meas == vx_meas:
+        vsel = vx_meas
+    vx_n = vx_p
+    if vsel == vsel and abs(vsel - vx_p) <= gate_abs + gate_rel * abs(vx_p):
+        vx_n = vx_p + min(dt / tau_vx, 1.0) * (vsel - vx_p)
+    # sideslip drift correction towards zero rear slip in quasi-linear driving
+    if abs(vx_n) < v_min:
+        vy_n = vy_p + min(dt / tau_pose, 1.0) * (0.0 - vy_p)
+    else:
+        w = np.exp(-((ay / a_lin) ** 2))
+        vy_n = vy_p + min(w * dt / tau_beta, 1.0) * (lr * r - vy_p)
+    return vx_n, vy_n
+
+
+@numba.njit(cache=True)
+def _kin_batch(
+    t, ax, ay, r, steer, omega, x, y, psi, vx_meas,
+    aid, driven, R, lf, lr, half_track,
+    tau_vx, tau_pose, tau_beta, a_lin, a_thr, gate_abs, gate_rel, v_min,
+):  # pragma: no cover - compiled
+    n = t.shape[0]
+    vx_o = np.empty(n)
+    vy_o = np.empty(n)
+    vx = 0.0
+    vy = 0.0
+    tp = np.nan
+    xp = np.nan
+    yp = np.nan
+    pp = np.nan
+    started = False
+    for i in range(n):
+        vx, vy = _kin_update(
+            vx, vy, tp, xp, yp, pp, started,
+            t[i], ax[i], ay[i], r[i], steer[i], omega[i], x[i], y[i], psi[i], vx_meas[i],
+            aid, driven, R, lf, lr, half_track,
+            tau_vx, tau_pose, tau_beta, a_lin, a_thr, gate_abs, gate_rel, v_min,
+        )
+        started = True
+        tp = t[i]
+        xp = x[i]
+        yp = y[i]
+        pp = psi[i]
+        vx_o[i] = vx
+        vy_o[i] = vy
+    return vx_o, vy_o
+
+
+def _driven(params: VehicleParams) -> NDArray[np.int64]:
+    return np.array(_DRIVE_MASK[params.drive], dtype=np.int64)
+
+
+def _consts(params: VehicleParams, cfg: KinematicConfig) -> tuple:
+    return (
+        _driven(params), params.wheel_radius, params.lf, params.lr, 0.5 * params.track_width,
+        cfg.tau_vx, cfg.tau_pose, cfg.tau_beta, cfg.a_linear, cfg.accel_threshold,
+        cfg.gate_abs, cfg.gate_rel, cfg.v_min,
+    )
+
+
+def kinematic_init() -> KinematicState:
+    """The state before the first sample (initialised from the first measurement)."""
+    nan = float("nan")
+    return KinematicState(0.0, 0.0, nan, nan, nan, nan, False)
+
+
+def wheel_slips(
+    vx: NDArray, vy: NDArray, yaw_rate: NDArray, steer: NDArray, omega: NDArray,
+    params: VehicleParams,
+    *,
+    v_eps: float = V_EPS,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Per-wheel longitudinal slips (eq. 2) and axle slip angles (eq. 3), vectorised.
+
+    Parameters
+    ----------
+    vx, vy, yaw_rate, steer : ndarray, shape (T,)
+        CG velocity [m/s], yaw rate [rad/s], front road-wheel angle [rad].
+    omega : ndarray, shape (T, 4)
+        Wheel speeds ``fl, fr, rl, rr`` [rad/s], NaN where absent.
+    params : VehicleParams
+    v_eps : float
+        Low-speed regularisation of the slips [m/s].
+
+    Returns
+    -------
+    kappa : ndarray, shape (T, 4)
+        Slip ratio per wheel [-], 0 where the wheel speed is absent.
+    alpha_f, alpha_r : ndarray, shape (T,)
+        Axle slip angles [rad] (roadgrip sign convention).
+    """
+    vx = np.asarray(vx, float)
+    vy = np.asarray(vy, float)
+    r = np.asarray(yaw_rate, float)
+    d = np.asarray(steer, float)
+    h = 0.5 * params.track_width
+    # wheel-centre longitudinal speed in each wheel's frame
+    vl, vr = vx - r * h, vx + r * h
+    lat_f = vy + params.lf * r
+    v_wheel = np.stack(
+        [vl * np.cos(d) + lat_f * np.sin(d), vr * np.cos(d) + lat_f * np.sin(d), vl, vr], axis=-1
+    )
+    omega = np.asarray(omega, float)
+    kappa = longitudinal_slip(np.nan_to_num(omega), v_wheel, params.wheel_radius, v_eps=v_eps)
+    kappa = np.where(np.isfinite(omega), kappa, 0.0)
+    a_f, a_r = slip_angles(vx, vy, r, d, params, v_eps=v_eps)
+    return kappa, a_f, a_r
+
+
+def slip_v_eps(params: VehicleParams, config: KinematicConfig) -> float:
+    """The slip regularisation speed for this vehicle [m/s] (``KinematicConfig.v_eps``)."""
+    if config.v_eps is not None:
+        return float(config.v_eps)
+    return V_EPS if params.lf + params.lr >= 1.0 else 0.1 * V_EPS
+
+
+def _output(vx, vy, r, steer, omega, params, config) -> KinematicOutput:
+    kappa, a_f, a_r = wheel_slips(vx, vy, r, steer, omega, params, v_eps=slip_v_eps(params, config))
+    beta = np.arctan2(vy, np.abs(vx) + 1e-9)
+    return KinematicOutput(vx, vy, beta, kappa, a_f, a_r, np.isfinite(omega))
+
+
+def kinematic_step(
+    state: KinematicState,
+    sample: KinematicInput,
+    params: VehicleParams,
+    config: KinematicConfig = KinematicConfig(),
+    *,
+    aid: str = "wheels",
+) -> tuple[KinematicState, KinematicOutput]:
+    """One online update (pure).
+
+    Parameters
+    ----------
+    state : KinematicState
+    sample : KinematicInput
+    params : VehicleParams
+    config : KinematicConfig
+    aid : {'wheels', 'pose'}
+        Resolved velocity aid (``'auto'`` is resolved once per drive by the caller;
+        :class:`KinematicEstimator` does it).
+
+    Returns
+    -------
+    state : KinematicState
+    output : KinematicOutput
+        Scalars for this sample (``kappa`` shape (4,)).
+    """
+    if state.started and not sample.t > state.t:
+        raise ValueError(f"time must increase: got t = {sample.t} after {state.t}")
+    omega = np.asarray(sample.omega, dtype=float)
+    if omega.shape != (4,):
+        raise ValueError(f"omega must have shape (4,), got {omega.shape}")
+    vx, vy = _kin_update(
+        state.vx, state.vy, state.t, state.x, state.y, state.psi, state.started,
+        float(sample.t), float(sample.ax), float(sample.ay), float(sample.yaw_rate),
+        float(sample.steer), omega, float(sample.x), float(sample.y), float(sample.psi),
+        float(sample.vx_meas), _AID[aid], *_consts(params, config),
+    )
+    new = KinematicState(vx, vy, float(sample.t), float(sample.x), float(sample.y),
+                         float(sample.psi), True)
+    out = _output(np.asarray(vx), np.asarray(vy), np.asarray(sample.yaw_rate),
+                  np.asarray(sample.steer), omega, params, config)
+    out = KinematicOutput(float(out.vx), float(out.vy), float(out.beta), out.kappa,
+                          float(out.alpha_f), float(out.alpha_r), out.wheels_valid)
+    return new, out
+
+
+def inputs_from_drive(drive: Drive) -> dict[str, NDArray[np.float64]]:
+    """The estimator's input arrays from a drive (NaN for absent optional signals).
+
+    Raises
+    ------
+    DriveValidationError
+        When ``ax``, ``ay``, ``yaw_rate`` or ``steer`` are missing, or when the
+        drive has neither wheel speeds, nor a pose, nor a ``vx`` column.
+    """
+    drive.require("ax", "ay", "yaw_rate", "steer", why="kinematic state estimation")
+    n = drive.n
+    nan = np.full(n, np.nan)
+    omega = np.stack([drive.col(c) if drive.has(c) else nan for c in WHEEL_COLUMNS], axis=-1)
+    pose = {c: (drive.col(c) if drive.has_pose else nan) for c in ("x", "y", "psi")}
+    vxm = drive.col("vx") if drive.has("vx") else nan
+    if not np.isfinite(omega).any() and not drive.has_pose and not drive.has("vx"):
+        from roadgrip.drive import DriveValidationError
+
+        raise DriveValidationError(
+            f"drive from {drive.meta.source} has no wheel speeds, pose or vx: "
+            "the vehicle speed cannot be estimated"
+        )
+    return {
+        "t": drive.t, "ax": drive.col("ax"), "ay": drive.col("ay"),
+        "yaw_rate": drive.col("yaw_rate"), "steer": drive.col("steer"),
+        "omega": np.ascontiguousarray(omega), **pose, "vx_meas": vxm,
+    }
+
+
+def resolve_aid(drive: Drive, config: KinematicConfig) -> str:
+    """``'wheels'`` or ``'pose'`` for this drive (see ``KinematicConfig.velocity_aid``)."""
+    code = _aid_code(config, drive.has_wheel_speeds, drive.has_pose)
+    return "pose" if code == 1 else "wheels"
+
+
+def estimate_kinematics(
+    drive: Drive, config: KinematicConfig = KinematicConfig()
+) -> KinematicOutput:
+    """Batch estimate over a whole drive (compiled loop; equals stepping).
+
+    Returns
+    -------
+    KinematicOutput
+        Arrays with leading axis time (``kappa`` shape (T, 4)).
+    """
+    a = inputs_from_drive(drive)
+    aid = resolve_aid(drive, config)
+    vx, vy = _kin_batch(
+        a["t"], a["ax"], a["ay"], a["yaw_rate"], a["steer"], a["omega"], a["x"], a["y"],
+        a["psi"], a["vx_meas"], _AID[aid], *_consts(drive.vehicle, config),
+    )
+    return _output(vx, vy, a["yaw_rate"], a["steer"], a["omega"], drive.vehicle, config)
+
+
+class KinematicEstimator:
+    """Online wrapper: ``step(sample) -> KinematicOutput``, ``run(drive) -> KinematicOutput``.
+
+    Parameters
+    ----------
+    params : VehicleParams
+    config : KinematicConfig
+    aid : {'wheels', 'pose'}
+        Velocity aid for :meth:`step`; :meth:`run` resolves ``config.velocity_aid`` per drive.
+    """
+
+    def __init__(
+        self, params: VehicleParams, config: KinematicConfig = KinematicConfig(), aid: str = "wheels"
+    ) -> None:
+        if aid not in _AID:
+            raise ValueError(f"aid must be 'wheels' or 'pose', got {aid!r}")
+        self.params = params
+        self.config = config
+        self.aid = aid
+        self.state = kinematic_init()
+
+    def step(self, sample: KinematicInput) -> KinematicOutput:
+        self.state, out = kinematic_step(self.state, sample, self.params, self.config, aid=self.aid)
+        return out
+
+    def run(self, drive: Drive) -> KinematicOutput:
+        return estimate_kinematics(drive, self.config)
+
+    @staticmethod
+    def samples(drive: Drive):
+        """Iterate the drive as :class:`KinematicInput` samples."""
+        a = inputs_from_drive(drive)
+        for i in range(drive.n):
+            yield KinematicInput(
+                a["t"][i], a["ax"][i], a["ay"][i], a["yaw_rate"][i], a["steer"][i],
+                a["omega"][i], a["x"][i], a["y"][i], a["psi"][i], a["vx_meas"][i],
+            )
+
+
+def to_frame(out: KinematicOutput, t: NDArray[np.float64]) -> pd.DataFrame:
+    """Kinematic outputs as a table (``vx_hat``, ``vy_hat``, ``beta_hat``, ``kappa_*``, ``alpha_*``)."""
+    d = {"t": t, "vx_hat": out.vx, "vy_hat": out.vy, "beta_hat": out.beta,
+         "alpha_f_hat": out.alpha_f, "alpha_r_hat": out.alpha_r}
+    for i, c in enumerate(("fl", "fr", "rl", "rr")):
+        d[f"kappa_{c}_hat"] = out.kappa[:, i]
+    return pd.DataFrame(d)
