@@ -378,9 +378,13 @@ class Drive:
         """Write CSV: one ``# roadgrip-meta <json>`` line, then the columns.
 
         Floats are written with 17 significant digits, so reading back is lossless.
+        The meta line also records each column's dtype (key ``dtypes``), so that
+        integer-valued float columns come back as floats.
         """
+        meta = json.loads(self.meta.to_json())
+        meta["dtypes"] = {str(c): str(dt) for c, dt in self.data.dtypes.items()}
         with open(path, "w", newline="") as fh:
-            fh.write("# roadgrip-meta " + self.meta.to_json() + "\n")
+            fh.write("# roadgrip-meta " + json.dumps(meta) + "\n")
             self.data.to_csv(fh, index=False, float_format="%.17g")
 
     def save(self, path: str | Path) -> None:
