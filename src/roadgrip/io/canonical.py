@@ -6,25 +6,30 @@ header and the columns in SI units and ISO 8855 axes. A plain CSV without the
 meta line is accepted too, in which case the vehicle must be given. Parquet
 files carry the metadata in the schema under the key ``roadgrip``.
 
-Reading is lossless: CSV floats are parsed with ``float_precision='round_trip'``
-(the writer emits 17 significant digits) and Parquet stores float64 as is.
-Extra columns are kept.
+Reading is lossless: CSV floats are parsed exactly (the writer emits 17
+significant digits; ``float_precision='round_trip'`` on pandas < 3, the default
+parser from pandas 3), column dtypes are restored from the meta line, and
+Parquet stores float64 as is. Extra columns are kept.
 """
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 from pathlib import Path
 
 import pandas as pd
 
-from roadgrip.drive import Drive, DriveMeta, validate_frame
+from roadgrip.drive import SIGNAL_COLUMNS, TRUTH_COLUMNS, Drive, DriveMeta, validate_frame
+from roadgrip.io._csv import read_csv_exact
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = ["META_PREFIX", "read_canonical_csv", "read_canonical_parquet"]
 
 META_PREFIX = "# roadgrip-meta "
 """First line of a canonical CSV, followed by the metadata as JSON."""
+
+_FLOAT_COLUMNS = frozenset(SIGNAL_COLUMNS + TRUTH_COLUMNS) - {"surface"}
 
 
 def _finish(
@@ -61,20 +66,41 @@ def read_canonical_csv(path: str | Path, vehicle: VehicleParams | None = None) -
     with open(path, newline="") as fh:
         first = fh.readline()
         meta = None
+        dtypes: dict[str, str] = {}
         if first.startswith(META_PREFIX):
+            text = first[len(META_PREFIX):]
             try:
-                meta = DriveMeta.from_json(first[len(META_PREFIX):])
+                meta = DriveMeta.from_json(text)
+                dtypes = json.loads(text).get("dtypes") or {}
             except (ValueError, KeyError, TypeError) as exc:
                 raise ValueError(f"{path.name}: unreadable roadgrip metadata line: {exc}") from None
         else:
             fh.seek(0)
         try:
-            df = pd.read_csv(fh, float_precision="round_trip")
+            df = read_csv_exact(fh)
         except pd.errors.EmptyDataError:
             raise ValueError(f"{path.name} is empty: no header and no samples") from None
-    if "surface" in df.columns:
-        df["surface"] = df["surface"].astype(str)
-    return _finish(df, meta, vehicle, path)
+    return _finish(_restore_dtypes(df, dtypes), meta, vehicle, path)
+
+
+def _restore_dtypes(df: pd.DataFrame, dtypes: dict[str, str]) -> pd.DataFrame:
+    """Cast columns back to their recorded dtypes; canonical numeric columns to float64.
+
+    A float column whose values are all integers is written without a decimal
+    point and would otherwise be read back as int64.
+    """
+    for c in df.columns:
+        want = dtypes.get(c)
+        if c == "surface":
+            df[c] = df[c].astype(str)
+        elif want is not None and want != str(df[c].dtype):
+            try:
+                df[c] = df[c].astype(want)
+            except (TypeError, ValueError):
+                pass  # leave as parsed; validation reports a non-numeric canonical column
+        elif want is None and c in _FLOAT_COLUMNS and df[c].dtype.kind in "iu":
+            df[c] = df[c].astype(float)
+    return df
 
 
 def read_canonical_parquet(path: str | Path, vehicle: VehicleParams | None = None) -> Drive:

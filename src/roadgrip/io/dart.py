@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from roadgrip.drive import Drive
+from roadgrip.io._csv import read_csv_exact
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
 __all__ = ["DART_COLUMNS", "DART_STEER_FIT", "TRACKED_POINT_FROM_REAR", "dart_steer_angle", "read_dart"]
@@ -108,7 +109,7 @@ def read_dart(path: str | Path, vehicle: str | Path | VehicleParams | None = Non
     path = Path(path)
     veh = load_vehicle(vehicle if vehicle is not None else "jetracer")
     try:
-        raw = pd.read_csv(path, float_precision="round_trip")
+        raw = read_csv_exact(path)
     except pd.errors.EmptyDataError:
         raise ValueError(f"{path.name} is empty") from None
     missing = [c for c in DART_COLUMNS if c not in raw.columns]

@@ -39,6 +39,7 @@ import pandas as pd
 
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
+from roadgrip.io._csv import read_csv_exact
 from roadgrip.io.resample import resample
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
@@ -71,7 +72,7 @@ def _read_stream(folder: Path, name: str, cols: tuple[str, ...]) -> pd.DataFrame
     if not f.is_file():
         raise ValueError(f"frictionmaps run {folder.name}: missing {name}")
     try:
-        df = pd.read_csv(f, float_precision="round_trip")
+        df = read_csv_exact(f)
     except pd.errors.EmptyDataError:
         raise ValueError(f"frictionmaps run {folder.name}: {name} is empty") from None
     missing = [c for c in ("s", "ns", *cols) if c not in df.columns]

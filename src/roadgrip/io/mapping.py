@@ -35,6 +35,7 @@ import yaml
 
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import SIGNAL_COLUMNS, Drive
+from roadgrip.io._csv import read_csv_exact
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
 __all__ = ["QUANTITY_OF", "UNITS", "load_mapping", "read_mapped"]
@@ -168,7 +169,7 @@ def read_mapped(
         raise ValueError("read_mapped needs a vehicle: in the mapping ('vehicle:') or as argument")
     veh = load_vehicle(veh_spec)
     try:
-        src = pd.read_csv(p, float_precision="round_trip")
+        src = read_csv_exact(p)
     except pd.errors.EmptyDataError:
         raise ValueError(f"{p.name} is empty") from None
     out: dict[str, np.ndarray] = {}
