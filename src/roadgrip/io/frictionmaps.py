@@ -28,6 +28,12 @@ and recorded asynchronously at about 18-44 Hz. Conversions, all recorded in
   ``pose_jump`` (1.0 where the pose moved more than the odometry allows:
   ``|dp| > |vx| dt + 0.1 m + 0.5 |vx| dt``, or the heading changed more than
   ``|yaw_rate| dt + 0.2 rad``), not repaired.
+
+``meta.extra['kinematic_checks']`` holds two consistency ratios (see
+:func:`_kinematic_checks`). DS1, DS2, DS3 and DS5 give ``ay / (vx yaw_rate)``
+of 0.95-1.09 in turns; DS4 gives about 0.5 with a pose speed about 0.8 of the
+odometry speed, so in DS4 the odometry speed (and possibly the accelerometer
+scale) disagrees with the pose kinematics: treat its ``vx`` with care.
 """
 
 from __future__ import annotations
@@ -67,7 +73,19 @@ def quaternion_yaw(qx, qy, qz, qw) -> np.ndarray:
     return np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
 
 
-def _read_stream(folder: Path, name: str, cols: tuple[str, ...]) -> pd.DataFrame:
+def _first_second(folder: Path) -> int:
+    """Whole Unix second of the first IMU stamp: the reference of the relative times."""
+    f = folder / "imuData.csv"
+    try:
+        first = pd.read_csv(f, nrows=1)
+    except pd.errors.EmptyDataError:
+        raise ValueError(f"frictionmaps run {folder.name}: imuData.csv is empty") from None
+    if "s" not in first.columns or first.empty:
+        raise ValueError(f"frictionmaps run {folder.name}: imuData.csv has no 's' stamps")
+    return int(first["s"].iloc[0])
+
+
+def _read_stream(folder: Path, name: str, cols: tuple[str, ...], s_ref: int) -> pd.DataFrame:
     f = folder / name
     if not f.is_file():
         raise ValueError(f"frictionmaps run {folder.name}: missing {name}")
@@ -78,7 +96,8 @@ def _read_stream(folder: Path, name: str, cols: tuple[str, ...]) -> pd.DataFrame
     missing = [c for c in ("s", "ns", *cols) if c not in df.columns]
     if missing:
         raise ValueError(f"frictionmaps run {folder.name}: {name} lacks column(s) {missing}")
-    t = df["s"].to_numpy(float) + 1e-9 * df["ns"].to_numpy(float)
+    # relative to a whole second: keeps nanosecond resolution in float64
+    t = (df["s"].to_numpy(np.int64) - s_ref).astype(float) + 1e-9 * df["ns"].to_numpy(float)
     out = pd.DataFrame({"t": t})
     for c in cols:
         out[c] = df[c].to_numpy(float)
@@ -86,6 +105,31 @@ def _read_stream(folder: Path, name: str, cols: tuple[str, ...]) -> pd.DataFrame
     out = out.sort_values("t", kind="stable")
     out = out[np.r_[True, np.diff(out["t"].to_numpy()) > 0]]
     return out.reset_index(drop=True)
+
+
+def _kinematic_checks(df: pd.DataFrame, jump: np.ndarray) -> dict[str, float]:
+    """Least-squares ratios that expose unit, axis and speed problems.
+
+    ``ay_over_vx_yaw_rate``: slope of ``ay`` against ``vx * yaw_rate`` in turns
+    (``|yaw_rate| > 0.5 rad/s``, ``vx > 1 m/s``), about 1 when ``ay``, ``vx`` and
+    ``yaw_rate`` agree. ``pose_speed_over_vx``: median ratio of the speed
+    differentiated from the pose (jumps excluded) to ``vx`` while moving.
+    """
+    t = df["t"].to_numpy()
+    vx = df["vx"].to_numpy()
+    r = df["yaw_rate"].to_numpy()
+    ay = df["ay"].to_numpy()
+    kin = vx * r
+    turn = (np.abs(r) > 0.5) & (vx > 1.0)
+    out: dict[str, float] = {}
+    if turn.sum() >= 20:
+        out["ay_over_vx_yaw_rate"] = float(np.dot(ay[turn], kin[turn]) / np.dot(kin[turn], kin[turn]))
+    dt = np.diff(t)
+    vp = np.hypot(np.diff(df["x"].to_numpy()), np.diff(df["y"].to_numpy())) / dt
+    ok = (dt < 1.5 * np.median(dt)) & ~jump[1:] & (vx[1:] > 1.0)
+    if ok.sum() >= 20:
+        out["pose_speed_over_vx"] = float(np.median(vp[ok] / vx[1:][ok]))
+    return out
 
 
 def read_frictionmaps(
@@ -120,7 +164,8 @@ def read_frictionmaps(
     if not is_frictionmaps_dir(folder):
         raise ValueError(f"{path} is not a frictionmaps run folder (no imuData.csv)")
     veh = load_vehicle(vehicle if vehicle is not None else "f1tenth")
-    raw = {name: _read_stream(folder, name, cols) for name, cols in _REQUIRED.items()}
+    s_ref = _first_second(folder)
+    raw = {name: _read_stream(folder, name, cols, s_ref) for name, cols in _REQUIRED.items()}
 
     imu = raw["imuData.csv"]
     imu = pd.DataFrame(
@@ -145,7 +190,7 @@ def read_frictionmaps(
     streams = {"imu": imu, "odom": odom, "command": cmd, "pose": pose}
     has_core = (folder / "coreData.csv").is_file()
     if has_core:
-        core = _read_stream(folder, "coreData.csv", ("RPM",))
+        core = _read_stream(folder, "coreData.csv", ("RPM",), s_ref)
         streams["core"] = pd.DataFrame({"t": core["t"], "vx_motor": -core["RPM"] / ERPM_PER_MPS})
 
     # the commands define no span of their own: the clock spans the sensor streams
@@ -153,7 +198,8 @@ def read_frictionmaps(
     t1 = min(s["t"].iloc[-1] for s in streams.values())
     if not t1 > t0:
         raise ValueError(f"frictionmaps run {folder.name}: the streams do not overlap in time")
-    clock = t0 + np.arange(int(np.floor((t1 - t0) * rate)) + 1) / rate
+    ticks = np.arange(int(np.floor((t1 - t0) * rate)) + 1)
+    clock = t0 + ticks / rate
     df = resample(streams, clock=clock, hold=("steer", "speed_cmd"), max_gap=max_gap)
     if len(df) < 2:
         raise ValueError(f"frictionmaps run {folder.name}: fewer than 2 samples after resampling")
@@ -170,8 +216,12 @@ def read_frictionmaps(
     jump = np.r_[False, (step > allowed) | (dpsi > allowed_psi)]
     df["pose_jump"] = jump.astype(float)
 
-    epoch = float(t[0])
-    df["t"] = t - epoch
+    checks = _kinematic_checks(df, jump)
+
+    # exact grid times from the tick numbers
+    k = np.round((t - t0) * rate)
+    epoch = s_ref + t0 + k[0] / rate
+    df["t"] = (k - k[0]) / rate
     order = ["t", "ax", "ay", "yaw_rate", "steer", "vx", "x", "y", "psi", "speed_cmd", "pose_jump"]
     if has_core:
         order.append("vx_motor")
@@ -184,6 +234,7 @@ def read_frictionmaps(
         "max_gap_s": float(max_gap),
         "ticks_dropped_in_gaps": int(n_dropped),
         "pose_jumps": int(jump.sum()),
+        "kinematic_checks": checks,
         "conversions": {
             "t": "s + 1e-9 ns, resampled to a uniform clock on the overlap of the streams, "
             "minus t0_epoch_s; ticks in stream gaps > max_gap dropped",

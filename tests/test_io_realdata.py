@@ -1,0 +1,183 @@
+"""Readers of the shared real data sets (skipped where ../shared/data is absent)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from roadgrip.io import read_drive
+from roadgrip.io.dart import TRACKED_POINT_FROM_REAR, dart_steer_angle
+from roadgrip.io.frictionmaps import quaternion_yaw
+from roadgrip.vehicle import PRESETS
+
+DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
+DART = DATA / "dart"
+FM = DATA / "frictionmaps"
+
+pytestmark = pytest.mark.realdata
+
+needs_dart = pytest.mark.skipif(not DART.is_dir(), reason=f"DART data set not found at {DART}")
+needs_fm = pytest.mark.skipif(not FM.is_dir(), reason=f"frictionmaps data set not found at {FM}")
+
+
+def _dart_files():
+    return sorted(DART.glob("*/*.csv")) if DART.is_dir() else []
+
+
+def _slope(y, x):
+    return float(np.dot(y, x) / np.dot(x, x))
+
+
+# --------------------------------------------------------------------------- dart
+def _steer_reference(s: float) -> float:
+    """The authors' fit written out independently, scalar math."""
+    a, b, c, d, e = 1.3929, 0.36576, -0.027004, 0.51479, 1.02304
+    w = 0.5 * (math.tanh(30 * (s + c)) + 1)
+    return w * b * math.tanh(a * (s + c)) + (1 - w) * d * math.tanh(e * (s + c))
+
+
+def test_dart_steer_map():
+    s = np.linspace(-1.0, 1.0, 201)
+    delta = dart_steer_angle(s)
+    assert np.allclose(delta, [_steer_reference(v) for v in s], rtol=0, atol=1e-15)
+    assert np.all(np.diff(delta) > 0)  # monotone
+    assert abs(float(dart_steer_angle(0.027004))) < 1e-12  # zero at s = -c
+    assert delta.max() < 0.4 and delta.min() > -0.45
+
+
+@needs_dart
+@pytest.mark.parametrize("path", _dart_files(), ids=lambda p: p.parent.name[:9] + "/" + p.name[-18:])
+def test_dart_reader(path):
+    raw = pd.read_csv(path)
+    d = read_drive(path)
+    assert d.meta.extra["format"] == "dart"
+    assert d.vehicle == PRESETS["jetracer"]
+    # padding dropped: no row from the zero sensor clock, one row per sensor update
+    ts = raw["elapsed time sensors"].to_numpy()
+    assert d.meta.extra["padding_rows_dropped"] == int((ts == 0).sum()) > 0
+    assert d.n == len(np.unique(ts[ts != 0]))
+    assert d.t[0] == 0.0
+    assert np.allclose(d.t + d.meta.extra["sensor_clock_offset_s"], np.unique(ts[ts != 0]))
+    assert 9.5 < d.meta.sample_rate < 10.5
+    # steering: road-wheel angle in range, equal to the map of the command, sign of the turn
+    steer = d.col("steer")
+    assert np.abs(steer).max() <= PRESETS["jetracer"].max_steer
+    assert np.allclose(steer, dart_steer_angle(d.col("steer_cmd")))
+    moving = d.col("vx") > 0.5
+    assert np.sign(np.median(steer[moving])) == np.sign(np.median(d.col("yaw_rate")[moving]))
+    # wheel speeds from the driveshaft
+    assert np.allclose(d.col("omega_rl") * PRESETS["jetracer"].wheel_radius, d.col("vx"))
+    # kinematics: yaw rate integrates to the motion-capture heading (units and sign)
+    dpsi = np.diff(d.col("psi"))
+    rdt = d.col("yaw_rate")[1:] * np.diff(d.t)
+    assert 0.9 < _slope(dpsi, rdt) < 1.05
+    # ay ~ vx * yaw_rate in the circles (vx from the driveshaft includes spin: ratio <= ~1)
+    kin = d.col("vx") * d.col("yaw_rate")
+    sel = np.abs(kin) > 1.0
+    assert 0.8 < _slope(d.col("ay")[sel], kin[sel]) < 1.1
+
+
+@needs_dart
+def test_dart_pose_is_at_the_cg():
+    path = _dart_files()[0]
+    raw = pd.read_csv(path)
+    raw = raw[raw["elapsed time sensors"] != 0]
+    first = raw.drop_duplicates("elapsed time sensors")
+    d = read_drive(path)
+    back = TRACKED_POINT_FROM_REAR - PRESETS["jetracer"].lr
+    dx = first["vicon x"].to_numpy() - d.col("x")
+    dy = first["vicon y"].to_numpy() - d.col("y")
+    assert np.allclose(np.hypot(dx, dy), back)
+    # the tracked point lies ahead of the CG along the heading
+    assert np.allclose(dx * np.cos(d.col("psi")) + dy * np.sin(d.col("psi")), back)
+    assert np.allclose(np.angle(np.exp(1j * (d.col("psi") - first["vicon yaw"].to_numpy()))), 0.0)
+
+
+@needs_dart
+def test_dart_vehicle_override():
+    d = read_drive(_dart_files()[0], vehicle="f1tenth")
+    assert d.vehicle.name == "f1tenth"
+
+
+# --------------------------------------------------------------------------- frictionmaps
+def test_quaternion_yaw():
+    psi = np.linspace(-3.1, 3.1, 13)
+    assert np.allclose(quaternion_yaw(0.0, 0.0, np.sin(psi / 2), np.cos(psi / 2)), psi)
+
+
+@needs_fm
+@pytest.mark.parametrize("run", ["DS1", "DS2", "DS3", "DS4", "DS5"])
+def test_frictionmaps_reader(run):
+    d = read_drive(FM / run)
+    assert d.meta.extra["format"] == "frictionmaps"
+    assert d.vehicle == PRESETS["f1tenth"]
+    assert d.has_pose
+    assert d.t[0] == 0.0
+    # one uniform clock at 50 Hz (gaps in the recording are skipped, not bridged)
+    dt = np.diff(d.t)
+    assert np.allclose(np.median(dt), 0.02)
+    on_grid = np.abs(dt / 0.02 - np.round(dt / 0.02)) < 1e-6
+    assert on_grid.all()
+    # the IMU epoch is kept and t restored from it matches the raw stamps' span
+    imu = pd.read_csv(FM / run / "imuData.csv")
+    t_imu = imu["s"] + 1e-9 * imu["ns"]
+    t0 = d.meta.extra["t0_epoch_s"]
+    assert t_imu.iloc[0] <= t0 and t0 + d.t[-1] <= t_imu.iloc[-1]
+    # SI units after the g / deg/s conversion
+    assert np.abs(d.col("yaw_rate")).max() < 5.0
+    assert np.abs(d.col("steer")).max() <= 0.34 + 1e-6  # float32 commands
+    # yaw rate (gyro, converted) integrates to the particle-filter heading
+    ok = (dt < 0.03) & (d.col("pose_jump")[1:] == 0)
+    assert 0.9 < _slope(np.diff(d.col("psi"))[ok], (d.col("yaw_rate")[1:] * dt)[ok]) < 1.05
+
+
+@needs_fm
+@pytest.mark.parametrize("run", ["DS1", "DS3", "DS5"])
+def test_frictionmaps_lateral_and_longitudinal_axes(run):
+    d = read_drive(FM / run)
+    vx, r, ay = d.col("vx"), d.col("yaw_rate"), d.col("ay")
+    turn = (np.abs(r) > 0.5) & (vx > 1.0)
+    # ay (IMU column ax, in g) against vx * yaw_rate in turns: slope about 1
+    slope = _slope(ay[turn], (vx * r)[turn])
+    assert 0.85 < slope < 1.2, slope
+    assert np.corrcoef(ay[turn], (vx * r)[turn])[0, 1] > 0.8
+    # ax (minus IMU column ay, in g) against d(vx)/dt: positive, slope about 1
+    dt = np.diff(d.t)
+    k = np.ones(5) / 5
+    acc = np.convolve(np.diff(vx) / dt, k, "same")
+    ax = np.convolve(d.col("ax")[1:], k, "same")
+    sel = (dt < 0.03) & (np.abs(acc) < 8.0)
+    assert 0.7 < _slope(ax[sel], acc[sel]) < 1.3
+    assert np.corrcoef(ax[sel], acc[sel])[0, 1] > 0.6
+
+
+@needs_fm
+def test_frictionmaps_ds5_motor_speed():
+    d = read_drive(FM / "DS5")
+    assert "vx_motor" in d.extra_columns
+    moving = d.col("vx") > 1.0
+    ratio = np.median(d.col("vx_motor")[moving] / d.col("vx")[moving])
+    assert 0.9 < ratio < 1.1
+
+
+@needs_fm
+def test_frictionmaps_pose_jumps_flagged():
+    d = read_drive(FM / "DS1")
+    jump = d.col("pose_jump") > 0
+    assert d.meta.extra["pose_jumps"] == int(jump.sum()) > 0
+    step = np.hypot(np.diff(d.col("x")), np.diff(d.col("y")))
+    # flagged steps are the large ones; unflagged ones respect the speed bound
+    assert step[jump[1:]].min() > np.median(step)
+    bound = 1.5 * np.abs(d.col("vx")[1:]) * np.diff(d.t) + 0.1
+    assert (step[~jump[1:]] <= bound[~jump[1:]]).all()
+
+
+@needs_fm
+def test_frictionmaps_file_inside_run_folder_and_explicit_format():
+    a = read_drive(FM / "DS3" / "imuData.csv")
+    b = read_drive(FM / "DS3", format="frictionmaps")
+    pd.testing.assert_frame_equal(a.data, b.data)
