@@ -1,0 +1,601 @@
+"""The scenario suite and ``roadgrip bench``: every estimator on every drive it applies to.
+
+Which estimator runs where
+--------------------------
+==================  =========================================  ==============================
+drive               estimators                                 scored against
+==================  =========================================  ==============================
+snow-slalom         gpssm (tensor 10x10), gpssm (separable)    true curves, true peak
+dry-gravel-dry      brls, slipmap                              true grip class, changes
+f1tenth-patches     cascade (+ friction grid)                  true peak, true cell friction
+straight-cruise     all                                        no confident claim may be made
+DART high / low     gpssm, brls, slipmap                       floor label (high 0.8, low 0.35)
+frictionmaps DSn    cascade (+ friction grid)                  DS3-DS5 map agreement
+==================  =========================================  ==============================
+
+Each run is timed and scored with :mod:`roadgrip.evaluate.metrics`; a method
+whose module is not installed is reported as ``not available`` and a run that
+raises is reported with its error, so one failing estimator never hides the
+others. Everything is seeded: the same seed gives the same table (apart from
+the timing columns).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from roadgrip.evaluate import metrics as M
+
+__all__ = [
+    "BENCH_COLUMNS",
+    "DEMO",
+    "FULL",
+    "QUICK",
+    "BenchSettings",
+    "Case",
+    "RunRecord",
+    "bench_cli",
+    "bench_table",
+    "default_cases",
+    "real_data_root",
+    "run_suite",
+    "table_markdown",
+]
+
+GPSSM_BASES = {"gpssm": None, "gpssm-sep": "separable:20"}
+"""Row label -> ``--basis`` of the GP-SSM variants (None: the method's default, tensor 10x10)."""
+
+CLASSIFIERS = ("brls", "slipmap")
+FRICTION_METHODS = ("gpssm", "cascade")
+
+DART_REFERENCE = {"high": 0.8, "low": 0.35}
+"""Approximate peak friction of the two DART floors (data README: lateral plateaus of about
+0.78 g and 0.35 g), used as the reference of real-data peak estimates."""
+
+
+@dataclass(frozen=True)
+class BenchSettings:
+    """How long to simulate and how hard to work.
+
+    Attributes
+    ----------
+    name : str
+        ``'full'``, ``'quick'`` or ``'demo'``.
+    durations : dict
+        Scenario -> simulated duration [s] (missing or None: the scenario's own).
+    particles : int or None
+        GP-SSM particles (None: the method default, N = 200 as in paper 000).
+    scenarios : tuple of str
+        Simulated scenarios to run.
+    real_data : bool
+        Also run the shared real data sets where present.
+    dart_files : int
+        Files per DART floor to run (0: all).
+    frictionmaps_runs : tuple of str
+        frictionmaps runs to use.
+    gpssm_variants : tuple of str
+        Row labels of :data:`GPSSM_BASES` to run.
+    """
+
+    name: str
+    durations: dict[str, float | None] = field(default_factory=dict)
+    particles: int | None = None
+    scenarios: tuple[str, ...] = ("snow-slalom", "dry-gravel-dry", "f1tenth-patches", "straight-cruise")
+    real_data: bool = True
+    dart_files: int = 0
+    frictionmaps_runs: tuple[str, ...] = ("DS1", "DS2", "DS3", "DS4", "DS5")
+    gpssm_variants: tuple[str, ...] = ("gpssm", "gpssm-sep")
+
+    def describe(self) -> str:
+        """One line saying what was shortened or reduced."""
+        parts = [f"settings '{self.name}'"]
+        parts.append(f"GP-SSM particles: {self.particles or 'default (200)'}")
+        short = {k: v for k, v in self.durations.items() if v}
+        if short:
+            parts.append("durations: " + ", ".join(f"{k} {v:g} s" for k, v in short.items()))
+        else:
+            parts.append("full scenario durations")
+        parts.append("real data: " + ("yes" if self.real_data else "no"))
+        return "; ".join(parts)
+
+
+FULL = BenchSettings("full")
+QUICK = BenchSettings(
+    "quick",
+    durations={"snow-slalom": 60.0, "dry-gravel-dry": None, "f1tenth-patches": None,
+               "straight-cruise": 30.0},
+    particles=100,
+    dart_files=1,
+    frictionmaps_runs=("DS3", "DS4", "DS5"),
+)
+DEMO = BenchSettings(
+    "demo",
+    durations={"straight-cruise": 30.0},
+    scenarios=("snow-slalom", "dry-gravel-dry", "f1tenth-patches"),
+    real_data=False,
+    gpssm_variants=("gpssm",),
+)
+
+
+@dataclass(frozen=True)
+class Case:
+    """One estimator on one drive.
+
+    Attributes
+    ----------
+    drive : str
+        Scenario name, or ``'dart:<floor>:<file stem>'`` / ``'frictionmaps:DSn'``.
+    label : str
+        Row label of the method (``'gpssm-sep'`` for the separable GP-SSM).
+    method : str
+        Estimator name in :data:`roadgrip.estimators.METHODS`.
+    basis : str or None
+        GP-SSM basis.
+    path : str or None
+        Real data file or folder.
+    format : str or None
+        Real data format.
+    reference : str or None
+        Real data label (``'high'`` / ``'low'``).
+    """
+
+    drive: str
+    label: str
+    method: str
+    basis: str | None = None
+    path: str | None = None
+    format: str | None = None
+    reference: str | None = None
+
+
+@dataclass
+class RunRecord:
+    """Outcome of one :class:`Case`: status, the drive and result, and the scores."""
+
+    case: Case
+    status: str
+    drive: Any = None
+    result: Any = None
+    metrics: dict[str, float] = field(default_factory=dict)
+    details: list[str] = field(default_factory=list)
+    map_cells: pd.DataFrame | None = None
+    wall_s: float = float("nan")
+
+
+# -- discovery ---------------------------------------------------------------------------
+def module_available(name: str) -> bool:
+    """Whether a roadgrip module can be imported (without importing it)."""
+    try:
+        return importlib.util.find_spec(name) is not None
+    except ModuleNotFoundError:
+        return False
+
+
+def method_available(method: str) -> bool:
+    from roadgrip.estimators import METHODS
+
+    return method in METHODS and module_available(METHODS[method])
+
+
+def real_data_root() -> Path | None:
+    """``../shared/data`` beside the checkout (or ``$ROADGRIP_SHARED_DATA``), if present."""
+    env = os.environ.get("ROADGRIP_SHARED_DATA")
+    root = Path(env) if env else Path(__file__).resolve().parents[3] / ".." / "shared" / "data"
+    return root.resolve() if root.is_dir() else None
+
+
+def default_cases(settings: BenchSettings) -> list[Case]:
+    """All (drive, estimator) pairs that apply, in table order."""
+    cases: list[Case] = []
+    sim_methods = {
+        "snow-slalom": [(v, "gpssm", GPSSM_BASES[v]) for v in settings.gpssm_variants],
+        "dry-gravel-dry": [(m, m, None) for m in CLASSIFIERS],
+        "f1tenth-patches": [("cascade", "cascade", None)],
+        "straight-cruise": [("gpssm", "gpssm", None), *[(m, m, None) for m in CLASSIFIERS],
+                            ("cascade", "cascade", None)],
+    }
+    for sc in settings.scenarios:
+        for label, method, basis in sim_methods.get(sc, []):
+            cases.append(Case(sc, label, method, basis))
+    root = real_data_root() if settings.real_data else None
+    if root is not None:
+        for floor, ref in (("high_grip_rubbery_floor", "high"), ("low_grip_tape_and_tiles", "low")):
+            files = sorted((root / "dart" / floor).glob("*.csv"))
+            if settings.dart_files:
+                files = files[: settings.dart_files]
+            for f in files:
+                for m in ("gpssm", *CLASSIFIERS):
+                    cases.append(Case(f"dart:{ref}:{f.stem[-12:]}", m, m, path=str(f),
+                                      format="dart", reference=ref))
+        for ds in settings.frictionmaps_runs:
+            p = root / "frictionmaps" / ds
+            if p.is_dir():
+                cases.append(Case(f"frictionmaps:{ds}", "cascade", "cascade", path=str(p),
+                                  format="frictionmaps"))
+    return cases
+
+
+# -- running -----------------------------------------------------------------------------
+def _load_drive(case: Case, settings: BenchSettings, seed: int, cache: dict):
+    key = case.drive
+    if key in cache:
+        return cache[key]
+    if case.path is not None:
+        from roadgrip.io import read_drive
+
+        drive = read_drive(case.path, format=case.format)
+    else:
+        from roadgrip.sim.scenarios import simulate_scenario
+
+        duration = settings.durations.get(case.drive)
+        kwargs = {"duration": duration} if duration else {}
+        drive = simulate_scenario(case.drive, seed=seed, **kwargs)
+    cache[key] = drive
+    return drive
+
+
+def _request(case: Case, settings: BenchSettings, seed: int, drive):
+    from roadgrip.estimators import EstimateRequest
+
+    if case.method != "gpssm":
+        return EstimateRequest(seed=seed, progress=False)
+    t = drive.t
+    times = [float(t[-1])]
+    if drive.has_truth and t[-1] > 50.0:
+        times.insert(0, 50.0)
+    return EstimateRequest(seed=seed, particles=settings.particles, basis=case.basis,
+                           curve_times=tuple(times), progress=False)
+
+
+def run_case(case: Case, settings: BenchSettings, seed: int, cache: dict) -> RunRecord:
+    """Load or simulate the drive, run the estimator, score it; never raises."""
+    if not method_available(case.method):
+        return RunRecord(case, "not available")
+    if case.path is None and not module_available("roadgrip.sim.scenarios"):
+        return RunRecord(case, "not available (no simulator)")
+    try:
+        drive = _load_drive(case, settings, seed, cache)
+    except Exception as exc:  # reported in the table, never fatal
+        return RunRecord(case, f"error: drive: {exc}")
+    from roadgrip.estimators import run_estimator
+
+    try:
+        request = _request(case, settings, seed, drive)
+        t0 = time.perf_counter()
+        result = run_estimator(case.method, drive, request)
+        wall = time.perf_counter() - t0
+    except Exception as exc:  # reported in the table, never fatal
+        return RunRecord(case, f"error: {type(exc).__name__}: {exc}", drive=drive)
+    rec = RunRecord(case, "ok", drive=drive, result=result, wall_s=wall)
+    try:
+        score(rec)
+    except Exception as exc:  # reported in the table, never fatal
+        rec.status = f"error: scoring: {type(exc).__name__}: {exc}"
+    return rec
+
+
+def run_suite(
+    cases: Sequence[Case],
+    settings: BenchSettings,
+    *,
+    seed: int = 0,
+    on_case: Callable[[Case], None] | None = None,
+    on_done: Callable[[RunRecord], None] | None = None,
+) -> list[RunRecord]:
+    """Run every case in order (drives are simulated or read once and shared)."""
+    cache: dict = {}
+    out = []
+    for case in cases:
+        if on_case:
+            on_case(case)
+        rec = run_case(case, settings, seed, cache)
+        out.append(rec)
+        if on_done:
+            on_done(rec)
+    return out
+
+
+# -- scoring -----------------------------------------------------------------------------
+def _finite_col(tab: pd.DataFrame, col: str) -> np.ndarray | None:
+    if col not in tab.columns:
+        return None
+    v = pd.to_numeric(tab[col], errors="coerce").to_numpy(float)
+    return v if np.isfinite(v).any() else None
+
+
+def _truth_on(drive, tab: pd.DataFrame, values: np.ndarray) -> np.ndarray:
+    """Truth sampled at the estimate times (estimators may drop leading samples)."""
+    t_est = tab["t"].to_numpy(float)
+    if len(t_est) == drive.n and np.allclose(t_est, drive.t):
+        return values
+    idx = np.clip(np.searchsorted(drive.t, t_est - 1e-9), 0, drive.n - 1)
+    return values[idx]
+
+
+def score(rec: RunRecord) -> None:
+    """Fill ``rec.metrics`` and ``rec.details`` from the drive's truth or reference."""
+    drive, res = rec.drive, rec.result
+    tab = res.table
+    timing = res.meta.get("timing") or {}
+    n = len(tab)
+    wall = float(timing.get("wall_s", rec.wall_s))
+    m = rec.metrics
+    m["samples"] = float(n)
+    m["wall_s"] = wall
+    m["samples_per_s"] = n / wall if wall > 0 else np.nan
+    m["rtf"] = drive.duration / wall if wall > 0 else np.nan
+    if drive.has_truth:
+        _score_friction(rec)
+        _score_curves(rec)
+        _score_classes(rec)
+    elif rec.case.reference is not None:
+        _score_reference(rec)
+    if rec.case.method == "cascade" and drive.has_pose:
+        _score_map(rec)
+
+
+def _score_friction(rec: RunRecord) -> None:
+    drive, tab, m = rec.drive, rec.result.table, rec.metrics
+    rates, covs = [], []
+    for axle in ("front", "rear"):
+        est = _finite_col(tab, f"mu_{axle}")
+        if est is None:
+            continue
+        lo = _finite_col(tab, f"mu_{axle}_lower")
+        hi = _finite_col(tab, f"mu_{axle}_upper")
+        truth = _truth_on(drive, tab, M.true_peak_series(drive, axle))
+        obs = tab[f"peak_observed_{axle}"].to_numpy(bool) if f"peak_observed_{axle}" in tab else None
+        err = est[-1] - truth[-1]
+        m[f"peak_err_{axle[0]}"] = float(err)
+        final_obs = bool(obs[-1]) if obs is not None else True
+        rec.details.append(
+            f"final {axle} peak {est[-1]:.3f} (truth {truth[-1]:.3f}, error {err:+.3f})"
+            + ("" if final_obs else ", peak not observed: reported as a lower bound")
+        )
+        if lo is not None and hi is not None:
+            covs.append(M.band_coverage(truth, lo, hi))
+            rates.append(M.confident_wrong_rate(est, lo, hi, truth, tol=0.1, observed=obs))
+    if covs:
+        m["mu_band_cov"] = float(np.nanmin(covs)) if np.isfinite(covs).any() else np.nan
+    if rates:
+        m["conf_wrong"] = float(np.nanmax(rates)) if np.isfinite(rates).any() else np.nan
+
+
+def _score_curves(rec: RunRecord) -> None:
+    curves = rec.result.curves
+    if curves is None or len(curves) == 0:
+        return
+    drive, m = rec.drive, rec.metrics
+    maes, covs = [], []
+    for t_c in sorted(curves["t"].unique()):
+        for axle, col in (("front", "alpha_f_true"), ("rear", "alpha_r_true")):
+            c = curves[(curves["t"] == t_c) & (curves["axle"] == axle)].sort_values("alpha")
+            if c.empty or col not in drive.data.columns:
+                continue
+            visited = drive.col(col)[drive.t <= t_c + 1e-9]
+            if "mu_true" in c.columns and np.isfinite(c["mu_true"].to_numpy(float)).all():
+                truth: Any = c["mu_true"].to_numpy(float)
+            else:
+                truth = drive.true_tire(axle).mu
+            cm = M.curve_error(c["alpha"].to_numpy(float), c["mu_mean"].to_numpy(float), truth,
+                               visited, mu_lower=c["mu_lower"].to_numpy(float),
+                               mu_upper=c["mu_upper"].to_numpy(float), min_visits=20)
+            if cm.n_points:
+                maes.append(cm.mae)
+                covs.append(cm.coverage)
+                rec.details.append(
+                    f"curve {axle} at t = {t_c:.0f} s: MAE {cm.mae:.4f}, 95 % band coverage "
+                    f"{100 * cm.coverage:.0f} % over slip {cm.slip_range[0]:+.3f}..{cm.slip_range[1]:+.3f} rad"
+                )
+    if maes:
+        m["curve_mae"] = float(max(maes))
+        m["curve_cov"] = float(min(covs))
+
+
+def _score_classes(rec: RunRecord) -> None:
+    tab = rec.result.table
+    if "grip_class" not in tab.columns:
+        return
+    pred = tab["grip_class"].astype(str).to_numpy()
+    if rec.case.method not in CLASSIFIERS and (pred == "unknown").all():
+        return
+    drive, m = rec.drive, rec.metrics
+    truth = M.truth_grip_class(_truth_on(drive, tab, M.true_peak_series(drive, "front")))
+    t = tab["t"].to_numpy(float)
+    excited = _truth_on(drive, tab, M.truth_excitation(drive))
+    m["class_acc"] = M.classification_accuracy(pred, truth).accuracy
+    m["class_acc_exc"] = M.classification_accuracy(pred, truth, excited).accuracy
+    m["conf_wrong"] = M.confident_wrong_class_rate(pred, truth)
+    m["switches"] = float(M.count_switches(pred))
+    events = M.detection_delays(t, pred, truth, excited, hold=0.5)
+    if events:
+        delays = [e.delay_from_excitation for e in events]
+        m["detected"] = float(sum(e.detected for e in events)) / len(events)
+        m["max_delay_s"] = float(np.max(delays)) if all(np.isfinite(delays)) else np.inf
+        for e in events:
+            rec.details.append(
+                f"change to {e.new_class} at t = {e.t_change:.1f} s: first excitation "
+                f"{e.t_excited:.1f} s, detected {e.t_detected:.1f} s "
+                f"(delay {e.delay_from_excitation:.2f} s after excitation)"
+            )
+
+
+def _score_reference(rec: RunRecord) -> None:
+    ref = rec.case.reference
+    tab, m = rec.result.table, rec.metrics
+    est = _finite_col(tab, "mu_front")
+    if est is not None and rec.case.method in FRICTION_METHODS:
+        rear = _finite_col(tab, "mu_rear")
+        peak = float(np.nanmax([est[-1], rear[-1] if rear is not None else np.nan]))
+        m["peak_err_f"] = peak - DART_REFERENCE[ref]
+        rec.details.append(f"learned peak {peak:.3f} on the {ref}-grip floor "
+                           f"(reference about {DART_REFERENCE[ref]})")
+    if rec.case.method in CLASSIFIERS and "grip_class" in tab.columns:
+        pred = tab["grip_class"].astype(str).to_numpy()
+        exc = tab["excited"].to_numpy(bool) if "excited" in tab.columns else np.ones(len(tab), bool)
+        truth = np.full(len(pred), ref)
+        m["class_acc"] = M.classification_accuracy(pred, truth).accuracy
+        m["class_acc_exc"] = M.classification_accuracy(pred, truth, exc).accuracy
+        m["conf_wrong"] = M.confident_wrong_class_rate(pred, truth)
+
+
+def _score_map(rec: RunRecord) -> None:
+    """Fuse the cascade's estimates into a grid and score its cells against the truth."""
+    if not module_available("roadgrip.mapping"):
+        rec.details.append("friction grid: roadgrip.mapping not available")
+        return
+    from roadgrip.evaluate.maps import cells_from_result
+
+    cells, cell_size = cells_from_result(rec.result, rec.drive)
+    rec.map_cells = cells
+    m = rec.metrics
+    m["map_cells"] = float((cells["n_obs"] >= 10).sum())
+    drive = rec.drive
+    if drive.has_truth and drive.has("x", "y", "mu_true"):
+        truth = M.cell_truth(cells["x"], cells["y"], cell_size, drive.col("x"), drive.col("y"),
+                             drive.col("mu_true"))
+        mm = M.map_metrics(cells["mu_mean"], cells["mu_std"], cells["n_obs"], truth, min_obs=10)
+        m["map_cells"] = float(mm.n_cells)
+        m["map_mae"] = mm.mae
+        m["map_within"] = mm.within_tol
+        m["map_cov95"] = mm.coverage95
+        cal = ", ".join(f"{100 * p:.0f}%→{100 * e:.0f}%" for p, e in mm.calibration)
+        rec.details.append(
+            f"friction grid: {mm.n_cells} cells with ≥ 10 excited observations, MAE {mm.mae:.3f}, "
+            f"{100 * mm.within_tol:.0f} % within 0.1, calibration (nominal→empirical) {cal}; "
+            f"never-excited cells with std ≥ 0.2: {100 * mm.unobserved_wide:.0f} %"
+        )
+
+
+# -- the table ---------------------------------------------------------------------------
+BENCH_COLUMNS: dict[str, tuple[str, str]] = {
+    # key: (header, format)
+    "samples": ("samples", "{:.0f}"),
+    "samples_per_s": ("samples/s", "{:,.0f}"),
+    "rtf": ("real-time ×", "{:,.0f}"),
+    "curve_mae": ("curve MAE", "{:.3f}"),
+    "curve_cov": ("curve band cov.", "{:.0%}"),
+    "peak_err_f": ("peak err. front", "{:+.3f}"),
+    "peak_err_r": ("peak err. rear", "{:+.3f}"),
+    "mu_band_cov": ("μ band cov.", "{:.0%}"),
+    "class_acc": ("class acc.", "{:.0%}"),
+    "class_acc_exc": ("class acc. (excited)", "{:.0%}"),
+    "max_delay_s": ("max delay [s]", "{:.2f}"),
+    "switches": ("switches", "{:.0f}"),
+    "conf_wrong": ("confident wrong", "{:.1%}"),
+    "map_cells": ("map cells", "{:.0f}"),
+    "map_mae": ("map MAE", "{:.3f}"),
+    "map_cov95": ("map 95 % cov.", "{:.0%}"),
+}
+"""Metric key -> (column header, format) of the benchmark table."""
+
+
+def bench_table(records: Sequence[RunRecord]) -> pd.DataFrame:
+    """One row per run: drive, method, status and every metric (NaN where it does not apply)."""
+    rows = []
+    for r in records:
+        row: dict[str, Any] = {"drive": r.case.drive, "method": r.case.label, "status": r.status}
+        for k in BENCH_COLUMNS:
+            row[k] = r.metrics.get(k, np.nan)
+        rows.append(row)
+    return pd.DataFrame(rows, columns=["drive", "method", "status", *BENCH_COLUMNS])
+
+
+def format_cell(key: str, value: Any) -> str:
+    if key not in BENCH_COLUMNS:
+        return str(value)
+    if value is None or (isinstance(value, float) and np.isnan(value)):
+        return ""
+    if isinstance(value, float) and np.isinf(value):
+        return "missed"
+    return BENCH_COLUMNS[key][1].format(value)
+
+
+def table_markdown(table: pd.DataFrame) -> str:
+    """The benchmark table as GitHub Markdown (columns that are empty everywhere dropped)."""
+    keys = ["drive", "method"] + [k for k in BENCH_COLUMNS if table[k].notna().any()] + ["status"]
+    head = [BENCH_COLUMNS[k][0] if k in BENCH_COLUMNS else k for k in keys]
+    lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in keys) + "|"]
+    for _, row in table.iterrows():
+        lines.append("| " + " | ".join(format_cell(k, row[k]) for k in keys) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def rich_table(table: pd.DataFrame, title: str = "benchmark"):
+    from rich.table import Table
+
+    keys = ["drive", "method"] + [k for k in BENCH_COLUMNS if table[k].notna().any()] + ["status"]
+    out = Table(title=title)
+    for k in keys:
+        out.add_column(BENCH_COLUMNS[k][0] if k in BENCH_COLUMNS else k,
+                       justify="left" if k in ("drive", "method", "status") else "right")
+    for _, row in table.iterrows():
+        out.add_row(*(format_cell(k, row[k]) for k in keys))
+    return out
+
+
+def write_outputs(records: Sequence[RunRecord], out_dir: Path, settings: BenchSettings,
+                  seed: int) -> pd.DataFrame:
+    """Write ``bench.csv`` and ``bench.md`` (table plus the per-run details) to ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    table = bench_table(records)
+    table.to_csv(out_dir / "bench.csv", index=False)
+    md = [f"# roadgrip benchmark\n\nseed {seed}; {settings.describe()}\n", table_markdown(table)]
+    md.append(
+        "\nColumns: curve MAE / band cov. = worst over axles and times (t = 50 s and end) of the "
+        "posterior-mean curve error and 95 % band coverage over slip bins visited ≥ 20 times; "
+        "peak err. = final peak estimate − true peak (reference value on real data); μ band cov. = "
+        "fraction of time the true peak lies in the 95 % band; class acc. (excited) = on "
+        "sufficiently excited samples (|a| ≥ 2 m/s² for ≥ 0.3 s); max delay = worst detection "
+        "delay after the first sufficiently excited time following a surface change; confident "
+        "wrong = fraction of samples with a confident claim outside tolerance (0.1 in μ, or the "
+        "wrong class); map = cells with ≥ 10 excited observations.\n"
+    )
+    for r in records:
+        if r.details:
+            md.append(f"\n**{r.case.drive} / {r.case.label}**\n")
+            md.extend(f"- {d}\n" for d in r.details)
+    (out_dir / "bench.md").write_text("".join(md))
+    return table
+
+
+def bench_cli(output, *, quick: bool = False, seed: int = 0, console=None,
+              settings: BenchSettings | None = None) -> pd.DataFrame:
+    """``roadgrip bench``: run the suite with a progress bar, print and write the table."""
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    console = console or Console()
+    settings = settings or (QUICK if quick else FULL)
+    cases = default_cases(settings)
+    out_dir = Path(output)
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                  TimeElapsedColumn(), console=console, transient=True) as progress:
+        task = progress.add_task("benchmark", total=len(cases))
+        records = run_suite(
+            cases, settings, seed=seed,
+            on_case=lambda c: progress.update(task, description=f"{c.drive} / {c.label}"),
+            on_done=lambda r: progress.advance(task),
+        )
+    table = write_outputs(records, out_dir, settings, seed)
+    console.print(rich_table(table, title=f"roadgrip benchmark (seed {seed}, {settings.name})"))
+    if real_data_root() is None and settings.real_data:
+        console.print("note: ../shared/data not found; real-data rows skipped")
+    console.print(f"wrote {out_dir / 'bench.md'} and {out_dir / 'bench.csv'}")
+    return table
+
+
+def with_durations(settings: BenchSettings, **durations: float) -> BenchSettings:
+    """Copy of ``settings`` with some scenario durations replaced (keys use '_' for '-')."""
+    d = dict(settings.durations)
+    d.update({k.replace("_", "-"): v for k, v in durations.items()})
+    return replace(settings, durations=d)
