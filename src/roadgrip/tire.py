@@ -38,11 +38,11 @@ __all__ = [
     "SURFACES",
     "BrushTire",
     "Burckhardt",
-    "brush_force",
     "FrictionModel",
     "LinearTire",
     "MagicFormula",
     "Surface",
+    "brush_force",
     "get_surface",
     "model_from_dict",
 ]
@@ -291,7 +291,8 @@ class LinearTire:
 
     def __post_init__(self) -> None:
         _positive("stiffness", self.stiffness)
-        _positive("mu_max", self.mu_max)
+        if not self.mu_max > 0:  # inf allowed: the unsaturated linear model
+            raise ValueError(f"mu_max must be positive (inf for no saturation), got {self.mu_max!r}")
 
     def mu(self, slip: ArrayLike) -> NDArray[np.float64]:
         s = self.stiffness * np.asarray(slip, dtype=float)
