@@ -15,6 +15,15 @@ from roadgrip.vehicle.lateral import (
     steady_state_linear,
 )
 from roadgrip.vehicle.params import PRESET_SOURCES, PRESETS, VehicleParams, load_vehicle
+from roadgrip.vehicle.planar import (
+    PlanarForces,
+    PlanarInput,
+    PlanarState,
+    PlanarTires,
+    planar_derivatives,
+    planar_forces,
+    wheel_speeds,
+)
 from roadgrip.vehicle.slip import longitudinal_slip, regularized_speed, slip_angles
 
 __all__ = [
@@ -22,13 +31,20 @@ __all__ = [
     "PRESET_SOURCES",
     "LateralInput",
     "LateralState",
+    "PlanarForces",
+    "PlanarInput",
+    "PlanarState",
+    "PlanarTires",
     "VehicleParams",
     "lateral_derivatives",
     "lateral_discrete",
     "lateral_measurement",
     "load_vehicle",
     "longitudinal_slip",
+    "planar_derivatives",
+    "planar_forces",
     "regularized_speed",
     "slip_angles",
     "steady_state_linear",
+    "wheel_speeds",
 ]
