@@ -212,3 +212,74 @@ def test_cell_truth_bins_samples():
     out = cell_truth([0.25, 1.25, -0.25, 3.0], [0.25, 0.25, 0.25, 3.0], 0.5, x, y, mu)
     assert out[:3] == pytest.approx([0.5, 0.8, 0.2])
     assert np.isnan(out[3])
+
+
+# -- the benchmark suite, with stand-in estimators ----------------------------------------
+def _hand_drive(n=800, dt=0.05):
+    """Dry for the first half, snow after; truth per surface; cornering throughout."""
+    t = np.arange(n) * dt
+    surface = np.where(t < t[n // 2], "dry_asphalt", "snow")
+    truth = {"surfaces": {s: {"front": SURFACES[s].lateral.to_dict(), "rear": SURFACES[s].lateral.to_dict(),
+                              "mu": SURFACES[s].mu_peak} for s in ("dry_asphalt", "snow")}}
+    df = pd.DataFrame({"t": t, "ax": 0.0 * t, "ay": 3.0 * np.sin(0.7 * t), "vx": np.full(n, 15.0),
+                       "mu_true": np.where(surface == "snow", 0.3, 1.0), "surface": surface})
+    return Drive.from_frame(df, PRESETS["sedan"], source="hand-made", truth=truth)
+
+
+def _stand_in(method, drive, request):
+    """A seeded stand-in estimator: truth plus noise, or a class trace 1 s late."""
+    from roadgrip.estimators.base import EstimateResult, conform
+
+    if method == "broken":
+        raise RuntimeError("diverged")
+    rng = np.random.default_rng(request.seed)
+    t = drive.t
+    if method == "brls":
+        cls = np.where((t >= t[drive.n // 2] + 1.0), "low", "high")
+        return EstimateResult(method, conform(pd.DataFrame({"t": t, "grip_class": cls})), {})
+    mu = true_peak_series(drive) + rng.normal(0.0, 0.02, drive.n)
+    tab = pd.DataFrame({"t": t, "mu_front": mu, "mu_rear": mu, "mu_front_lower": mu - 0.1,
+                        "mu_front_upper": mu + 0.1, "mu_rear_lower": mu - 0.1, "mu_rear_upper": mu + 0.1})
+    return EstimateResult(method, conform(tab), {})
+
+
+@pytest.fixture
+def stand_ins(monkeypatch):
+    import roadgrip.estimators as est
+    from roadgrip.evaluate import suite
+
+    monkeypatch.setattr(est, "run_estimator", _stand_in)
+    monkeypatch.setattr(suite, "method_available", lambda m: m != "cascade")
+    return suite
+
+
+def test_suite_runs_scores_and_isolates_failures(stand_ins):
+    suite = stand_ins
+    cases = [suite.Case("hand", "gpssm", "gpssm"), suite.Case("hand", "brls", "brls"),
+             suite.Case("hand", "cascade", "cascade"), suite.Case("hand", "broken", "broken")]
+    recs = suite.run_suite(cases, suite.QUICK, seed=3, drives={"hand": _hand_drive()})
+    status = [r.status for r in recs]
+    assert status[:3] == ["ok", "ok", "not available"]
+    assert status[3].startswith("error: RuntimeError: diverged")
+    g, b = recs[0].metrics, recs[1].metrics
+    assert abs(g["peak_err_f"]) < 0.1 and g["mu_band_cov"] > 0.99
+    assert b["class_acc"] == pytest.approx(1 - 20 / 800)  # 1 s late at 20 Hz
+    assert b["max_delay_s"] == pytest.approx(1.0)
+    assert b["switches"] == 1
+
+
+def test_bench_is_reproducible_by_seed_and_writes_markdown_and_csv(stand_ins, tmp_path):
+    suite = stand_ins
+    cases = [suite.Case("hand", "gpssm", "gpssm"), suite.Case("hand", "brls", "brls")]
+    drives = {"hand": _hand_drive()}
+    acc = ["peak_err_f", "peak_err_r", "mu_band_cov", "class_acc", "max_delay_s", "conf_wrong"]
+    a = suite.bench_cli(tmp_path / "a", seed=1, cases=cases, drives=drives)[acc]
+    b = suite.bench_cli(tmp_path / "b", seed=1, cases=cases, drives=drives)[acc]
+    c = suite.bench_cli(tmp_path / "c", seed=2, cases=cases, drives=drives)[acc]
+    pd.testing.assert_frame_equal(a, b)
+    assert a["peak_err_f"].iloc[0] != c["peak_err_f"].iloc[0]
+    csv = pd.read_csv(tmp_path / "a" / "bench.csv")
+    assert list(csv["method"]) == ["gpssm", "brls"]
+    md = (tmp_path / "a" / "bench.md").read_text()
+    assert "| drive | method |" in md and "samples/s" in md and "real-time" in md
+    assert "change to low" in md

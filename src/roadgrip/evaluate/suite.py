@@ -260,7 +260,7 @@ def run_case(case: Case, settings: BenchSettings, seed: int, cache: dict) -> Run
     """Load or simulate the drive, run the estimator, score it; never raises."""
     if not method_available(case.method):
         return RunRecord(case, "not available")
-    if case.path is None and not module_available("roadgrip.sim.scenarios"):
+    if case.path is None and case.drive not in cache and not module_available("roadgrip.sim.scenarios"):
         return RunRecord(case, "not available (no simulator)")
     try:
         drive = _load_drive(case, settings, seed, cache)
@@ -290,9 +290,14 @@ def run_suite(
     seed: int = 0,
     on_case: Callable[[Case], None] | None = None,
     on_done: Callable[[RunRecord], None] | None = None,
+    drives: dict | None = None,
 ) -> list[RunRecord]:
-    """Run every case in order (drives are simulated or read once and shared)."""
-    cache: dict = {}
+    """Run every case in order (drives are simulated or read once and shared).
+
+    ``drives`` maps a case's ``drive`` name to a ready :class:`~roadgrip.drive.Drive`
+    to use instead of simulating or reading it.
+    """
+    cache: dict = dict(drives or {})
     out = []
     for case in cases:
         if on_case:
@@ -569,14 +574,19 @@ def write_outputs(records: Sequence[RunRecord], out_dir: Path, settings: BenchSe
 
 
 def bench_cli(output, *, quick: bool = False, seed: int = 0, console=None,
-              settings: BenchSettings | None = None) -> pd.DataFrame:
-    """``roadgrip bench``: run the suite with a progress bar, print and write the table."""
+              settings: BenchSettings | None = None, cases: Sequence[Case] | None = None,
+              drives: dict | None = None) -> pd.DataFrame:
+    """``roadgrip bench``: run the suite with a progress bar, print and write the table.
+
+    ``settings`` defaults to :data:`QUICK` or :data:`FULL`; ``cases`` to
+    :func:`default_cases`; ``drives`` pre-supplies drives by name (see :func:`run_suite`).
+    """
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     console = console or Console()
     settings = settings or (QUICK if quick else FULL)
-    cases = default_cases(settings)
+    cases = list(cases) if cases is not None else default_cases(settings)
     out_dir = Path(output)
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), console=console, transient=True) as progress:
@@ -585,6 +595,7 @@ def bench_cli(output, *, quick: bool = False, seed: int = 0, console=None,
             cases, settings, seed=seed,
             on_case=lambda c: progress.update(task, description=f"{c.drive} / {c.label}"),
             on_done=lambda r: progress.advance(task),
+            drives=drives,
         )
     table = write_outputs(records, out_dir, settings, seed)
     console.print(rich_table(table, title=f"roadgrip benchmark (seed {seed}, {settings.name})"))
