@@ -1,0 +1,877 @@
+r"""Friction-state classification with two bistable RLS instances and a state machine.
+
+Paper 002 (Selmanaj, Corno, Savaresi), Sections III-IV. The vehicle behaves as
+one equivalent tire (eq. 4)::
+
+    ax = theta_long * phi_long,   phi_long = kappa_fl + kappa_fr + kappa_rl + kappa_rr
+    ay = theta_lat  * phi_lat,    phi_lat  = alpha_f cos(delta) + alpha_r
+
+with ``theta_long = C_k / M`` [m/s²] and ``theta_lat = 2 C_alpha / M``
+[m/s²/rad] (roadgrip slip-angle sign, so ``theta_lat > 0``; the paper's
+opposite sign flips its eq. 8 inequalities for the lateral channel). The slips
+come from the friction-independent :mod:`roadgrip.estimators.kinematic`
+stage. Wheels without a speed sensor contribute zero slip.
+
+Each channel runs bRLS (eq. 6, :mod:`roadgrip.estimators.rls`) whose reference
+is the stiffness of the *current* friction state (Fig. 5 and 7): unexcited
+data pull the estimate to the state's reference, excited data move it towards
+the measured stiffness. The state machine (eq. 8, roadgrip sign)::
+
+    high -> low  when  theta_lat < thr_lat  or  theta_long < thr_long
+    low -> high  when  theta_lat > thr_lat  or  theta_long > thr_long
+
+Implementation choices the paper leaves open, written down here:
+
+* A channel takes part in eq. 8 only while it is *informed*: the low-passed
+  measurement weight ``e = LP(1 - exp(-|phi| / gamma))`` (time constant
+  ``excitation_tau_s``) is at least ``excitation_min``. Otherwise an unexcited
+  channel, still sitting at the previous state's reference, would flip the
+  state straight back after every switch. An informed channel that contradicts
+  the switch vetoes it (no chatter when the two channels disagree).
+* On a switch, a channel that is not informed is reset to the new state's
+  reference (its estimate was the old reference, not data).
+* Forgetting is given as a memory time: ``mu = exp(-dt / memory_s)`` per sample.
+* ``gamma`` (the excitation scale of each regressor, see
+  :mod:`roadgrip.estimators.rls` on its form) defaults to the regressor value at
+  which the two classes' predicted accelerations differ by twice the
+  acceleration noise: ``gamma ln 2 = 2 sigma_a / (theta_high - theta_low)``.
+  A sample is **sufficiently excited** for a channel when its measurement
+  weight is at least 1/2, i.e. ``|phi| >= gamma ln 2``; the output ``excited``
+  flags such samples.
+
+Outputs per sample: ``grip_class`` ('unknown' until some channel has been
+informed, then the state), ``grip_index`` in [0, 1] (each channel's estimate
+placed between its low (0) and high (1) references, weighted by the channels'
+information ``e``; the state itself when no channel is informed), ``excited``,
+``theta_long``, ``theta_lat``.
+
+Calibration (:func:`calibrate`, ``roadgrip calibrate``) learns per-channel
+references, thresholds, gamma and the on/off switch of each channel from drives
+labelled 'high' / 'low', and the slip-map classifier's reference curves
+(:mod:`roadgrip.estimators.slipmap`); :func:`save_calibration` /
+:func:`load_calibration` write and read the YAML file.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numba
+import numpy as np
+import pandas as pd
+import yaml
+from numpy.typing import NDArray
+
+from roadgrip.constants import GRAVITY
+from roadgrip.drive import Drive
+from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
+from roadgrip.estimators.kinematic import (
+    KinematicConfig,
+    KinematicEstimator,
+    KinematicInput,
+    KinematicOutput,
+    estimate_kinematics,
+)
+from roadgrip.tire import SURFACES
+from roadgrip.vehicle.params import VehicleParams
+
+__all__ = [
+    "BRLSClassifier",
+    "BRLSConfig",
+    "BRLSOutput",
+    "BRLSState",
+    "ChannelCalibration",
+    "brls_batch",
+    "brls_init",
+    "brls_step",
+    "calibrate",
+    "calibrate_cli",
+    "default_config",
+    "load_calibration",
+    "regressors",
+    "run_cli",
+    "save_calibration",
+]
+
+CALIBRATION_VERSION = 1
+
+
+@dataclass(frozen=True)
+class ChannelCalibration:
+    """References and threshold of one bRLS channel (eq. 6, 8).
+
+    Attributes
+    ----------
+    ref_high, ref_low : float
+        Stiffness reference of the high / low state [m/s² per regressor unit].
+    threshold : float
+        Eq. 8 threshold, between the references.
+    gamma : float
+        Regressor excitation scale [regressor unit] (module docstring); 0 = plain RLS.
+    enabled : bool
+        Whether the channel runs at all (calibration switches off a channel whose
+        estimates do not separate the labelled classes).
+    """
+
+    ref_high: float
+    ref_low: float
+    threshold: float
+    gamma: float
+    enabled: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("ref_high", "ref_low", "threshold", "gamma"):
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} must be finite, got {getattr(self, name)!r}")
+        if not self.ref_high > self.ref_low:
+            raise ValueError(
+                f"ref_high ({self.ref_high}) must exceed ref_low ({self.ref_low})"
+            )
+        if not self.ref_low <= self.threshold <= self.ref_high:
+            raise ValueError(
+                f"threshold {self.threshold} must lie between ref_low {self.ref_low} "
+                f"and ref_high {self.ref_high}"
+            )
+        if self.gamma < 0:
+            raise ValueError(f"gamma must be >= 0, got {self.gamma}")
+
+
+@dataclass(frozen=True)
+class BRLSConfig:
+    """bRLS classifier settings.
+
+    Attributes
+    ----------
+    long, lat : ChannelCalibration
+        Longitudinal (``ax`` vs sum of slips) and lateral (``ay`` vs slip regressor) channels.
+    memory_s : float
+        Forgetting as a memory time [s]: ``mu = exp(-dt / memory_s)``.
+    s0 : float
+        Initial ``S`` of both channels.
+    s_max : float
+        Anti-wind-up bound on ``S``.
+    excitation_tau_s : float
+        Low-pass time constant of the channel information ``e`` [s].
+    excitation_min : float
+        ``e`` at which a channel is informed and may switch the state.
+    initial_state : {'high', 'low'}
+        State before any information.
+    theta0_long, theta0_lat : float or None
+        Initial estimates; default the initial state's references.
+    """
+
+    long: ChannelCalibration
+    lat: ChannelCalibration
+    memory_s: float = 0.5
+    s0: float = 100.0
+    s_max: float = 1.0e4
+    excitation_tau_s: float = 0.3
+    excitation_min: float = 0.3
+    initial_state: str = "high"
+    theta0_long: float | None = None
+    theta0_lat: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("memory_s", "s0", "s_max", "excitation_tau_s"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be positive and finite, got {v!r}")
+        if not 0.0 < self.excitation_min < 1.0:
+            raise ValueError(f"excitation_min must lie in (0, 1), got {self.excitation_min!r}")
+        if self.initial_state not in ("high", "low"):
+            raise ValueError(f"initial_state must be 'high' or 'low', got {self.initial_state!r}")
+        if not (self.long.enabled or self.lat.enabled):
+            raise ValueError("both bRLS channels are disabled: nothing to classify with")
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> BRLSConfig:
+        d = dict(d)
+        known = {f for f in cls.__dataclass_fields__}
+        unknown = set(d) - known
+        if unknown:
+            raise ValueError(f"unknown bRLS setting(s) {sorted(unknown)}")
+        for ch in ("long", "lat"):
+            if ch not in d:
+                raise ValueError(f"bRLS calibration lacks the {ch!r} channel")
+            extra = set(d[ch]) - set(ChannelCalibration.__dataclass_fields__)
+            if extra:
+                raise ValueError(f"unknown key(s) {sorted(extra)} in bRLS channel {ch!r}")
+            d[ch] = ChannelCalibration(**d[ch])
+        return cls(**d)
+
+
+def gamma_from_noise(ref_high: float, ref_low: float, accel_noise: float) -> float:
+    """``gamma`` with ``gamma ln 2 = 2 sigma_a / (ref_high - ref_low)`` (module docstring)."""
+    return 2.0 * accel_noise / ((ref_high - ref_low) * math.log(2.0))
+
+
+def default_config(accel_noise: float = 0.3) -> BRLSConfig:
+    """Uncalibrated defaults from the tire presets: high = dry asphalt, low = gravel.
+
+    Lateral: ``theta_lat = g B C D / 2`` (axle loads in the static split, the
+    normalised cornering stiffness of the surface's lateral Magic Formula);
+    longitudinal: ``theta_long = g B C D / 4`` (four equally loaded wheels).
+    Thresholds halfway; gamma from ``accel_noise`` [m/s²].
+    """
+    hi, lo = SURFACES["dry_asphalt"], SURFACES["gravel"]
+
+    def chan(sh: float, sl: float) -> ChannelCalibration:
+        return ChannelCalibration(sh, sl, 0.5 * (sh + sl), gamma_from_noise(sh, sl, accel_noise))
+
+    return BRLSConfig(
+        long=chan(GRAVITY * hi.longitudinal.slope0() / 4, GRAVITY * lo.longitudinal.slope0() / 4),
+        lat=chan(GRAVITY * hi.lateral.slope0() / 2, GRAVITY * lo.lateral.slope0() / 2),
+    )
+
+
+# ---------------------------------------------------------------------------------------
+# state layout and compiled kernel
+
+
+class BRLSState(NamedTuple):
+    """Classifier state.
+
+    Attributes
+    ----------
+    theta_long, theta_lat : float
+        Stiffness estimates.
+    s_long, s_lat : float
+        Their ``S``.
+    high : bool
+        Friction state of eq. 8.
+    informed : bool
+        Some channel has been informed since the start.
+    e_long, e_lat : float
+        Low-passed measurement weights (channel information) in [0, 1].
+    """
+
+    theta_long: float
+    s_long: float
+    theta_lat: float
+    s_lat: float
+    high: bool
+    informed: bool
+    e_long: float
+    e_lat: float
+
+
+class BRLSOutput(NamedTuple):
+    """Per-sample output (scalars in :meth:`BRLSClassifier.step`, arrays from a batch)."""
+
+    grip_class: Any
+    grip_index: Any
+    excited: Any
+    theta_long: Any
+    theta_lat: Any
+    w_long: Any
+    w_lat: Any
+
+
+class _P:
+    """Index layout of the flat parameter vector handed to the compiled kernel."""
+
+    REF_H, REF_L, THR, GAMMA, ON = 0, 1, 2, 3, 4  # + 5 * channel (0 long, 1 lat)
+    MEMORY, S_MAX, TAU_E, E_MIN = 10, 11, 12, 13
+    SIZE = 14
+
+
+class _S:
+    """Index layout of the flat state vector of the compiled kernel."""
+
+    THETA_LONG, S_LONG, THETA_LAT, S_LAT, HIGH, INFORMED, E_LONG, E_LAT = range(8)
+    SIZE = 8
+
+
+def _param_vector(cfg: BRLSConfig) -> NDArray[np.float64]:
+    p = np.zeros(_P.SIZE)
+    for c, ch in enumerate((cfg.long, cfg.lat)):
+        o = 5 * c
+        p[o + _P.REF_H], p[o + _P.REF_L] = ch.ref_high, ch.ref_low
+        p[o + _P.THR], p[o + _P.GAMMA], p[o + _P.ON] = ch.threshold, ch.gamma, float(ch.enabled)
+    p[_P.MEMORY], p[_P.S_MAX] = cfg.memory_s, cfg.s_max
+    p[_P.TAU_E], p[_P.E_MIN] = cfg.excitation_tau_s, cfg.excitation_min
+    return p
+
+
+def _state_vector(s: BRLSState) -> NDArray[np.float64]:
+    return np.array([s.theta_long, s.s_long, s.theta_lat, s.s_lat, float(s.high),
+                     float(s.informed), s.e_long, s.e_lat])
+
+
+def _state_from_vector(v: NDArray[np.float64]) -> BRLSState:
+    return BRLSState(float(v[0]), float(v[1]), float(v[2]), float(v[3]), bool(v[4] > 0.5),
+                     bool(v[5] > 0.5), float(v[6]), float(v[7]))
+
+
+@numba.njit(cache=True)
+def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - compiled
+    """One classifier update in place on ``st``; returns (index, w_long, w_lat)."""
+    mu = np.exp(-dt / p[10])
+    ke = 1.0 - np.exp(-dt / p[12])
+    e_min = p[13]
+    high = st[4] > 0.5
+    ws = np.zeros(2)
+    phis = (phi_long, phi_lat)
+    ys = (y_long, y_lat)
+    for c in range(2):
+        o = 5 * c
+        if p[o + 4] < 0.5:
+            continue
+        th = st[2 * c]
+        s = st[2 * c + 1]
+        ph = phis[c]
+        g = p[o + 3]
+        w = 1.0 if g == 0.0 else 1.0 - np.exp(-abs(ph) / g)
+        ref = p[o + 0] if high else p[o + 1]
+        eps = ys[c] - ph * th
+        eps_ref = w * eps + (1.0 - w) * ph * (ref - th)
+        sp = s * ph
+        eta = mu + ph * sp
+        th = th + sp / eta * eps_ref
+        s = (s - sp * sp / eta) / mu
+        if s > p[11]:
+            s = p[11]
+        st[2 * c] = th
+        st[2 * c + 1] = s
+        st[6 + c] = st[6 + c] + ke * (w - st[6 + c])
+        ws[c] = w
+    # state machine, eq. 8 (roadgrip sign: larger stiffness = higher grip)
+    says_low = False
+    says_high = False
+    for c in range(2):
+        o = 5 * c
+        if p[o + 4] > 0.5 and st[6 + c] >= e_min:
+            st[5] = 1.0
+            if st[2 * c] < p[o + 2]:
+                says_low = True
+            elif st[2 * c] > p[o + 2]:
+                says_high = True
+    switch = (high and says_low and not says_high) or ((not high) and says_high and not says_low)
+    if switch:
+        high = not high
+        st[4] = 1.0 if high else 0.0
+        for c in range(2):
+            o = 5 * c
+            if p[o + 4] > 0.5 and st[6 + c] < e_min:
+                st[2 * c] = p[o + 0] if high else p[o + 1]
+    # grip index: channel estimates between their references, weighted by information
+    num = 0.05 * (1.0 if high else 0.0)
+    den = 0.05
+    for c in range(2):
+        o = 5 * c
+        if p[o + 4] > 0.5:
+            gi = (st[2 * c] - p[o + 1]) / (p[o + 0] - p[o + 1])
+            gi = min(max(gi, 0.0), 1.0)
+            num += st[6 + c] * gi
+            den += st[6 + c]
+    idx = num / den
+    if st[5] < 0.5:
+        idx = 0.5
+    return idx, ws[0], ws[1]
+
+
+@numba.njit(cache=True)
+def _batch(st, t, phi_long, y_long, phi_lat, y_lat, p, dt0):  # pragma: no cover - compiled
+    n = t.shape[0]
+    out_state = np.empty((n, 8))
+    idx = np.empty(n)
+    wl = np.empty(n)
+    wa = np.empty(n)
+    for i in range(n):
+        dt = dt0 if i == 0 else t[i] - t[i - 1]
+        idx[i], wl[i], wa[i] = _update(st, dt, phi_long[i], y_long[i], phi_lat[i], y_lat[i], p)
+        out_state[i] = st
+    return out_state, idx, wl, wa
+
+
+def brls_init(config: BRLSConfig) -> BRLSState:
+    """State before the first sample: the initial state's references, ``S = s0``."""
+    high = config.initial_state == "high"
+    tl = config.theta0_long
+    ta = config.theta0_lat
+    if tl is None:
+        tl = config.long.ref_high if high else config.long.ref_low
+    if ta is None:
+        ta = config.lat.ref_high if high else config.lat.ref_low
+    return BRLSState(float(tl), config.s0, float(ta), config.s0, high, False, 0.0, 0.0)
+
+
+def _classes(high: NDArray, informed: NDArray) -> NDArray[np.str_]:
+    return np.where(informed, np.where(high, "high", "low"), "unknown")
+
+
+def brls_step(
+    state: BRLSState,
+    dt: float,
+    phi_long: float,
+    ax: float,
+    phi_lat: float,
+    ay: float,
+    config: BRLSConfig,
+) -> tuple[BRLSState, BRLSOutput]:
+    """One classifier step (pure): both bRLS channels (eq. 6) and the state machine (eq. 8).
+
+    Parameters
+    ----------
+    state : BRLSState
+    dt : float
+        Time since the previous sample [s] (> 0).
+    phi_long, ax : float
+        Sum of the wheel slips [-] and longitudinal acceleration [m/s²].
+    phi_lat, ay : float
+        ``alpha_f cos(delta) + alpha_r`` [rad] and lateral acceleration [m/s²].
+    config : BRLSConfig
+
+    Returns
+    -------
+    state : BRLSState
+    output : BRLSOutput
+    """
+    vals = (dt, phi_long, ax, phi_lat, ay)
+    if not all(math.isfinite(v) for v in vals):
+        raise ValueError(f"non-finite bRLS input (dt, phi_long, ax, phi_lat, ay) = {vals}")
+    if dt <= 0:
+        raise ValueError(f"dt must be positive, got {dt}")
+    st = _state_vector(state)
+    idx, wl, wa = _update(st, dt, phi_long, ax, phi_lat, ay, _param_vector(config))
+    new = _state_from_vector(st)
+    excited = (wl >= 0.5 and config.long.enabled) or (wa >= 0.5 and config.lat.enabled)
+    cls = str(_classes(np.array(new.high), np.array(new.informed)))
+    return new, BRLSOutput(cls, float(idx), bool(excited), new.theta_long, new.theta_lat, wl, wa)
+
+
+def brls_batch(
+    t: NDArray, phi_long: NDArray, ax: NDArray, phi_lat: NDArray, ay: NDArray,
+    config: BRLSConfig, state: BRLSState | None = None, dt0: float | None = None,
+) -> tuple[BRLSState, BRLSOutput]:
+    """The classifier over whole arrays (compiled loop; equals :func:`brls_step` repeated).
+
+    Parameters
+    ----------
+    t : ndarray, shape (T,)
+        Sample times [s], strictly increasing.
+    phi_long, ax, phi_lat, ay : ndarray, shape (T,)
+        Regressors and outputs of the two channels.
+    config : BRLSConfig
+    state : BRLSState, optional
+        Start state (default :func:`brls_init`).
+    dt0 : float, optional
+        Step before the first sample [s]; default the first time step.
+
+    Returns
+    -------
+    state : BRLSState
+        After the last sample.
+    output : BRLSOutput
+        Arrays of shape (T,).
+    """
+    arrs = [np.ascontiguousarray(a, dtype=float) for a in (t, phi_long, ax, phi_lat, ay)]
+    names = ("t", "phi_long", "ax", "phi_lat", "ay")
+    n = arrs[0].shape[0]
+    for name, a in zip(names, arrs, strict=True):
+        if a.shape != (n,):
+            raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
+        if not np.isfinite(a).all():
+            raise ValueError(f"{name} has non-finite values, first at index {np.flatnonzero(~np.isfinite(a))[0]}")
+    if n > 1 and (np.diff(arrs[0]) <= 0).any():
+        raise ValueError("t must be strictly increasing")
+    if dt0 is None:
+        dt0 = float(arrs[0][1] - arrs[0][0]) if n > 1 else 0.01
+    st = _state_vector(state if state is not None else brls_init(config))
+    sv, idx, wl, wa = _batch(st, *arrs, _param_vector(config), float(dt0))
+    high, informed = sv[:, _S.HIGH] > 0.5, sv[:, _S.INFORMED] > 0.5
+    excited = ((wl >= 0.5) & config.long.enabled) | ((wa >= 0.5) & config.lat.enabled)
+    out = BRLSOutput(_classes(high, informed), idx, excited, sv[:, _S.THETA_LONG],
+                     sv[:, _S.THETA_LAT], wl, wa)
+    return _state_from_vector(st), out
+
+
+def regressors(kin: KinematicOutput, steer: NDArray) -> tuple[NDArray, NDArray]:
+    """``phi_long = sum of wheel slips`` and ``phi_lat = alpha_f cos(delta) + alpha_r`` (eq. 4)."""
+    kappa = np.asarray(kin.kappa, float)
+    return kappa.sum(axis=-1), np.asarray(kin.alpha_f) * np.cos(steer) + np.asarray(kin.alpha_r)
+
+
+# ---------------------------------------------------------------------------------------
+# online object
+
+
+class BRLSClassifier:
+    """Online bRLS friction classifier: kinematic stage + two bRLS channels + state machine.
+
+    Parameters
+    ----------
+    params : VehicleParams
+    config : BRLSConfig, optional
+        Default :func:`default_config`.
+    kinematic : KinematicConfig, optional
+    aid : {'wheels', 'pose'}
+        Velocity aid of the kinematic stage for :meth:`step`.
+
+    Examples
+    --------
+    >>> from roadgrip.vehicle import PRESETS
+    >>> clf = BRLSClassifier(PRESETS["sedan"])
+    >>> clf.state_.high, clf.state_.informed
+    (True, False)
+    """
+
+    def __init__(
+        self,
+        params: VehicleParams,
+        config: BRLSConfig | None = None,
+        kinematic: KinematicConfig = KinematicConfig(),
+        aid: str = "wheels",
+    ) -> None:
+        self.params = params
+        self.config = config if config is not None else default_config()
+        self.kinematic = KinematicEstimator(params, kinematic, aid)
+        self.state_ = brls_init(self.config)
+        self._t_prev: float | None = None
+
+    def step(self, sample: KinematicInput) -> BRLSOutput:
+        """Process one sample; returns the classification after it."""
+        kin = self.kinematic.step(sample)
+        dt = 0.01 if self._t_prev is None else float(sample.t) - self._t_prev
+        phi_long, phi_lat = regressors(kin, np.asarray(sample.steer))
+        self.state_, out = brls_step(self.state_, dt, float(phi_long), float(sample.ax),
+                                     float(phi_lat), float(sample.ay), self.config)
+        self._t_prev = float(sample.t)
+        return out
+
+    def run(self, drive: Drive) -> pd.DataFrame:
+        """Classify a whole drive (batch; equals stepping with the drive's first step as dt0)."""
+        table, _ = _run_table(drive, self.config, self.kinematic.config)
+        return table
+
+
+def _run_table(
+    drive: Drive, config: BRLSConfig, kin_cfg: KinematicConfig, dt0: float | None = 0.01
+) -> tuple[pd.DataFrame, KinematicOutput]:
+    kin = estimate_kinematics(drive, kin_cfg)
+    steer = drive.col("steer")
+    phi_long, phi_lat = regressors(kin, steer)
+    _, out = brls_batch(drive.t, phi_long, drive.col("ax"), phi_lat, drive.col("ay"), config,
+                        dt0=dt0)
+    table = pd.DataFrame({
+        "t": drive.t,
+        "grip_class": out.grip_class,
+        "grip_index": out.grip_index,
+        "excited": out.excited,
+        "theta_long": out.theta_long,
+        "theta_lat": out.theta_lat,
+        "phi_long": phi_long,
+        "phi_lat": phi_lat,
+        "w_long": out.w_long,
+        "w_lat": out.w_lat,
+        "vx_hat": kin.vx,
+        "beta_hat": kin.beta,
+    })
+    return table, kin
+
+
+# ---------------------------------------------------------------------------------------
+# calibration
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Contents of a calibration file: bRLS settings, slip-map settings, provenance."""
+
+    brls: BRLSConfig
+    slipmap: dict[str, Any] = field(default_factory=dict)
+    vehicle: str = ""
+    drives: tuple[dict[str, Any], ...] = ()
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+
+
+def save_calibration(cal: Calibration, path: str | Path) -> None:
+    """Write a calibration YAML file."""
+    doc = {
+        "roadgrip_calibration": CALIBRATION_VERSION,
+        "vehicle": cal.vehicle,
+        "drives": [dict(d) for d in cal.drives],
+        "brls": cal.brls.to_dict(),
+        "slipmap": dict(cal.slipmap),
+        "diagnostics": _plain(cal.diagnostics),
+    }
+    Path(path).write_text(yaml.safe_dump(_plain(doc), sort_keys=False))
+
+
+def _plain(o: Any) -> Any:
+    if isinstance(o, dict):
+        return {str(k): _plain(v) for k, v in o.items()}
+    if isinstance(o, list | tuple):
+        return [_plain(v) for v in o]
+    if isinstance(o, np.generic):
+        return o.item()
+    return o
+
+
+def load_calibration(path: str | Path) -> Calibration:
+    """Read a calibration YAML file written by :func:`save_calibration`.
+
+    Raises
+    ------
+    ValueError
+        When the file is not a roadgrip calibration or its contents are invalid.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise ValueError(f"calibration file {p} does not exist")
+    try:
+        doc = yaml.safe_load(p.read_text())
+    except yaml.YAMLError as exc:
+        raise ValueError(f"calibration file {p} is not valid YAML: {exc}") from None
+    if not isinstance(doc, dict) or "roadgrip_calibration" not in doc:
+        raise ValueError(f"{p} is not a roadgrip calibration file (no 'roadgrip_calibration' key)")
+    if doc["roadgrip_calibration"] != CALIBRATION_VERSION:
+        raise ValueError(f"{p}: unsupported calibration version {doc['roadgrip_calibration']!r}")
+    if "brls" not in doc:
+        raise ValueError(f"{p}: calibration lacks the 'brls' section")
+    return Calibration(
+        brls=BRLSConfig.from_dict(doc["brls"]),
+        slipmap=dict(doc.get("slipmap") or {}),
+        vehicle=str(doc.get("vehicle", "")),
+        drives=tuple(doc.get("drives") or ()),
+        diagnostics=dict(doc.get("diagnostics") or {}),
+    )
+
+
+def _best_threshold(hi: NDArray, lo: NDArray) -> tuple[float, float]:
+    """Threshold maximising the balanced accuracy of ``x > thr -> high``; returns (thr, acc)."""
+    cand = np.unique(np.quantile(np.r_[hi, lo], np.linspace(0.01, 0.99, 197)))
+    acc = np.array([0.5 * ((hi > c).mean() + (lo <= c).mean()) for c in cand])
+    k = int(np.argmax(acc))
+    # the middle of the plateau of best thresholds
+    best = cand[acc >= acc[k] - 1e-12]
+    return float(np.median(best)), float(acc[k])
+
+
+def calibrate(
+    drives: Sequence[tuple[Drive, str]],
+    *,
+    base: BRLSConfig | None = None,
+    kinematic: KinematicConfig = KinematicConfig(),
+    min_accuracy: float = 0.75,
+    accel_noise: float | None = None,
+) -> Calibration:
+    """Learn the bRLS references, thresholds and gammas, and the slip-map curves.
+
+    Procedure per channel: the excited samples of all drives (default gamma)
+    are fitted by least squares through the origin per label, giving
+    ``ref_high`` and ``ref_low``; plain RLS (same memory) is run over each
+    drive and its estimates on the channel's excited samples are collected per
+    label; the threshold maximises the balanced accuracy of ``theta > thr ->
+    high`` on them. A channel whose best balanced accuracy is below
+    ``min_accuracy`` or whose references are not ordered is disabled. The
+    acceleration noise (robust spread of the fit residuals on weakly excited
+    samples, unless given) sets gamma.
+
+    Parameters
+    ----------
+    drives : sequence of (Drive, label)
+        Labels 'high' or 'low'; both must occur.
+    base : BRLSConfig, optional
+        Settings kept from it (memory, time constants); default :func:`default_config`.
+    kinematic : KinematicConfig
+    min_accuracy : float
+        Balanced accuracy below which a channel is switched off.
+    accel_noise : float, optional
+        Acceleration noise [m/s²]; default estimated.
+
+    Returns
+    -------
+    Calibration
+    """
+    from roadgrip.estimators import slipmap
+    from roadgrip.estimators.rls import brls_scalar_batch
+
+    labels = [lab for _, lab in drives]
+    for lab in labels:
+        if lab not in ("high", "low"):
+            raise ValueError(f"calibration label must be 'high' or 'low', got {lab!r}")
+    if "high" not in labels or "low" not in labels:
+        raise ValueError("calibration needs at least one 'high' and one 'low' drive")
+    base = base or default_config()
+    data = []
+    for drive, lab in drives:
+        kin = estimate_kinematics(drive, kinematic)
+        pl, pa = regressors(kin, drive.col("steer"))
+        moving = np.abs(kin.vx) > 3.0 * kinematic.v_min
+        data.append((drive, lab, kin, {"long": (pl, drive.col("ax")), "lat": (pa, drive.col("ay"))}, moving))
+
+    chans: dict[str, ChannelCalibration] = {}
+    diag: dict[str, Any] = {}
+    for name, ch0 in (("long", base.long), ("lat", base.lat)):
+        # 1. noise and references from excited samples (first with the base gamma)
+        fits = {}
+        for lab in ("high", "low"):
+            phi = np.concatenate([d[3][name][0][d[4]] for d in data if d[1] == lab])
+            y = np.concatenate([d[3][name][1][d[4]] for d in data if d[1] == lab])
+            fits[lab] = (phi, y)
+        phi_all = np.concatenate([fits[k][0] for k in fits])
+        y_all = np.concatenate([fits[k][1] for k in fits])
+        g0 = ch0.gamma
+        sel_ex = {k: np.abs(fits[k][0]) >= g0 * math.log(2.0) for k in fits}
+        refs = {}
+        for lab in fits:
+            phi, y = fits[lab][0][sel_ex[lab]], fits[lab][1][sel_ex[lab]]
+            refs[lab] = float(phi @ y / (phi @ phi)) if phi.size >= 10 else float("nan")
+        quiet = np.abs(phi_all) < np.quantile(np.abs(phi_all), 0.3)
+        sig = accel_noise
+        if sig is None:
+            r = y_all[quiet] - np.median(y_all[quiet]) if quiet.sum() > 10 else y_all
+            sig = float(1.4826 * np.median(np.abs(r - np.median(r))))
+            sig = max(sig, 0.05)
+        ok_refs = np.isfinite(refs["high"]) and np.isfinite(refs["low"]) and refs["high"] > refs["low"]
+        if not ok_refs:
+            diag[f"{name}_disabled_because"] = f"references not ordered: {refs}"
+            chans[name] = replace(ch0, enabled=False)
+            continue
+        gamma = gamma_from_noise(refs["high"], refs["low"], sig)
+        # 2. RLS estimates on excited samples -> threshold
+        mu_mem = base.memory_s
+        est = {"high": [], "low": []}
+        for drive, lab, _kin, regs, moving in data:
+            phi, y = regs[name]
+            dt = np.median(np.diff(drive.t)) if drive.n > 1 else 0.01
+            th, _, _ = brls_scalar_batch(
+                np.where(moving, phi, 0.0), y, np.full(drive.n, np.nan),
+                0.5 * (refs["high"] + refs["low"]), base.s0, math.exp(-dt / mu_mem), 0.0, base.s_max,
+            )
+            w = 1.0 - np.exp(-np.abs(phi) / gamma)
+            ex = (w >= 0.5) & moving
+            est[lab].append(th[ex])
+        hi = np.concatenate(est["high"])
+        lo = np.concatenate(est["low"])
+        if hi.size < 10 or lo.size < 10:
+            diag[f"{name}_disabled_because"] = (
+                f"too few excited samples (high {hi.size}, low {lo.size})"
+            )
+            chans[name] = replace(ch0, enabled=False)
+            continue
+        thr, acc = _best_threshold(hi, lo)
+        thr = min(max(thr, refs["low"]), refs["high"])
+        enabled = acc >= min_accuracy
+        chans[name] = ChannelCalibration(refs["high"], refs["low"], thr, gamma, enabled)
+        diag.update({
+            f"{name}_balanced_accuracy": acc,
+            f"{name}_accel_noise": sig,
+            f"{name}_excited_high": int(hi.size),
+            f"{name}_excited_low": int(lo.size),
+        })
+        if not enabled:
+            diag[f"{name}_disabled_because"] = f"balanced accuracy {acc:.2f} < {min_accuracy}"
+    if not (chans["long"].enabled or chans["lat"].enabled):
+        raise ValueError(
+            "calibration failed: neither channel separates the labelled drives "
+            f"({diag}); are the drives excited and correctly labelled?"
+        )
+    cfg = replace(base, long=chans["long"], lat=chans["lat"])
+    sm = slipmap.calibrate_section([(d[0], d[1], d[2]) for d in data])
+    veh = data[0][0].vehicle.name
+    prov = tuple({"source": d[0].meta.source, "label": d[1], "samples": int(d[0].n)} for d in data)
+    return Calibration(cfg, sm, veh, prov, diag)
+
+
+def calibrate_cli(
+    drives: Sequence[str],
+    output: str | Path,
+    *,
+    vehicle: str | None = None,
+    fmt: str | None = None,
+    console: Any = None,
+) -> Calibration:
+    """``roadgrip calibrate DRIVE:LABEL ... -o calibration.yaml``.
+
+    Each argument is ``path:label`` with label 'high' or 'low' (split at the last colon).
+    """
+    from roadgrip.io import read_drive
+
+    if not drives:
+        raise ValueError("give at least two labelled drives, e.g. dry.parquet:high gravel.parquet:low")
+    pairs = []
+    for arg in drives:
+        path, sep, label = str(arg).rpartition(":")
+        if not sep or label not in ("high", "low"):
+            raise ValueError(f"expected DRIVE:LABEL with label 'high' or 'low', got {arg!r}")
+        pairs.append((read_drive(path, format=fmt, vehicle=vehicle), label))
+    cal = calibrate(pairs)
+    save_calibration(cal, output)
+    if console is not None:
+        b = cal.brls
+        for name, ch in (("longitudinal", b.long), ("lateral", b.lat)):
+            state = "on" if ch.enabled else "off"
+            console.print(
+                f"bRLS {name}: {state}; reference high {ch.ref_high:.4g}, low {ch.ref_low:.4g}, "
+                f"threshold {ch.threshold:.4g}, gamma {ch.gamma:.3g}"
+            )
+        console.print(f"slipmap: {cal.slipmap}")
+        console.print(f"wrote {output}")
+    return cal
+
+
+# ---------------------------------------------------------------------------------------
+# command line
+
+
+def _progress(request: EstimateRequest, n: int) -> Callable[[], None]:
+    if not request.progress or n < 200_000:
+        return lambda: None
+    from rich.console import Console
+
+    Console(stderr=True).print(f"classifying {n} samples ...")
+    return lambda: None
+
+
+def summary_meta(table: pd.DataFrame) -> dict[str, Any]:
+    """``meta['summary']`` of a classification run (final class, index, class shares)."""
+    last = table.iloc[-1]
+    cls = table["grip_class"].astype(str).to_numpy()
+    return {
+        "GripClass": str(last["grip_class"]),
+        "GripIndex": float(last["grip_index"]),
+        "FractionHigh": float((cls == "high").mean()),
+        "FractionLow": float((cls == "low").mean()),
+        "FractionUnknown": float((cls == "unknown").mean()),
+    }
+
+
+def run_cli(drive: Drive, request: EstimateRequest) -> EstimateResult:
+    """``roadgrip estimate DRIVE --method brls [--calibration FILE] [--plot FILE]``."""
+    request.reject("brls", "particles", "basis", "curves_path", "curve_times")
+    if request.options:
+        raise ValueError(f"option(s) {sorted(request.options)} do not apply to brls")
+    if request.calibration:
+        cal = load_calibration(request.calibration)
+        config, cal_note = cal.brls, str(request.calibration)
+    else:
+        config, cal_note = default_config(), "uncalibrated defaults (dry asphalt / gravel presets)"
+    meta: dict[str, Any] = {}
+    done = _progress(request, drive.n)
+    with timed(meta, drive.n, drive.duration):
+        table, _ = _run_table(drive, config, KinematicConfig())
+    done()
+    meta["summary"] = summary_meta(table)
+    n_switch = int(np.sum(table["grip_class"].to_numpy()[1:] != table["grip_class"].to_numpy()[:-1]))
+    meta["diagnostics"] = {
+        "calibration": cal_note,
+        "excited_fraction": float(table["excited"].mean()),
+        "class_changes": n_switch,
+        "long_channel": "on" if config.long.enabled else "off",
+        "lat_channel": "on" if config.lat.enabled else "off",
+    }
+    meta["config"] = config.to_dict()
+    if request.plot_path:
+        from roadgrip.plots.classification import plot_classification
+
+        plot_classification(drive, table, request.plot_path, method="brls")
+    return EstimateResult("brls", conform(table), meta)
