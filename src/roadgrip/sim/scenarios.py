@@ -18,15 +18,24 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
+
 from roadgrip.drive import Drive
 from roadgrip.sim.friction import (
     ConstantFriction,
+    PiecewiseTime,
     surface_from_preset,
 )
 from roadgrip.sim.maneuvers import (
+    ConstantSpeed,
+    DoubleLaneChange,
     Maneuver,
     RandomSpeed,
     RandomSteer,
+    Schedule,
+    Slalom,
+    SpeedPhases,
+    Straight,
 )
 from roadgrip.sim.runner import simulate
 from roadgrip.sim.sensors import SensorSpec
@@ -94,6 +103,97 @@ def _snow_slalom(seed: int, duration: float, progress: bool) -> Drive:
 
 
 # ------------------------------------------------------------------------------------
+# dry-gravel-dry (paper 002)
+# ------------------------------------------------------------------------------------
+CAR_SENSORS = {
+    "ay": SensorSpec(noise_std=0.05),
+    "ax": SensorSpec(noise_std=0.05),
+    "yaw_rate": SensorSpec(noise_std=0.002),
+    "steer": SensorSpec(noise_std=0.0005),
+    "vx": SensorSpec(noise_std=0.05),
+    "omega_fl": SensorSpec(noise_std=0.05, quantization=0.02),
+    "omega_fr": SensorSpec(noise_std=0.05, quantization=0.02),
+    "omega_rl": SensorSpec(noise_std=0.05, quantization=0.02),
+    "omega_rr": SensorSpec(noise_std=0.05, quantization=0.02),
+    "x": SensorSpec(noise_std=0.1),
+    "y": SensorSpec(noise_std=0.1),
+    "psi": SensorSpec(noise_std=0.005),
+}
+
+DGD_SEGMENT = 60.0
+"""Length of each surface segment of ``dry-gravel-dry`` [s]."""
+
+
+def _dgd_segment(t0: float, rng) -> tuple[list, list, list]:
+    """Speed phases, steering windows and labelled excitation intervals of one segment.
+
+    Each segment: quiet cruise, acceleration, quiet, braking, quiet, slalom and a
+    double lane change, quiet, acceleration, quiet, gentle braking, quiet. The
+    magnitudes vary by +-10 % with the seed.
+    """
+    j = rng.uniform(0.9, 1.1, size=5)
+    a_acc, a_brk, ay_sl, a_acc2 = 2.0 * j[0], -3.5 * j[1], 4.0 * j[2], 1.5 * j[3]
+    phases = [(8.0, 0.0), (4.0, a_acc), (6.0, 0.0), (3.0, a_brk), (6.0, 0.0), (16.0, 0.0),
+              (5.0, 0.0), (4.0, a_acc2), (2.0, 0.0)]
+    # return to the segment's initial speed with a gentle braking phase
+    dv = sum(a * (d - 0.5) for d, a in phases)
+    phases += [(3.0, -dv / 2.5), (3.0, 0.0)]
+    steer = [
+        (t0 + 27.0, t0 + 36.0, Slalom(ay_sl, 3.0 * j[4])),
+        (t0 + 36.5, t0 + 43.0, DoubleLaneChange(3.5, 2.5, 1.0)),
+    ]
+    excited = [
+        {"t0": t0 + 8.0, "t1": t0 + 12.0, "kind": "acceleration"},
+        {"t0": t0 + 18.0, "t1": t0 + 21.0, "kind": "braking"},
+        {"t0": t0 + 27.0, "t1": t0 + 43.0, "kind": "cornering"},
+        {"t0": t0 + 48.0, "t1": t0 + 52.0, "kind": "acceleration"},
+        {"t0": t0 + 54.0, "t1": t0 + 57.0, "kind": "braking"},
+    ]
+    return phases, steer, excited
+
+
+def _dry_gravel_dry(seed: int, duration: float, progress: bool) -> Drive:
+    vehicle = PRESETS["sedan"]
+    rng = np.random.default_rng([seed, 2])
+    labels = ("dry_asphalt", "gravel", "dry_asphalt")
+    phases, windows, excited = [], [], []
+    for i in range(len(labels)):
+        p, w, e = _dgd_segment(i * DGD_SEGMENT, rng)
+        phases += p
+        windows += w
+        excited += e
+    field = PiecewiseTime(tuple(i * DGD_SEGMENT for i in range(len(labels))), labels)
+    man = Maneuver(SpeedPhases(15.0, tuple(phases)), Schedule(tuple(windows)), yaw_gain=0.1)
+    surfaces = [surface_from_preset("dry_asphalt"), surface_from_preset("gravel")]
+    return simulate(
+        vehicle, man, field, surfaces,
+        duration=duration, model="planar", output_rate=100.0, internal_rate=1000.0,
+        sensors=CAR_SENSORS, seed=seed, name="dry-gravel-dry", progress=progress,
+        truth_extra={
+            "changes": [c for c in field.changes if c["t"] < duration],
+            "segments": [
+                {"t0": i * DGD_SEGMENT, "t1": (i + 1) * DGD_SEGMENT, "surface": s}
+                for i, s in enumerate(labels) if i * DGD_SEGMENT < duration
+            ],
+            "excited_intervals": [e for e in excited if e["t0"] < duration],
+        },
+    )
+
+
+# ------------------------------------------------------------------------------------
+# straight-cruise
+# ------------------------------------------------------------------------------------
+def _straight_cruise(seed: int, duration: float, progress: bool) -> Drive:
+    vehicle = PRESETS["sedan"]
+    man = Maneuver(ConstantSpeed(20.0), Straight(ay_std=0.05, corr_time=4.0), yaw_gain=0.05)
+    return simulate(
+        vehicle, man, ConstantFriction("dry_asphalt"), [surface_from_preset("dry_asphalt")],
+        duration=duration, model="planar", output_rate=100.0, internal_rate=1000.0,
+        sensors=CAR_SENSORS, seed=seed, name="straight-cruise", progress=progress,
+    )
+
+
+# ------------------------------------------------------------------------------------
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
     for s in (
@@ -101,6 +201,16 @@ SCENARIOS: dict[str, Scenario] = {
             "snow-slalom", "suv", 250.0, 25.0,
             "SUV on snow (mu 0.3), lateral model, random slalom into the nonlinear tire region",
             _snow_slalom,
+        ),
+        Scenario(
+            "dry-gravel-dry", "sedan", 3 * DGD_SEGMENT, 100.0,
+            "sedan, dry asphalt -> gravel -> dry asphalt; acceleration, braking, cornering, quiet",
+            _dry_gravel_dry,
+        ),
+        Scenario(
+            "straight-cruise", "sedan", 120.0, 100.0,
+            "sedan on dry asphalt, straight at 20 m/s: almost no excitation",
+            _straight_cruise,
         ),
     )
 }
