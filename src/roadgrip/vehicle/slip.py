@@ -12,9 +12,13 @@ the convention above everywhere.
 
 Low-speed regularisation: the speed in each denominator is replaced by
 ``sign(vx) * sqrt(vx**2 + v_eps**2)`` (``v_eps`` defaults to
-:data:`roadgrip.constants.V_EPS`). Slips then stay finite and continuous down to
-standstill and shrink to zero there, instead of the singular ``0/0`` of the
-textbook definitions.
+:data:`roadgrip.constants.V_EPS`), with ``sign(0) = +1``. Slip angles then stay
+finite (``|alpha| < pi/2``) and continuous for forward motion down to and
+including standstill, instead of the singular ``0/0`` of the textbook
+definitions; at ``vx = 0`` they equal ``-arctan(v_lat / v_eps)``, which is zero
+only when the lateral velocity of the axle is. The denominator changes sign
+with ``vx``, so for a non-zero lateral velocity the slip angle flips sign when
+the car passes from forward to reverse.
 """
 
 from __future__ import annotations
