@@ -221,7 +221,7 @@ def simulate(
         "force_frame": "tire",
         "surfaces": {s.label: s.to_dict() for s in surf_list},
         "sensors": sensors_to_dict({c: sensors.get(c, SensorSpec()) for c in MEASURED_COLUMNS}),
-        "friction_field": friction.to_dict(),
+        "friction_field": dict(friction.to_dict(), mu={s.label: s.mu for s in surf_list}),
         "max_substeps": int(extra.get("max_substeps", 1)),
     }
     truth.update(dict(truth_extra or {}))

@@ -23,7 +23,10 @@ import numpy as np
 from roadgrip.drive import Drive
 from roadgrip.sim.friction import (
     ConstantFriction,
+    Patch,
+    PatchFriction,
     PiecewiseTime,
+    brush_surface,
     surface_from_preset,
 )
 from roadgrip.sim.maneuvers import (
@@ -39,6 +42,7 @@ from roadgrip.sim.maneuvers import (
 )
 from roadgrip.sim.runner import simulate
 from roadgrip.sim.sensors import SensorSpec
+from roadgrip.sim.track import ClosedTrack, TrackDriver
 from roadgrip.vehicle.params import PRESETS
 
 __all__ = ["SCENARIOS", "Scenario", "simulate_scenario"]
@@ -194,6 +198,56 @@ def _straight_cruise(seed: int, duration: float, progress: bool) -> Drive:
 
 
 # ------------------------------------------------------------------------------------
+# f1tenth-patches (paper 003)
+# ------------------------------------------------------------------------------------
+F1TENTH_TRACK = {"kind": "rounded_rectangle", "length": 10.0, "width": 6.0, "radius": 1.5}
+"""Centre line of the ``f1tenth-patches`` track [m], laps counter-clockwise from (0, -3)."""
+
+F1TENTH_MU = {"track": 0.7, "low_grip": 0.45, "high_grip": 0.9}
+"""Peak friction of the three surfaces of ``f1tenth-patches`` [-]."""
+
+F1TENTH_PATCHES = (
+    Patch(2.5, 6.5, -4.0, 0.0, "low_grip"),  # bottom-right corner and its entry
+    Patch(-6.5, -2.5, 0.5, 4.0, "high_grip"),  # top-left corner
+    Patch(3.0, 6.5, 1.5, 4.0, "low_grip"),  # exit half of the top-right corner
+)
+
+F1TENTH_SENSORS = {
+    "ay": SensorSpec(noise_std=0.1),
+    "ax": SensorSpec(noise_std=0.1),
+    "yaw_rate": SensorSpec(noise_std=0.005),
+    "steer": SensorSpec(noise_std=0.002),
+    "vx": SensorSpec(noise_std=0.03),
+    "omega_fl": SensorSpec(noise_std=0.2),
+    "omega_fr": SensorSpec(noise_std=0.2),
+    "omega_rl": SensorSpec(noise_std=0.2),
+    "omega_rr": SensorSpec(noise_std=0.2),
+    "x": SensorSpec(noise_std=0.03),
+    "y": SensorSpec(noise_std=0.03),
+    "psi": SensorSpec(noise_std=0.01),
+}
+
+
+def _f1tenth_patches(seed: int, duration: float, progress: bool) -> Drive:
+    vehicle = PRESETS["f1tenth"]
+    geo = F1TENTH_TRACK
+    track = ClosedTrack.rounded_rectangle(geo["length"], geo["width"], geo["radius"], ds=0.05)
+    rng = np.random.default_rng([seed, 3])
+    driver = TrackDriver(
+        track, v_max=4.5 * rng.uniform(0.95, 1.05), ay_max=0.6 * 9.80665 * rng.uniform(0.95, 1.05),
+        a_acc=2.5, a_brake=3.0, lookahead0=0.6, lookahead_gain=0.12, speed_preview=0.4,
+    )
+    surfaces = [brush_surface(k, mu, vehicle) for k, mu in F1TENTH_MU.items()]
+    field = PatchFriction("track", F1TENTH_PATCHES)
+    return simulate(
+        vehicle, driver, field, surfaces,
+        duration=duration, model="planar", output_rate=50.0, internal_rate=1000.0,
+        sensors=F1TENTH_SENSORS, seed=seed, name="f1tenth-patches", v_eps=0.1, progress=progress,
+        truth_extra={"track": dict(geo, lap_length=track.length)},
+    )
+
+
+# ------------------------------------------------------------------------------------
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
     for s in (
@@ -206,6 +260,11 @@ SCENARIOS: dict[str, Scenario] = {
             "dry-gravel-dry", "sedan", 3 * DGD_SEGMENT, 100.0,
             "sedan, dry asphalt -> gravel -> dry asphalt; acceleration, braking, cornering, quiet",
             _dry_gravel_dry,
+        ),
+        Scenario(
+            "f1tenth-patches", "f1tenth", 60.0, 50.0,
+            "F1/10 car lapping a 10 x 6 m track with low- and high-grip patches in the corners",
+            _f1tenth_patches,
         ),
         Scenario(
             "straight-cruise", "sedan", 120.0, 100.0,
