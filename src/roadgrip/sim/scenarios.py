@@ -207,9 +207,9 @@ F1TENTH_MU = {"track": 0.7, "low_grip": 0.45, "high_grip": 0.9}
 """Peak friction of the three surfaces of ``f1tenth-patches`` [-]."""
 
 F1TENTH_PATCHES = (
-    Patch(2.5, 6.5, -4.0, 0.0, "low_grip"),  # bottom-right corner and its entry
+    Patch(3.0, 6.5, -4.0, -1.2, "low_grip"),  # bottom-right corner and its entry
     Patch(-6.5, -2.5, 0.5, 4.0, "high_grip"),  # top-left corner
-    Patch(3.0, 6.5, 1.5, 4.0, "low_grip"),  # exit half of the top-right corner
+    Patch(3.0, 4.6, 2.0, 4.0, "low_grip"),  # exit half of the top-right corner
 )
 
 F1TENTH_SENSORS = {
@@ -234,7 +234,7 @@ def _f1tenth_patches(seed: int, duration: float, progress: bool) -> Drive:
     track = ClosedTrack.rounded_rectangle(geo["length"], geo["width"], geo["radius"], ds=0.05)
     rng = np.random.default_rng([seed, 3])
     driver = TrackDriver(
-        track, v_max=4.5 * rng.uniform(0.95, 1.05), ay_max=0.6 * 9.80665 * rng.uniform(0.95, 1.05),
+        track, v_max=4.5 * rng.uniform(0.95, 1.05), ay_max=0.55 * 9.80665 * rng.uniform(0.95, 1.05),
         a_acc=2.5, a_brake=3.0, lookahead0=0.6, lookahead_gain=0.12, speed_preview=0.4,
     )
     surfaces = [brush_surface(k, mu, vehicle) for k, mu in F1TENTH_MU.items()]
