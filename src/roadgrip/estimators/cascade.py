@@ -1,0 +1,1078 @@
+r"""Three-stage Kalman cascade for axle friction (paper 003, Amine et al.; after Hu et al.).
+
+=========  ===============================  ==================================================
+stage      filter, equations                 estimates
+=========  ===============================  ==================================================
+1          EKF, eq. 1-5                      ``vx, vy`` from ``ax, ay``, yaw rate, measured speed
+2          UKF1, eq. 6-10                    ``vx, r, vy, Fxf, Fyf, Fyr`` (axle forces)
+3          UKF2, eq. 11-12                   ``mu_f, mu_r`` through the brush model
+=========  ===============================  ==================================================
+
+Models (SI units, ISO 8855 axes; ``T`` is the sample interval)
+---------------------------------------------------------------
+*Stage 1* (eq. 2-4, kinematics with the signs of ISO axes: ``ay = vy' + vx r``)::
+
+    vx_k = vx + T (ax + vy r),   vy_k = vy + T (ay - vx r),   z = vx_measured
+
+The inputs ``u = [ax, ay, r]`` are measured, so the state noise follows from the
+sensor noise: ``Q1 = T² (diag(sa², sa²) + sr² g gᵀ)`` with ``g = [vy, -vx]``
+(first-order propagation of accelerometer noise ``sa`` and gyro noise ``sr``;
+``sa²`` includes the accelerometer model error ``accel_model_std²``, which stands
+for bias, road grade and mounting offset), ``R1 = sv²`` the speed-sensor noise.
+The measured speed (eq. 5) is the mean wheel speed of the undriven axle (all
+four wheels for four-wheel drive), the motor speed through the gear ratio
+``rpm 2 pi R / (60 i)``, or a measured ``vx`` column.
+
+*Stage 2* (eq. 9-10, with the paper's sign typo in ``h5`` corrected)::
+
+    vx_k = vx + T (r vy + (Fxf cos d - Fyf sin d) / m)
+    r_k  = r  + T (lf (Fxf sin d + Fyf cos d) - lr Fyr) / Iz
+    vy_k = vy + T (-r vx + (Fxf sin d + Fyf cos d + Fyr) / m)
+    F_k  = F  (random walk)
+    z    = [vx_EKF, r_gyro, vy_EKF, ax, ay]
+    h    = [vx, r, vy, (Fxf cos d - Fyf sin d) / m, (Fxf sin d + Fyf cos d + Fyr) / m]
+
+The model has one longitudinal force, applied at the front wheels as in the
+paper: on a four-wheel or rear-wheel driven car ``Fxf`` is the total
+longitudinal force (the split between axles is not observable from the
+accelerations). Noise: the forces are random walks driven by a jerk,
+``Q_F = (m j)² T`` with ``j = jerk_std`` [m/s³]; the velocities take the
+accelerometer model error, ``(T accel_model_std)²``, and the yaw rate the
+corresponding yaw acceleration. ``R2`` is not tuned: its velocity block is the
+stage-1 posterior covariance of the same step (time-varying), its yaw-rate
+entry the gyro noise and its acceleration entries the accelerometer noise plus
+model error. No force scaling is applied anywhere (the paper's factor of 100
+compensated a unit inconsistency that does not arise here).
+
+*Stage 3* (eq. 11-12)::
+
+    mu_k = mu_{k-1} + w,  w ~ N(0, q_mu² T I)       (random walk, q_mu = mu_rate_std)
+    z    = [Fyf, Fyr] (stage-2 posterior means)
+    h_i  = Fz_i brush(alpha_i, mu_i, k_i)            (roadgrip.tire.brush_force)
+
+with slip angles ``alpha_f = d - atan((vy + lf r) / vx)``,
+``alpha_r = -atan((vy - lr r) / vx)`` (:mod:`roadgrip.vehicle.slip`
+convention, so positive slip gives positive force), normal loads with
+longitudinal load transfer (:meth:`VehicleParams.axle_loads`) and normalised
+cornering stiffness ``k_i = C_i / Fz_i,static``. ``R3`` is diagonal with
+``var(F_i)`` from the stage-2 covariance, plus ``(dF_i/dalpha_i)² var(alpha_i)``
+(slip-angle uncertainty from the stage-2 covariance of ``vx, r, vy`` and the
+steering noise, with the brush slope at the current estimate), plus a brush
+model error ``(model_error * Fz_i)²``.
+
+Information, excitation and variance growth
+-------------------------------------------
+In the linear range of the tire the force does not depend on ``mu``: the
+update then carries no information and the random walk lets the variance grow,
+up to the prior variance (a cap: the estimate never claims less than it knew
+before any data). For each axle the update's information is the precision gain
+``Lambda = 1/P_post - 1/P_prior``; a sample is *excited* for that axle when
+``Lambda / T >= 1 / excitation_std²``, i.e. when one second of such samples
+would determine ``mu`` to ``excitation_std`` (a threshold independent of the
+sample rate). The equivalent single-sample observation
+``mu_obs = (m_post / P_post - m_prior / P_prior) / Lambda`` with variance
+``1 / Lambda`` is reported (``mu_front_obs``, ``mu_front_obs_std``, ...): it is
+what :mod:`roadgrip.mapping` fuses, so that a map cell collects the likelihood
+of the data taken in it rather than a filter state that remembers earlier cells.
+Below ``v_min`` the slip angles are not defined well enough and stage 3 makes
+no update.
+
+Sensor noise
+------------
+Unless given in :class:`CascadeConfig`, the noise standard deviations of the
+accelerometers, gyro and speed signal are estimated from the drive itself by
+:func:`noise_from_drive` (robust scale of second differences, which removes a
+smooth signal and leaves white noise with variance ``6 s²``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, fields
+from enum import IntEnum
+from typing import Any, NamedTuple
+
+import numpy as np
+import pandas as pd
+from numba import njit
+from numpy.typing import NDArray
+
+from roadgrip.constants import GRAVITY
+from roadgrip.drive import Drive, DriveValidationError
+from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
+from roadgrip.estimators.kalman import (
+    cholesky_lower,
+    joseph_update,
+    merwe_weights,
+    psd_sqrt,
+    sigma_points,
+    ukf_correct,
+    unscented_transform,
+)
+from roadgrip.vehicle.params import VehicleParams
+
+__all__ = [
+    "Cascade",
+    "CascadeConfig",
+    "CascadeEstimate",
+    "CascadeSample",
+    "CascadeState",
+    "ForceMeasurement",
+    "ForceState",
+    "FrictionState",
+    "VelocityState",
+    "brush_mu_inverse",
+    "force_measurement",
+    "force_transition",
+    "friction_measurement",
+    "init",
+    "measured_speed",
+    "noise_from_drive",
+    "run",
+    "run_cli",
+    "step",
+]
+
+Z95 = 1.959963984540054
+"""Two-sided 95 % quantile of the standard normal."""
+
+
+# -- state layouts -------------------------------------------------------------------
+
+
+class VelocityState:
+    """Stage-1 EKF state (eq. 4)."""
+
+    VX = 0
+    VY = 1
+    SIZE = 2
+
+
+class ForceState:
+    """Stage-2 UKF1 state (eq. 6)."""
+
+    VX = 0
+    YAW_RATE = 1
+    VY = 2
+    FXF = 3
+    FYF = 4
+    FYR = 5
+    SIZE = 6
+
+
+class ForceMeasurement:
+    """Stage-2 UKF1 measurement (eq. 6)."""
+
+    VX = 0
+    YAW_RATE = 1
+    VY = 2
+    AX = 3
+    AY = 4
+    SIZE = 5
+
+
+class FrictionState:
+    """Stage-3 UKF2 state (eq. 11)."""
+
+    MU_F = 0
+    MU_R = 1
+    SIZE = 2
+
+
+class _P(IntEnum):
+    """Layout of the flat parameter vector of the compiled step."""
+
+    MASS = 0
+    IZ = 1
+    LF = 2
+    LR = 3
+    H = 4
+    KF = 5
+    KR = 6
+    VAR_ACC = 7
+    VAR_GYRO = 8
+    VAR_SPEED = 9
+    VAR_STEER = 10
+    VAR_ACC_MODEL = 11
+    Q_FORCE = 12  # (m j)² per second
+    Q_YAW = 13  # yaw-acceleration variance per second²
+    Q_MU = 14  # mu variance per second
+    MU_VAR0 = 15
+    MU_MIN = 16
+    MU_MAX = 17
+    MODEL_ERR = 18
+    EXC_PREC = 19
+    V_MIN = 20
+    V_EPS = 21
+    SIZE = 22
+
+
+class _O(IntEnum):
+    """Layout of one output row of the compiled step."""
+
+    VX = 0
+    YAW_RATE = 1
+    VY = 2
+    FXF = 3
+    FYF = 4
+    FYR = 5
+    ALPHA_F = 6
+    ALPHA_R = 7
+    FZF = 8
+    FZR = 9
+    MU_F = 10
+    MU_R = 11
+    VAR_F = 12
+    VAR_R = 13
+    EXC_F = 14
+    EXC_R = 15
+    OBS_F = 16
+    OBS_R = 17
+    OBS_VAR_F = 18
+    OBS_VAR_R = 19
+    NIS2 = 20
+    REPAIRS = 21
+    VX_EKF = 22
+    VY_EKF = 23
+    PD_OK = 24
+    SIZE = 25
+
+
+# -- configuration -------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class CascadeConfig:
+    """Noise model and options of the cascade (SI units).
+
+    Attributes
+    ----------
+    accel_std, gyro_std, speed_std : float or None
+        White-noise standard deviations of the accelerometers [m/s²], gyro
+        [rad/s] and speed signal [m/s]; ``None`` estimates them from the drive
+        (:func:`noise_from_drive`).
+    steer_std : float
+        Steering-angle noise [rad].
+    accel_model_std : float
+        Accelerometer model error [m/s²] (bias, grade, mounting offset), added to
+        the accelerometer noise in stages 1 and 2.
+    jerk_std : float
+        Force random-walk intensity expressed as a jerk [m/s³]: ``Q_F = (m j)² T``.
+    mu_rate_std : float
+        Friction random-walk intensity [1/sqrt(s)] (eq. 11).
+    mu_prior : float
+        Initial friction estimate [-].
+    mu_prior_std : float
+        Initial standard deviation [-], also the cap of the variance growth.
+    mu_bounds : tuple of float
+        Physical range of ``mu`` [-]; sigma points are clipped to it inside the
+        brush model and the mean is projected onto it.
+    model_error : float
+        Brush-model error as a fraction of the normal load [-].
+    excitation_std : float
+        A sample is excited for an axle when one second of samples carrying the
+        same information would determine ``mu`` to this standard deviation [-]
+        (the single-sample observation variance times the sample rate).
+    v_min : float
+        No friction update below this speed [m/s].
+    v_eps : float
+        Slip-angle speed regularisation [m/s] (:mod:`roadgrip.vehicle.slip`).
+    speed_source : str
+        ``'auto'``, ``'wheels'``, ``'vx'``, ``'vx_motor'`` or ``'motor_rpm'``
+        (:func:`measured_speed`).
+    alpha, beta, kappa : float
+        Unscented-transform parameters (:func:`roadgrip.estimators.kalman.merwe_weights`).
+    """
+
+    accel_std: float | None = None
+    gyro_std: float | None = None
+    speed_std: float | None = None
+    steer_std: float = 0.005
+    accel_model_std: float = 0.1
+    jerk_std: float = 30.0
+    mu_rate_std: float = 0.1
+    mu_prior: float = 0.7
+    mu_prior_std: float = 0.4
+    mu_bounds: tuple[float, float] = (0.05, 2.0)
+    model_error: float = 0.02
+    excitation_std: float = 0.5
+    v_min: float = 1.0
+    v_eps: float = 0.1
+    speed_source: str = "auto"
+    alpha: float = 1.0
+    beta: float = 2.0
+    kappa: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name in ("speed_source", "mu_bounds") or v is None:
+                continue
+            if not np.isfinite(v) or v < 0:
+                raise ValueError(f"cascade option {f.name!r} must be finite and >= 0, got {v!r}")
+        for name in ("jerk_std", "mu_rate_std", "mu_prior_std", "excitation_std", "alpha"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"cascade option {name!r} must be positive")
+        lo, hi = self.mu_bounds
+        if not 0 < lo < self.mu_prior < hi:
+            raise ValueError(f"need 0 < mu_bounds[0] < mu_prior < mu_bounds[1], got {self.mu_bounds}, {self.mu_prior}")
+        if self.speed_source not in _SPEED_SOURCES:
+            raise ValueError(f"speed_source must be one of {_SPEED_SOURCES}, got {self.speed_source!r}")
+
+    @classmethod
+    def from_options(cls, options: dict[str, Any]) -> CascadeConfig:
+        """Build from a mapping; unknown keys are an error naming them."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(options) - known)
+        if unknown:
+            raise ValueError(f"unknown cascade option(s) {unknown}; known: {sorted(known)}")
+        return cls(**options)
+
+
+_SPEED_SOURCES = ("auto", "wheels", "vx", "vx_motor", "motor_rpm")
+
+
+# -- immutable state, sample, estimate ------------------------------------------------
+
+
+class CascadeState(NamedTuple):
+    """Posterior of the three stages after a sample.
+
+    Attributes
+    ----------
+    t : float
+        Time of the last sample [s] (NaN before the first).
+    velocity_mean, velocity_cov : ndarray, (2,), (2, 2)
+        Stage 1 (:class:`VelocityState`).
+    force_mean, force_cov : ndarray, (6,), (6, 6)
+        Stage 2 (:class:`ForceState`).
+    friction_mean, friction_cov : ndarray, (2,), (2, 2)
+        Stage 3 (:class:`FrictionState`).
+    """
+
+    t: float
+    velocity_mean: NDArray[np.float64]
+    velocity_cov: NDArray[np.float64]
+    force_mean: NDArray[np.float64]
+    force_cov: NDArray[np.float64]
+    friction_mean: NDArray[np.float64]
+    friction_cov: NDArray[np.float64]
+
+
+class CascadeSample(NamedTuple):
+    """One sample of the inputs (SI): time, accelerations, yaw rate, steering, measured speed."""
+
+    t: float
+    ax: float
+    ay: float
+    yaw_rate: float
+    steer: float
+    speed: float
+
+
+class CascadeEstimate(NamedTuple):
+    """Estimates after one sample (all arrays ``(2,)`` are ``[front, rear]``).
+
+    Attributes
+    ----------
+    vx, vy, yaw_rate : float
+        Stage-2 posterior [m/s, m/s, rad/s].
+    forces : ndarray, shape (3,)
+        ``Fxf, Fyf, Fyr`` [N].
+    slip_angles, normal_loads : ndarray, shape (2,)
+        [rad], [N].
+    mu, mu_std : ndarray, shape (2,)
+        Friction posterior mean and standard deviation [-].
+    excited : ndarray of bool, shape (2,)
+    mu_obs, mu_obs_std : ndarray, shape (2,)
+        Single-sample observation (module docstring); NaN / inf where not excited.
+    """
+
+    vx: float
+    vy: float
+    yaw_rate: float
+    forces: NDArray[np.float64]
+    slip_angles: NDArray[np.float64]
+    normal_loads: NDArray[np.float64]
+    mu: NDArray[np.float64]
+    mu_std: NDArray[np.float64]
+    excited: NDArray[np.bool_]
+    mu_obs: NDArray[np.float64]
+    mu_obs_std: NDArray[np.float64]
+
+
+# -- models (compiled, vectorised over sigma points) --------------------------------
+
+
+@njit(cache=True)
+def force_transition(X, steer, dt, mass, iz, lf, lr):  # pragma: no cover - compiled
+    """Stage-2 process model, eq. 9, for every row of ``X`` (N, 6) -> (N, 6)."""
+    c = np.cos(steer)
+    s = np.sin(steer)
+    out = X.copy()
+    for i in range(X.shape[0]):
+        vx = X[i, 0]
+        r = X[i, 1]
+        vy = X[i, 2]
+        fxf = X[i, 3]
+        fyf = X[i, 4]
+        fyr = X[i, 5]
+        out[i, 0] = vx + dt * (r * vy + (fxf * c - fyf * s) / mass)
+        out[i, 1] = r + dt * (lf * (fxf * s + fyf * c) - lr * fyr) / iz
+        out[i, 2] = vy + dt * (-r * vx + (fxf * s + fyf * c + fyr) / mass)
+    return out
+
+
+@njit(cache=True)
+def force_measurement(X, steer, mass):  # pragma: no cover - compiled
+    """Stage-2 measurement model, eq. 10 (sign of ``h5`` corrected), (N, 6) -> (N, 5)."""
+    c = np.cos(steer)
+    s = np.sin(steer)
+    out = np.empty((X.shape[0], 5))
+    for i in range(X.shape[0]):
+        fxf = X[i, 3]
+        fyf = X[i, 4]
+        fyr = X[i, 5]
+        out[i, 0] = X[i, 0]
+        out[i, 1] = X[i, 1]
+        out[i, 2] = X[i, 2]
+        out[i, 3] = (fxf * c - fyf * s) / mass
+        out[i, 4] = (fxf * s + fyf * c + fyr) / mass
+    return out
+
+
+@njit(cache=True)
+def _brush(alpha, fz, mu, k):  # pragma: no cover - compiled
+    """Scalar Fiala brush force, identical to :func:`roadgrip.tire.brush_force`."""
+    a = min(max(alpha, -1.5), 1.5)
+    z = np.tan(a)
+    az = abs(z)
+    if az < 3.0 * mu / k:
+        return fz * (k * z - k * k * az * z / (3.0 * mu) + k * k * k * z * z * z / (27.0 * mu * mu))
+    return fz * mu * (1.0 if z > 0 else (-1.0 if z < 0 else 0.0))
+
+
+@njit(cache=True)
+def _brush_slope(alpha, fz, mu, k):  # pragma: no cover - compiled
+    """``dF / dalpha`` of the brush force [N/rad]."""
+    a = min(max(alpha, -1.5), 1.5)
+    z = np.tan(a)
+    u = k * abs(z) / mu
+    if u >= 3.0:
+        return 0.0
+    return fz * k * (1.0 - u / 3.0) ** 2 * (1.0 + z * z)
+
+
+@njit(cache=True)
+def friction_measurement(M, alpha_f, alpha_r, fzf, fzr, kf, kr, mu_min, mu_max):  # pragma: no cover
+    """Stage-3 measurement model, eq. 11: brush forces of each row ``[mu_f, mu_r]`` (N, 2) -> (N, 2)."""
+    out = np.empty((M.shape[0], 2))
+    for i in range(M.shape[0]):
+        muf = min(max(M[i, 0], mu_min), mu_max)
+        mur = min(max(M[i, 1], mu_min), mu_max)
+        out[i, 0] = _brush(alpha_f, fzf, muf, kf)
+        out[i, 1] = _brush(alpha_r, fzr, mur, kr)
+    return out
+
+
+# -- the compiled step ----------------------------------------------------------------
+
+
+@njit(cache=True)
+def _step(xe, Pe, xu, Pu, xm, Pm, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, g6, w2m, w2c, g2, out):  # pragma: no cover
+    """One sample through the three stages; updates the state arrays in place, fills ``out``."""
+    m = p[_P.MASS]
+    repairs = 0
+    var_acc = p[_P.VAR_ACC] + p[_P.VAR_ACC_MODEL]
+    # ---- stage 1: EKF (eq. 3-4) ----
+    if dt > 0.0:
+        vx = xe[0]
+        vy = xe[1]
+        F = np.array([[1.0, dt * r], [-dt * r, 1.0]])
+        xe[0] = vx + dt * (ax + vy * r)
+        xe[1] = vy + dt * (ay - vx * r)
+        Q = np.array([[var_acc + p[_P.VAR_GYRO] * vy * vy, -p[_P.VAR_GYRO] * vy * vx],
+                      [-p[_P.VAR_GYRO] * vy * vx, var_acc + p[_P.VAR_GYRO] * vx * vx]]) * dt * dt
+        Pe[:, :] = F @ Pe @ F.T + Q
+    H = np.array([[1.0, 0.0]])
+    resid = np.array([vmeas - xe[0]])
+    xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), resid, H, np.array([[p[_P.VAR_SPEED]]]))
+    xe[:] = xn
+    Pe[:, :] = Pn
+    # ---- stage 2: UKF1 (eq. 6-10) ----
+    if dt > 0.0:
+        L, Pu_used, rep = psd_sqrt(Pu)
+        repairs += rep
+        X = sigma_points(xu, L, g6)
+        Y = force_transition(X, steer, dt, m, p[_P.IZ], p[_P.LF], p[_P.LR])
+        Qu = np.zeros((6, 6))
+        qv = var_acc * dt * dt
+        Qu[0, 0] = qv
+        Qu[2, 2] = qv
+        Qu[1, 1] = p[_P.Q_YAW] * dt * dt
+        qf = p[_P.Q_FORCE] * dt
+        Qu[3, 3] = qf
+        Qu[4, 4] = qf
+        Qu[5, 5] = qf
+        mean, cov = unscented_transform(Y, w6m, w6c, Qu)
+        xu[:] = mean
+        Pu[:, :] = 0.5 * (cov + cov.T)
+    L, Pu_used, rep = psd_sqrt(Pu)
+    repairs += rep
+    X = sigma_points(xu, L, g6)
+    Z = force_measurement(X, steer, m)
+    z = np.array([xe[0], r, xe[1], ax, ay])
+    R = np.zeros((5, 5))
+    R[0, 0] = Pe[0, 0]
+    R[0, 2] = Pe[0, 1]
+    R[2, 0] = Pe[1, 0]
+    R[2, 2] = Pe[1, 1]
+    R[1, 1] = p[_P.VAR_GYRO]
+    R[3, 3] = var_acc
+    R[4, 4] = var_acc
+    xn, Pn, res2, S2 = ukf_correct(xu.copy(), Pu_used, X, Z, w6m, w6c, z, R)
+    xu[:] = xn
+    Pu[:, :] = Pn
+    # ---- slip angles, loads, their uncertainty ----
+    vx = xu[0]
+    r_e = xu[1]
+    vy = xu[2]
+    sgn = 1.0 if vx >= 0.0 else -1.0
+    u = sgn * np.sqrt(vx * vx + p[_P.V_EPS] * p[_P.V_EPS])
+    lf = p[_P.LF]
+    lr = p[_P.LR]
+    qf_ = (vy + lf * r_e) / u
+    qr_ = (vy - lr * r_e) / u
+    alpha_f = steer - np.arctan(qf_)
+    alpha_r = -np.arctan(qr_)
+    # gradients of alpha wrt (vx, r, vy), first order
+    cf = 1.0 / (1.0 + qf_ * qf_)
+    cr = 1.0 / (1.0 + qr_ * qr_)
+    gf = np.array([cf * qf_ / u, -cf * lf / u, -cf / u])
+    gr = np.array([cr * qr_ / u, cr * lr / u, -cr / u])
+    Pv = np.ascontiguousarray(Pu[:3, :3])
+    var_af = gf @ Pv @ gf + p[_P.VAR_STEER]
+    var_ar = gr @ Pv @ gr
+    ax_est = (xu[3] * np.cos(steer) - xu[4] * np.sin(steer)) / m
+    wb = lf + lr
+    dfz = m * ax_est * p[_P.H] / wb
+    fzf = max(m * GRAVITY * lr / wb - dfz, 0.0)
+    fzr = max(m * GRAVITY * lf / wb + dfz, 0.0)
+    # ---- stage 3: UKF2 (eq. 11-12) ----
+    mu_min = p[_P.MU_MIN]
+    mu_max = p[_P.MU_MAX]
+    if dt > 0.0:
+        Pm[0, 0] = min(Pm[0, 0] + p[_P.Q_MU] * dt, p[_P.MU_VAR0])
+        Pm[1, 1] = min(Pm[1, 1] + p[_P.Q_MU] * dt, p[_P.MU_VAR0])
+    prior_m0 = xm[0]
+    prior_m1 = xm[1]
+    prior_v0 = Pm[0, 0]
+    prior_v1 = Pm[1, 1]
+    exc_f = 0.0
+    exc_r = 0.0
+    obs_f = np.nan
+    obs_r = np.nan
+    obs_vf = np.inf
+    obs_vr = np.inf
+    if abs(vx) >= p[_P.V_MIN] and fzf > 0.0 and fzr > 0.0:
+        kf = p[_P.KF]
+        kr = p[_P.KR]
+        sf = _brush_slope(alpha_f, fzf, min(max(xm[0], mu_min), mu_max), kf)
+        sr = _brush_slope(alpha_r, fzr, min(max(xm[1], mu_min), mu_max), kr)
+        me = p[_P.MODEL_ERR]
+        R3 = np.zeros((2, 2))
+        R3[0, 0] = Pu[4, 4] + sf * sf * var_af + (me * fzf) ** 2
+        R3[1, 1] = Pu[5, 5] + sr * sr * var_ar + (me * fzr) ** 2
+        L, Pm_used, rep = psd_sqrt(Pm)
+        repairs += rep
+        X = sigma_points(xm, L, g2)
+        Z = friction_measurement(X, alpha_f, alpha_r, fzf, fzr, kf, kr, mu_min, mu_max)
+        z = np.array([xu[4], xu[5]])
+        xn, Pn, _, _ = ukf_correct(xm.copy(), Pm_used, X, Z, w2m, w2c, z, R3)
+        xm[0] = min(max(xn[0], mu_min), mu_max)
+        xm[1] = min(max(xn[1], mu_min), mu_max)
+        Pm[:, :] = Pn
+        # information gained per axle -> single-sample observation
+        lam_f = 1.0 / Pm[0, 0] - 1.0 / prior_v0
+        lam_r = 1.0 / Pm[1, 1] - 1.0 / prior_v1
+        if lam_f >= p[_P.EXC_PREC] * dt and dt > 0.0:
+            exc_f = 1.0
+            obs_f = (xm[0] / Pm[0, 0] - prior_m0 / prior_v0) / lam_f
+            obs_vf = 1.0 / lam_f
+        if lam_r >= p[_P.EXC_PREC] * dt and dt > 0.0:
+            exc_r = 1.0
+            obs_r = (xm[1] / Pm[1, 1] - prior_m1 / prior_v1) / lam_r
+            obs_vr = 1.0 / lam_r
+    nis = res2 @ np.linalg.solve(S2, res2)
+    out[_O.VX] = xu[0]
+    out[_O.YAW_RATE] = xu[1]
+    out[_O.VY] = xu[2]
+    out[_O.FXF] = xu[3]
+    out[_O.FYF] = xu[4]
+    out[_O.FYR] = xu[5]
+    out[_O.ALPHA_F] = alpha_f
+    out[_O.ALPHA_R] = alpha_r
+    out[_O.FZF] = fzf
+    out[_O.FZR] = fzr
+    out[_O.MU_F] = xm[0]
+    out[_O.MU_R] = xm[1]
+    out[_O.VAR_F] = Pm[0, 0]
+    out[_O.VAR_R] = Pm[1, 1]
+    out[_O.EXC_F] = exc_f
+    out[_O.EXC_R] = exc_r
+    out[_O.OBS_F] = obs_f
+    out[_O.OBS_R] = obs_r
+    out[_O.OBS_VAR_F] = obs_vf
+    out[_O.OBS_VAR_R] = obs_vr
+    out[_O.NIS2] = nis
+    out[_O.REPAIRS] = repairs
+    out[_O.VX_EKF] = xe[0]
+    out[_O.VY_EKF] = xe[1]
+    pd_ok = cholesky_lower(Pe)[1] and cholesky_lower(Pu)[1] and cholesky_lower(Pm)[1]
+    out[_O.PD_OK] = 1.0 if pd_ok else 0.0
+
+
+@njit(cache=True)
+def _run(t, ax, ay, r, steer, speed, xe, Pe, xu, Pu, xm, Pm, t_prev, p, w6m, w6c, g6, w2m, w2c, g2):  # pragma: no cover
+    """Compiled loop over samples; the state arrays are updated in place."""
+    n = t.shape[0]
+    out = np.empty((n, _O.SIZE))
+    tp = t_prev
+    for k in range(n):
+        dt = t[k] - tp if tp == tp else 0.0  # no predict before the first sample
+        _step(xe, Pe, xu, Pu, xm, Pm, dt, ax[k], ay[k], r[k], steer[k], speed[k], p,
+              w6m, w6c, g6, w2m, w2c, g2, out[k])
+        tp = t[k]
+    return out
+
+
+# -- noise, speed, parameters ---------------------------------------------------------
+
+
+def _robust_noise(x: NDArray[np.float64]) -> float:
+    d2 = np.diff(np.asarray(x, dtype=float), 2)
+    if d2.size < 10:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
+
+
+_NOISE_FLOORS = {"accel_std": 0.02, "gyro_std": 0.002, "speed_std": 0.01}
+
+
+def noise_from_drive(drive: Drive, speed: NDArray[np.float64] | None = None) -> dict[str, float]:
+    """Estimate white-noise standard deviations of the inputs from the drive.
+
+    The robust standard deviation (1.4826 MAD) of the second difference of a
+    signal, divided by ``sqrt(6)``: a smooth signal contributes little to the
+    second difference at the sampling rate, white noise contributes ``6 s²``.
+    Floors (0.02 m/s², 0.002 rad/s, 0.01 m/s) keep the filters from trusting
+    quantised or interpolated signals absolutely.
+
+    Returns
+    -------
+    dict
+        ``accel_std`` [m/s²] (the larger of ``ax``, ``ay``), ``gyro_std`` [rad/s],
+        ``speed_std`` [m/s].
+    """
+    out = {
+        "accel_std": max(_robust_noise(drive.col("ax")), _robust_noise(drive.col("ay"))),
+        "gyro_std": _robust_noise(drive.col("yaw_rate")),
+        "speed_std": _robust_noise(speed) if speed is not None else 0.0,
+    }
+    return {k: max(v, _NOISE_FLOORS[k]) for k, v in out.items()}
+
+
+def measured_speed(drive: Drive, source: str = "auto") -> tuple[NDArray[np.float64], str]:
+    """The stage-1 speed measurement (eq. 5) [m/s] and a description of its source.
+
+    ``'wheels'``: mean of ``omega R`` over the undriven axle (front wheels for
+    rear drive, rear wheels for front drive) or all four wheels for four-wheel
+    drive. ``'motor_rpm'``: motor speed [rev/min] through the gear ratio,
+    ``rpm 2 pi R / (60 i)``. ``'vx_motor'`` and ``'vx'``: those columns.
+    ``'auto'`` takes the first available of wheels, vx, vx_motor, motor_rpm.
+
+    Raises
+    ------
+    DriveValidationError
+        When the requested (or any, for ``'auto'``) source is missing.
+    """
+    veh = drive.vehicle
+    order = ("wheels", "vx", "vx_motor", "motor_rpm") if source == "auto" else (source,)
+    for src in order:
+        if src == "wheels" and drive.has_wheel_speeds:
+            cols = {"fwd": ("omega_rl", "omega_rr"), "rwd": ("omega_fl", "omega_fr")}.get(
+                veh.drive, ("omega_fl", "omega_fr", "omega_rl", "omega_rr")
+            )
+            w = np.mean([drive.col(c) for c in cols], axis=0)
+            return w * veh.wheel_radius, f"wheel speeds {'+'.join(cols)} x R"
+        if src in ("vx", "vx_motor") and drive.has(src):
+            return drive.col(src), f"column {src}"
+        if src == "motor_rpm" and drive.has("motor_rpm"):
+            v = drive.col("motor_rpm") * 2 * np.pi * veh.wheel_radius / (60.0 * veh.gear_ratio)
+            return v, "motor_rpm through the gear ratio (eq. 5)"
+    raise DriveValidationError(
+        f"drive from {drive.meta.source} has no speed measurement for the cascade "
+        f"(source {source!r}; need wheel speeds omega_*, vx, vx_motor or motor_rpm)"
+    )
+
+
+def _params(vehicle: VehicleParams, cfg: CascadeConfig, noise: dict[str, float]) -> NDArray[np.float64]:
+    p = np.zeros(_P.SIZE)
+    p[_P.MASS] = vehicle.mass
+    p[_P.IZ] = vehicle.yaw_inertia
+    p[_P.LF] = vehicle.lf
+    p[_P.LR] = vehicle.lr
+    p[_P.H] = vehicle.cg_height
+    p[_P.KF] = vehicle.cornering_stiffness_front / vehicle.fz_front
+    p[_P.KR] = vehicle.cornering_stiffness_rear / vehicle.fz_rear
+    p[_P.VAR_ACC] = noise["accel_std"] ** 2
+    p[_P.VAR_GYRO] = noise["gyro_std"] ** 2
+    p[_P.VAR_SPEED] = noise["speed_std"] ** 2
+    p[_P.VAR_STEER] = cfg.steer_std**2
+    p[_P.VAR_ACC_MODEL] = cfg.accel_model_std**2
+    p[_P.Q_FORCE] = (vehicle.mass * cfg.jerk_std) ** 2
+    # yaw acceleration from the accelerometer model error acting at the longer lever arm
+    p[_P.Q_YAW] = (vehicle.mass * cfg.accel_model_std * max(vehicle.lf, vehicle.lr) / vehicle.yaw_inertia) ** 2
+    p[_P.Q_MU] = cfg.mu_rate_std**2
+    p[_P.MU_VAR0] = cfg.mu_prior_std**2
+    p[_P.MU_MIN], p[_P.MU_MAX] = cfg.mu_bounds
+    p[_P.MODEL_ERR] = cfg.model_error
+    p[_P.EXC_PREC] = 1.0 / cfg.excitation_std**2
+    p[_P.V_MIN] = cfg.v_min
+    p[_P.V_EPS] = cfg.v_eps
+    return p
+
+
+def _resolve_noise(cfg: CascadeConfig, drive: Drive | None, speed: NDArray[np.float64] | None) -> dict[str, float]:
+    given = {k: getattr(cfg, k) for k in _NOISE_FLOORS}
+    if all(v is not None for v in given.values()):
+        return {k: float(v) for k, v in given.items()}
+    if drive is None:
+        missing = [k for k, v in given.items() if v is None]
+        raise ValueError(f"give {missing} in CascadeConfig or a drive to estimate them from")
+    est = noise_from_drive(drive, speed)
+    return {k: float(given[k]) if given[k] is not None else est[k] for k in given}
+
+
+# -- public API: init / step / object ---------------------------------------------------
+
+
+def init(vehicle: VehicleParams, config: CascadeConfig, vx0: float = 0.0, noise: dict[str, float] | None = None) -> CascadeState:
+    """Initial state: speed ``vx0`` [m/s], zero lateral velocity and forces, the friction prior.
+
+    The initial covariances come from the noise model: speed-sensor variance for
+    ``vx``, gyro variance for the yaw rate, ``(0.2 m/s)²`` for ``vy`` and
+    ``(m g)²`` for each force (a force of the order of the weight is possible).
+    """
+    n = noise or {k: getattr(config, k) or _NOISE_FLOORS[k] for k in _NOISE_FLOORS}
+    vmin = max(n["speed_std"], 0.05)
+    xe = np.array([vx0, 0.0])
+    Pe = np.diag([vmin**2, 0.2**2])
+    xu = np.array([vx0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    fw = (vehicle.mass * GRAVITY) ** 2
+    Pu = np.diag([vmin**2, max(n["gyro_std"], 0.01) ** 2, 0.2**2, fw, fw, fw])
+    xm = np.full(2, config.mu_prior)
+    Pm = np.eye(2) * config.mu_prior_std**2
+    return CascadeState(float("nan"), xe, Pe, xu, Pu, xm, Pm)
+
+
+class _Compiled(NamedTuple):
+    p: NDArray[np.float64]
+    w6m: NDArray[np.float64]
+    w6c: NDArray[np.float64]
+    g6: float
+    w2m: NDArray[np.float64]
+    w2c: NDArray[np.float64]
+    g2: float
+
+
+def _compile_args(vehicle: VehicleParams, config: CascadeConfig, noise: dict[str, float]) -> _Compiled:
+    w6 = merwe_weights(ForceState.SIZE, config.alpha, config.beta, config.kappa)
+    w2 = merwe_weights(FrictionState.SIZE, config.alpha, config.beta, config.kappa)
+    return _Compiled(_params(vehicle, config, noise), w6.wm, w6.wc, w6.gamma, w2.wm, w2.wc, w2.gamma)
+
+
+def _estimate(row: NDArray[np.float64]) -> CascadeEstimate:
+    exc = np.array([row[_O.EXC_F] > 0.5, row[_O.EXC_R] > 0.5])
+    return CascadeEstimate(
+        float(row[_O.VX]), float(row[_O.VY]), float(row[_O.YAW_RATE]),
+        row[[_O.FXF, _O.FYF, _O.FYR]].copy(),
+        row[[_O.ALPHA_F, _O.ALPHA_R]].copy(),
+        row[[_O.FZF, _O.FZR]].copy(),
+        row[[_O.MU_F, _O.MU_R]].copy(),
+        np.sqrt(row[[_O.VAR_F, _O.VAR_R]]),
+        exc,
+        row[[_O.OBS_F, _O.OBS_R]].copy(),
+        np.sqrt(row[[_O.OBS_VAR_F, _O.OBS_VAR_R]]),
+    )
+
+
+def _check_sample(sample: CascadeSample) -> None:
+    for name, v in zip(CascadeSample._fields, sample, strict=True):
+        if not np.isfinite(v):
+            raise ValueError(f"cascade sample field {name!r} is not finite: {v!r}")
+
+
+def step(
+    state: CascadeState,
+    sample: CascadeSample,
+    vehicle: VehicleParams,
+    config: CascadeConfig,
+    noise: dict[str, float],
+) -> tuple[CascadeState, CascadeEstimate]:
+    """Pure single step of the cascade: returns the new state and the estimates.
+
+    Parameters
+    ----------
+    state : CascadeState
+    sample : CascadeSample
+        SI inputs at time ``sample.t`` (> ``state.t``).
+    vehicle : VehicleParams
+    config : CascadeConfig
+    noise : dict
+        ``accel_std, gyro_std, speed_std`` (resolved, e.g. by :func:`noise_from_drive`).
+    """
+    _check_sample(sample)
+    if state.t == state.t and sample.t <= state.t:
+        raise ValueError(f"sample time {sample.t} does not follow the state time {state.t}")
+    c = _compile_args(vehicle, config, noise)
+    arrays = [np.array(a, dtype=float, copy=True) for a in state[1:]]
+    out = _run(
+        np.array([sample.t]), np.array([sample.ax]), np.array([sample.ay]),
+        np.array([sample.yaw_rate]), np.array([sample.steer]), np.array([sample.speed]),
+        *arrays, state.t, *c,
+    )
+    return CascadeState(float(sample.t), *arrays), _estimate(out[0])
+
+
+def _drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[dict[str, NDArray[np.float64]], str]:
+    drive.require("t", "ax", "ay", "yaw_rate", "steer", why="the cascade needs IMU and steering")
+    speed, src = measured_speed(drive, config.speed_source)
+    cols = {c: drive.col(c) for c in ("t", "ax", "ay", "yaw_rate", "steer")}
+    cols["speed"] = np.asarray(speed, dtype=float)
+    for k, v in cols.items():
+        if not np.all(np.isfinite(v)):
+            raise DriveValidationError(f"cascade input {k!r} holds NaN/inf")
+    return cols, src
+
+
+def run(drive: Drive, config: CascadeConfig | None = None) -> tuple[NDArray[np.float64], dict[str, Any]]:
+    """Run the compiled cascade over a whole drive.
+
+    Returns
+    -------
+    out : ndarray, shape (n, n_outputs)
+        Raw output rows (:func:`result_table` turns them into the table).
+    info : dict
+        ``noise`` (resolved standard deviations), ``speed_source``, final ``state``.
+    """
+    config = config or CascadeConfig()
+    cols, src = _drive_inputs(drive, config)
+    noise = _resolve_noise(config, drive, cols["speed"])
+    state = init(drive.vehicle, config, float(cols["speed"][0]), noise)
+    arrays = [np.array(a, copy=True) for a in state[1:]]
+    c = _compile_args(drive.vehicle, config, noise)
+    out = _run(cols["t"], cols["ax"], cols["ay"], cols["yaw_rate"], cols["steer"], cols["speed"],
+               *arrays, float("nan"), *c)
+    final = CascadeState(float(cols["t"][-1]), *arrays)
+    return out, {"noise": noise, "speed_source": src, "state": final}
+
+
+class Cascade:
+    """Online wrapper: ``step(sample)`` one sample at a time, ``run(drive)`` for a record.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+    config : CascadeConfig, optional
+    noise : dict, optional
+        Sensor noise standard deviations; required for online use unless all
+        three are set in ``config``.
+
+    Attributes
+    ----------
+    state_ : CascadeState
+        Posterior after the last sample.
+    """
+
+    def __init__(self, vehicle: VehicleParams, config: CascadeConfig | None = None,
+                 noise: dict[str, float] | None = None) -> None:
+        self.vehicle = vehicle
+        self.config = config or CascadeConfig()
+        self.noise = noise
+        self.state_: CascadeState | None = None
+
+    def step(self, sample: CascadeSample) -> CascadeEstimate:
+        """Process one sample (the first one initialises the speed)."""
+        if self.noise is None:
+            self.noise = _resolve_noise(self.config, None, None)
+        if self.state_ is None:
+            self.state_ = init(self.vehicle, self.config, sample.speed, self.noise)
+        self.state_, est = step(self.state_, sample, self.vehicle, self.config, self.noise)
+        return est
+
+    def run(self, drive: Drive) -> EstimateResult:
+        """Whole drive; see :func:`run_cli` for the table."""
+        return _result(drive, self.config)
+
+
+def samples(drive: Drive, config: CascadeConfig | None = None) -> list[CascadeSample]:
+    """The drive as a list of :class:`CascadeSample` (for online replay)."""
+    cols, _ = _drive_inputs(drive, config or CascadeConfig())
+    return [CascadeSample(*v) for v in zip(cols["t"], cols["ax"], cols["ay"], cols["yaw_rate"],
+                                           cols["steer"], cols["speed"], strict=True)]
+
+
+# -- result table and CLI --------------------------------------------------------------
+
+
+def brush_mu_inverse(force, slip, fz, c_stiff):
+    """Invert the brush model: the friction ``mu`` that produces ``force`` at ``slip``.
+
+    Closed form: with ``u = k |tan(slip)| / mu`` the adhesion branch reads
+    ``|F| / (Fz k |tan(slip)|) = 1 - u/3 + u²/27`` for ``u < 3``, a quadratic in
+    ``u``; its root in ``[0, 3)`` gives ``mu``. Where the ratio is at most 1/3
+    the tire slides fully and ``mu = |F| / Fz`` exactly.
+
+    Parameters
+    ----------
+    force : array_like
+        Lateral force [N] (same sign convention as ``slip``).
+    slip : array_like
+        Slip angle [rad].
+    fz : array_like
+        Normal load [N], > 0.
+    c_stiff : array_like
+        Normalised cornering stiffness ``C / Fz`` [1/rad].
+
+    Returns
+    -------
+    mu : ndarray
+        Friction [-]; ``inf`` where no finite value fits.
+    sliding : ndarray of bool
+        The whole contact patch slides (saturated tire): ``mu = |F| / Fz``, and
+        the force no longer depends on the slip.
+    identifiable : ndarray of bool
+        False where the force is at or above the linear-tire force
+        ``Fz k tan(slip)`` (any large ``mu`` fits; the data carry only a lower
+        bound), at zero slip, or where force and slip have opposite signs.
+
+    Examples
+    --------
+    >>> from roadgrip.tire import brush_force
+    >>> f = brush_force(0.05, 20.0, 0.6, 7.0)
+    >>> mu, sliding, ok = brush_mu_inverse(f, 0.05, 20.0, 7.0)
+    >>> round(float(mu), 12), bool(sliding), bool(ok)
+    (0.6, False, True)
+    """
+    force = np.asarray(force, dtype=float)
+    z = np.tan(np.clip(np.asarray(slip, dtype=float), -1.5, 1.5))
+    fz = np.asarray(fz, dtype=float)
+    k = np.asarray(c_stiff, dtype=float)
+    if np.any(fz <= 0) or np.any(k <= 0):
+        raise ValueError("normal load and cornering stiffness must be positive")
+    force, z, fz, k = np.broadcast_arrays(force, z, fz, k)
+    lin = fz * k * np.abs(z)
+    same_sign = force * z > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = np.where(lin > 0, np.abs(force) / np.where(lin > 0, lin, 1.0), np.inf)
+    sliding = same_sign & (rho <= 1.0 / 3.0)
+    identifiable = same_sign & (rho < 1.0)
+    adh = identifiable & ~sliding
+    disc = np.sqrt(np.maximum(81.0 - 108.0 * (1.0 - np.where(adh, rho, 1.0)), 0.0))
+    u = 0.5 * (9.0 - disc)
+    mu = np.full(force.shape, np.inf)
+    mu = np.where(sliding, np.abs(force) / fz, mu)
+    with np.errstate(divide="ignore"):
+        mu = np.where(adh, k * np.abs(z) / np.where(adh, u, 1.0), mu)
+    return mu, sliding, identifiable
+
+
+def result_table(drive: Drive, out: NDArray[np.float64]) -> pd.DataFrame:
+    """Turn raw output rows into the estimates table (contract columns + extras)."""
+    o = _O
+    std_f = np.sqrt(out[:, o.VAR_F])
+    std_r = np.sqrt(out[:, o.VAR_R])
+    exc_f = out[:, o.EXC_F] > 0.5
+    exc_r = out[:, o.EXC_R] > 0.5
+    tab = {
+        "t": drive.t,
+        "mu_front": out[:, o.MU_F],
+        "mu_rear": out[:, o.MU_R],
+        "mu_front_lower": np.maximum(out[:, o.MU_F] - Z95 * std_f, 0.0),
+        "mu_front_upper": out[:, o.MU_F] + Z95 * std_f,
+        "mu_rear_lower": np.maximum(out[:, o.MU_R] - Z95 * std_r, 0.0),
+        "mu_rear_upper": out[:, o.MU_R] + Z95 * std_r,
+        "excited": exc_f | exc_r,
+        "vx": out[:, o.VX],
+        "vy": out[:, o.VY],
+        "yaw_rate_est": out[:, o.YAW_RATE],
+        "Fxf": out[:, o.FXF],
+        "Fyf": out[:, o.FYF],
+        "Fyr": out[:, o.FYR],
+        "alpha_f": out[:, o.ALPHA_F],
+        "alpha_r": out[:, o.ALPHA_R],
+        "Fzf": out[:, o.FZF],
+        "Fzr": out[:, o.FZR],
+        "mu_front_std": std_f,
+        "mu_rear_std": std_r,
+        "excited_front": exc_f,
+        "excited_rear": exc_r,
+        "mu_front_obs": out[:, o.OBS_F],
+        "mu_front_obs_std": np.sqrt(out[:, o.OBS_VAR_F]),
+        "mu_rear_obs": out[:, o.OBS_R],
+        "mu_rear_obs_std": np.sqrt(out[:, o.OBS_VAR_R]),
+        "vx_ekf": out[:, o.VX_EKF],
+        "vy_ekf": out[:, o.VY_EKF],
+    }
+    if drive.has("x", "y"):
+        x, y = drive.col("x"), drive.col("y")
+        tab["x"], tab["y"] = x, y
+        if drive.has("psi"):
+            c, s = np.cos(drive.col("psi")), np.sin(drive.col("psi"))
+            veh = drive.vehicle
+            tab["x_front"], tab["y_front"] = x + veh.lf * c, y + veh.lf * s
+            tab["x_rear"], tab["y_rear"] = x - veh.lr * c, y - veh.lr * s
+    return pd.DataFrame(tab)
+
+
+def _result(drive: Drive, config: CascadeConfig) -> EstimateResult:
+    meta: dict[str, Any] = {}
+    with timed(meta, drive.n, drive.duration):
+        out, info = run(drive, config)
+    table = result_table(drive, out)
+    last = table.iloc[-1]
+    wf, wr = 1.0 / last["mu_front_std"] ** 2, 1.0 / last["mu_rear_std"] ** 2
+    mp = (wf * last["mu_front"] + wr * last["mu_rear"]) / (wf + wr)
+    sd = 1.0 / np.sqrt(wf + wr)
+    meta["summary"] = {"MostProbable": float(mp), "LowerBound": float(max(mp - Z95 * sd, 0.0)),
+                       "UpperBound": float(mp + Z95 * sd)}
+    meta["diagnostics"] = {
+        "speed source": info["speed_source"],
+        "accel noise std [m/s2]": info["noise"]["accel_std"],
+        "gyro noise std [rad/s]": info["noise"]["gyro_std"],
+        "speed noise std [m/s]": info["noise"]["speed_std"],
+        "excited front [%]": float(100 * table["excited_front"].mean()),
+        "excited rear [%]": float(100 * table["excited_rear"].mean()),
+        "mean NIS stage 2 (5 dof)": float(np.mean(out[:, _O.NIS2])),
+        "covariance repairs": int(out[:, _O.REPAIRS].sum()),
+        "samples with all covariances positive definite [%]": float(100 * out[:, _O.PD_OK].mean()),
+    }
+    meta["config"] = dataclasses.asdict(config)
+    return EstimateResult("cascade", conform(pd.DataFrame(table)), meta)
+
+
+def run_cli(drive: Drive, request: EstimateRequest) -> EstimateResult:
+    """``roadgrip estimate --method cascade``: run over a drive, optional figure.
+
+    ``request.options`` may hold :class:`CascadeConfig` fields; options of other
+    methods (particles, basis, calibration, curves) are rejected.
+    """
+    request.reject("cascade", "particles", "basis", "calibration", "curves_path", "curve_times")
+    config = CascadeConfig.from_options(dict(request.options or {}))
+    result = _result(drive, config)
+    if request.plot_path:
+        from roadgrip.plots.cascade import plot_cascade
+
+        plot_cascade(result, drive, request.plot_path)
+    return result

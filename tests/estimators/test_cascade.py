@@ -1,0 +1,171 @@
+"""Kalman cascade (paper 003) against simulated truth and analytic results."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from roadgrip.drive import Drive, DriveValidationError
+from roadgrip.estimators import cascade as C
+from roadgrip.estimators.base import CONTRACT_COLUMNS, EstimateRequest
+from roadgrip.tire import brush_force
+from roadgrip.vehicle.params import PRESETS
+
+sys.path.insert(0, str(Path(__file__).parent))
+from synthetic import simulate_brush
+
+
+@pytest.fixture(scope="module")
+def drive06():
+    return simulate_brush(mu=0.6, duration=40.0, steer_amp=0.3, seed=1)
+
+
+def test_brush_inverse_is_exact_and_flags_sliding():
+    rng = np.random.default_rng(0)
+    n = 2000
+    mu = rng.uniform(0.1, 1.5, n)
+    k = rng.uniform(3.0, 20.0, n)
+    fz = rng.uniform(5.0, 5000.0, n)
+    slip = rng.uniform(-0.6, 0.6, n)
+    f = brush_force(slip, fz, mu, k)
+    est, sliding, ok = C.brush_mu_inverse(f, slip, fz, k)
+    truly_sliding = np.abs(np.tan(slip)) >= 3 * mu / k
+    adhesion = ~truly_sliding & (np.abs(slip) > 1e-3)
+    assert adhesion.sum() > 500 and truly_sliding.sum() > 200
+    np.testing.assert_allclose(est[adhesion], mu[adhesion], rtol=1e-9)
+    assert ok[adhesion].all() and not sliding[adhesion].any()
+    # saturated (fully sliding): flagged, and mu = |F| / Fz is still what the model says
+    assert sliding[truly_sliding].all()
+    np.testing.assert_allclose(est[truly_sliding], mu[truly_sliding], rtol=1e-12)
+    # a force at or above the linear-tire force: no finite mu, flagged
+    lin = fz * k * np.tan(np.abs(slip))
+    est2, _, ok2 = C.brush_mu_inverse(1.01 * lin * np.sign(slip), slip, fz, k)
+    assert not ok2.any() and np.isinf(est2).all()
+    # zero slip and opposite signs are not identifiable
+    assert not C.brush_mu_inverse(1.0, 0.0, 10.0, 5.0)[2]
+    assert not C.brush_mu_inverse(-1.0, 0.1, 10.0, 5.0)[2]
+
+
+def test_compiled_brush_equals_tire_module():
+    rng = np.random.default_rng(4)
+    M = rng.uniform(0.1, 1.2, (50, 2))
+    for af, ar in ((0.0, 0.0), (0.03, -0.02), (-0.2, 0.4)):
+        Z = C.friction_measurement(M, af, ar, 20.0, 11.0, 7.0, 13.0, 0.05, 2.0)
+        np.testing.assert_allclose(Z[:, 0], brush_force(af, 20.0, M[:, 0], 7.0), rtol=1e-13, atol=1e-13)
+        np.testing.assert_allclose(Z[:, 1], brush_force(ar, 11.0, M[:, 1], 13.0), rtol=1e-13, atol=1e-13)
+
+
+def test_force_models_match_rigid_body_equations():
+    veh = PRESETS["f1tenth"]
+    X = np.array([[3.0, 0.5, 0.1, 2.0, 10.0, 6.0]])
+    d, dt = 0.2, 0.01
+    Y = C.force_transition(X, d, dt, veh.mass, veh.yaw_inertia, veh.lf, veh.lr)[0]
+    fx = 2.0 * np.cos(d) - 10.0 * np.sin(d)
+    fy = 2.0 * np.sin(d) + 10.0 * np.cos(d) + 6.0
+    mz = veh.lf * (2.0 * np.sin(d) + 10.0 * np.cos(d)) - veh.lr * 6.0
+    np.testing.assert_allclose(Y[:3], [3.0 + dt * (0.5 * 0.1 + fx / veh.mass),
+                                        0.5 + dt * mz / veh.yaw_inertia,
+                                        0.1 + dt * (-0.5 * 3.0 + fy / veh.mass)], rtol=1e-14)
+    np.testing.assert_array_equal(Y[3:], X[0, 3:])
+    Z = C.force_measurement(X, d, veh.mass)[0]
+    np.testing.assert_allclose(Z, [3.0, 0.5, 0.1, fx / veh.mass, fy / veh.mass], rtol=1e-14)
+
+
+def test_tracks_states_forces_and_friction(drive06):
+    out, _ = C.run(drive06)
+    tab = C.result_table(drive06, out)
+    df = drive06.data
+    k0 = 300  # after the initial transient
+    for est, true, tol in (("vx", "vx_true", 0.02), ("vy", "vy_true", 0.03),
+                           ("alpha_f", "alpha_f_true", 0.01), ("alpha_r", "alpha_r_true", 0.01)):
+        rmse = np.sqrt(np.mean((tab[est][k0:] - df[true][k0:]) ** 2))
+        assert rmse < tol, (est, rmse)
+    for est, true in (("Fyf", "Fyf_true"), ("Fyr", "Fyr_true")):
+        rmse = np.sqrt(np.mean((tab[est][k0:] - df[true][k0:]) ** 2))
+        assert rmse < 0.1 * df[true].std(), (est, rmse)
+    last = tab.iloc[-1]
+    for axle in ("front", "rear"):
+        assert abs(last[f"mu_{axle}"] - 0.6) < 0.08
+        assert last[f"mu_{axle}_lower"] < 0.6 < last[f"mu_{axle}_upper"]
+    # single-sample observations are unbiased on average
+    for axle in ("front", "rear"):
+        sel = tab[f"excited_{axle}"]
+        w = 1 / tab.loc[sel, f"mu_{axle}_obs_std"] ** 2
+        assert sel.sum() > 200
+        assert abs((w * tab.loc[sel, f"mu_{axle}_obs"]).sum() / w.sum() - 0.6) < 0.03
+    assert out[:, C._O.PD_OK].all()
+
+
+def test_variance_grows_without_excitation():
+    straight = simulate_brush(mu=0.6, duration=20.0, steer_amp=0.0, seed=2)
+    cfg = C.CascadeConfig(mu_prior=0.9, mu_prior_std=0.4)
+    tab = C.result_table(straight, C.run(straight, cfg)[0])
+    assert not tab["excited"].any()
+    np.testing.assert_allclose(tab["mu_front_std"].iloc[-1], 0.4, rtol=1e-3)
+    # from a confident state, the variance grows as the random walk says
+    veh = straight.vehicle
+    noise = {"accel_std": 0.05, "gyro_std": 0.005, "speed_std": 0.02}
+    st = C.init(veh, cfg, 3.0, noise)
+    st = st._replace(friction_cov=np.eye(2) * 0.01)
+    stds = []
+    for s in C.samples(straight, cfg)[:200]:
+        st, est = C.step(st, s, veh, cfg, noise)
+        stds.append(est.mu_std[0])
+    dt = 1 / 100.0
+    np.testing.assert_allclose(stds[-1] ** 2, 0.01 + cfg.mu_rate_std**2 * dt * 199, rtol=1e-3)
+    assert np.all(np.diff(stds) > 0)
+
+
+def test_run_equals_online_steps(drive06):
+    short = drive06.slice_time(0.0, 3.0)
+    cfg = C.CascadeConfig()
+    out, info = C.run(short, cfg)
+    est = C.Cascade(short.vehicle, cfg, noise=info["noise"])
+    online = [est.step(s) for s in C.samples(short, cfg)]
+    np.testing.assert_allclose([e.mu[0] for e in online], out[:, C._O.MU_F], rtol=0, atol=1e-12)
+    np.testing.assert_allclose([e.forces[1] for e in online], out[:, C._O.FYF], rtol=0, atol=1e-9)
+    np.testing.assert_allclose([e.vy for e in online], out[:, C._O.VY], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(est.state_.friction_cov, info["state"].friction_cov, atol=1e-14)
+
+
+def test_run_cli_contract_and_option_checks(drive06, tmp_path):
+    res = C.run_cli(drive06, EstimateRequest())
+    for col in (*CONTRACT_COLUMNS, "vx", "vy", "Fyf", "Fyr", "x", "y"):
+        assert col in res.table.columns
+    for col in ("mu_front", "mu_rear", "mu_front_lower", "mu_rear_upper"):
+        assert np.isfinite(res.table[col]).all()
+    assert res.meta["summary"]["LowerBound"] < res.meta["summary"]["MostProbable"]
+    with pytest.raises(ValueError, match="--particles"):
+        C.run_cli(drive06, EstimateRequest(particles=10))
+    with pytest.raises(ValueError, match="unknown cascade option"):
+        C.run_cli(drive06, EstimateRequest(options={"jerkstd": 1.0}))
+    with pytest.raises(ValueError, match="mu_rate_std"):
+        C.CascadeConfig(mu_rate_std=-1.0)
+    no_speed = Drive.from_frame(drive06.data.drop(columns=["vx"]), drive06.vehicle)
+    with pytest.raises(DriveValidationError, match="speed measurement"):
+        C.run_cli(no_speed, EstimateRequest())
+    path = tmp_path / "est.parquet"
+    res.to_parquet(path)
+    back = pd.read_parquet(path)
+    assert len(back) == drive06.n and "mu_front_obs" in back.columns
+
+
+def test_speed_sources():
+    d = simulate_brush(mu=0.6, duration=2.0, seed=3)
+    veh = d.vehicle
+    v = d.col("vx_true")
+    rpm = v * 60.0 * veh.gear_ratio / (2 * np.pi * veh.wheel_radius)
+    df = d.data.drop(columns=["vx"]).assign(motor_rpm=rpm)
+    d2 = Drive.from_frame(df, veh)
+    got, src = C.measured_speed(d2)
+    assert "gear ratio" in src
+    np.testing.assert_allclose(got, v, rtol=1e-12)
+    w = v / veh.wheel_radius
+    df3 = d.data.assign(omega_fl=w, omega_fr=w, omega_rl=w, omega_rr=w)
+    got3, src3 = C.measured_speed(Drive.from_frame(df3, veh))
+    assert "wheel" in src3
+    np.testing.assert_allclose(got3, v, rtol=1e-12)
