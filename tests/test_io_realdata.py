@@ -181,3 +181,20 @@ def test_frictionmaps_file_inside_run_folder_and_explicit_format():
     a = read_drive(FM / "DS3" / "imuData.csv")
     b = read_drive(FM / "DS3", format="frictionmaps")
     pd.testing.assert_frame_equal(a.data, b.data)
+
+
+@needs_fm
+def test_frictionmaps_steer_delay_improves_fit_to_the_linear_model():
+    from roadgrip.io.describe import linear_yaw_rate
+    from roadgrip.io.frictionmaps import read_frictionmaps
+
+    def corr(delay):
+        d = read_frictionmaps(FM / "DS3", steer_delay=delay)
+        r_lin = linear_yaw_rate(d.t, d.col("steer"), d.col("vx"), d.vehicle)
+        sel = (d.col("vx") > 1.0) & (np.abs(r_lin) > 0.1)
+        return np.corrcoef(d.col("yaw_rate")[sel], r_lin[sel])[0, 1]
+
+    c0, c1, c3 = corr(0.0), corr(0.1), corr(0.3)
+    assert c1 > c0 + 0.03 and c1 > c3 and c1 > 0.97
+    with pytest.raises(ValueError, match="steer_delay must be a non-negative"):
+        read_frictionmaps(FM / "DS3", steer_delay=-0.1)

@@ -21,7 +21,11 @@ and recorded asynchronously at about 18-44 Hz. Conversions, all recorded in
   ``-RPM / 7800`` [m/s] (RPM is negative forward, ~7.8k ERPM per m/s).
   No wheel-speed columns: the car has one motor and the odometry is its speed.
 * ``steer``: the steering command ``commandData.delta`` [rad] (no measured
-  steering angle exists); ``speed_cmd``: the speed command ``V`` [m/s].
+  steering angle exists); ``speed_cmd``: the speed command ``V`` [m/s]. The
+  measured yaw rate follows the linear single-track model driven by this
+  command best when the command is delayed by 0.10-0.12 s (all five runs:
+  servo and actuation lag); ``steer_delay`` shifts the command stream by that
+  much (default 0, the command as sent).
 * ``x``, ``y``, ``psi``: particle-filter pose ``pfPoseData`` (map frame), ``psi``
   from the quaternion, unwrapped before interpolation. The localisation
   occasionally jumps; such samples are flagged in the extra column
@@ -138,6 +142,7 @@ def read_frictionmaps(
     *,
     rate: float = 50.0,
     max_gap: float = 0.25,
+    steer_delay: float = 0.0,
 ) -> Drive:
     """Read one FrictionMaps run folder into a canonical :class:`~roadgrip.drive.Drive`.
 
@@ -151,6 +156,9 @@ def read_frictionmaps(
         Output rate [Hz].
     max_gap : float
         Longest stream gap [s] bridged by interpolation.
+    steer_delay : float
+        Delay [s] applied to the command stream (``steer``, ``speed_cmd``), to
+        model the steering actuation lag (about 0.1 s; module docstring).
 
     Returns
     -------
@@ -177,7 +185,10 @@ def read_frictionmaps(
         }
     )
     odom = raw["odomData.csv"]
+    if not (np.isfinite(steer_delay) and steer_delay >= 0):
+        raise ValueError(f"steer_delay must be a non-negative number of seconds, got {steer_delay!r}")
     cmd = raw["commandData.csv"].rename(columns={"V": "speed_cmd", "delta": "steer"})
+    cmd["t"] = cmd["t"] + steer_delay
     pf = raw["pfPoseData.csv"]
     pose = pd.DataFrame(
         {
@@ -232,6 +243,7 @@ def read_frictionmaps(
         "t0_epoch_s": epoch,
         "rate_hz": float(rate),
         "max_gap_s": float(max_gap),
+        "steer_delay_s": float(steer_delay),
         "ticks_dropped_in_gaps": int(n_dropped),
         "pose_jumps": int(jump.sum()),
         "kinematic_checks": checks,
@@ -242,7 +254,7 @@ def read_frictionmaps(
             "ay": "imuData.ax * g (column ax is the lateral acceleration, +left, in g)",
             "yaw_rate": "imuData.wz [deg/s] -> rad/s",
             "vx": "odomData.vx (VESC odometry, motor-speed based)",
-            "steer": "commandData.delta (command, zero-order hold)",
+            "steer": f"commandData.delta (command, zero-order hold), delayed {steer_delay} s",
             "speed_cmd": "commandData.V (command, zero-order hold)",
             "x/y/psi": "pfPoseData (particle filter), psi from the quaternion, unwrapped",
             "pose_jump": "1 where the pose step exceeds 1.5 |vx| dt + 0.1 m or the heading "
