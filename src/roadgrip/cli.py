@@ -197,7 +197,7 @@ def main() -> None:
     except (typer.Abort, KeyboardInterrupt):
         err_console.print("aborted")
         sys.exit(130)
-    except Exception as exc:  # noqa: BLE001 - the CLI's contract is one clear line
+    except Exception as exc:  # the CLI's contract is one clear line
         if hasattr(exc, "show") and hasattr(exc, "exit_code"):  # usage errors
             exc.show()
             sys.exit(exc.exit_code)
@@ -205,7 +205,7 @@ def main() -> None:
             msg = f"this command is not available in this build ({exc.name} missing)"
         else:
             msg = str(exc) or type(exc).__name__
-        err_console.print(f"[bold red]error:[/] {msg}", highlight=False)
+        err_console.print(f"[bold red]error:[/] {msg}", highlight=False, soft_wrap=True)
         sys.exit(2)
 
 
