@@ -107,6 +107,10 @@ def read_dart(path: str | Path, vehicle: str | Path | VehicleParams | None = Non
         x, y, psi`` and extras ``throttle, steer_cmd, vicon_t``.
     """
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path} is a folder; a DART run is one CSV file")
+    if not path.is_file():
+        raise ValueError(f"no such file: {path}")
     veh = load_vehicle(vehicle if vehicle is not None else "jetracer")
     try:
         raw = read_csv_exact(path)

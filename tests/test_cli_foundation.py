@@ -1,0 +1,111 @@
+"""`roadgrip info` on files and data sets; one-line errors with exit status 2."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from roadgrip.drive import Drive
+from roadgrip.vehicle import PRESETS
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / ".." / "shared" / "data"
+
+
+def _roadgrip(*args: str) -> subprocess.CompletedProcess:
+    exe = Path(sys.executable).parent / "roadgrip"
+    cmd = [str(exe)] if exe.exists() else [sys.executable, "-c", "from roadgrip.cli import main; main()"]
+    env = {"COLUMNS": "200", "PATH": "/usr/bin:/bin", "TERM": "dumb"}
+    return subprocess.run([*cmd, *args], capture_output=True, text=True, timeout=120, env=env)
+
+
+@pytest.fixture(scope="module")
+def drive_file(tmp_path_factory):
+    rng = np.random.default_rng(0)
+    n = 400
+    t = np.arange(n) * 0.02
+    vx = np.full(n, 15.0)
+    r = 0.2 * np.sin(t)
+    df = pd.DataFrame({"t": t, "ax": rng.normal(0, 0.1, n), "ay": vx * r, "yaw_rate": r,
+                       "steer": 0.02 * np.sin(t), "vx": vx, "wiper_state": rng.integers(0, 3, n)})
+    p = tmp_path_factory.mktemp("cli") / "drive.parquet"
+    Drive.from_frame(df, PRESETS["sedan"], source="cli-test").save(p)
+    return p
+
+
+def test_info_on_canonical_file(drive_file):
+    res = _roadgrip("info", str(drive_file))
+    assert res.returncode == 0, res.stderr
+    out = res.stdout
+    assert "7.98 s" in out  # duration
+    assert "50.00 Hz" in out
+    assert "wiper_state" in out  # extra columns listed
+    assert "nonlinear tire excitation" in out
+    assert "sedan" in out
+
+
+def test_info_vehicle_override(drive_file):
+    res = _roadgrip("info", str(drive_file), "--vehicle", "suv")
+    assert res.returncode == 0, res.stderr
+    assert "suv" in res.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["info", "/nonexistent/drive.parquet"], "no such file or folder"),
+        (["info", "{empty}"], "is empty"),
+        (["info", "{plain}"], "no roadgrip metadata: pass the vehicle"),
+        (["info", "{plain}", "--format", "rosbag"], "unknown format 'rosbag'"),
+        (["info", "{plain}", "--vehicle", "tractor"], "unknown vehicle 'tractor'"),
+        (["info", "{nan}", "--vehicle", "sedan"], "column 'ay' has 1 NaN/inf value(s)"),
+    ],
+)
+def test_bad_input_gives_one_error_line(tmp_path, monkeypatch, capsys, args, message):
+    empty = tmp_path / "empty.csv"
+    empty.write_text("")
+    plain = tmp_path / "plain.csv"
+    plain.write_text("t,ay\n0,0.1\n0.01,0.2\n")
+    nan = tmp_path / "nan.csv"
+    nan.write_text("t,ay\n0,0.1\n0.01,\n")
+    args = [a.format(empty=empty, plain=plain, nan=nan) for a in args]
+    # in-process through the console entry point (the subprocess path is tested below)
+    from roadgrip.cli import main
+
+    monkeypatch.setattr(sys, "argv", ["roadgrip", *args])
+    with pytest.raises(SystemExit) as exc:
+        main()
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("error: ")
+    assert message in lines[0]
+
+
+def test_error_from_the_installed_command(tmp_path):
+    long_path = tmp_path / ("a-very-long-folder-name-" * 6) / "drive.parquet"
+    res = _roadgrip("info", str(long_path))
+    assert res.returncode == 2
+    assert res.stderr.strip() == f"error: no such file or folder: {long_path}"  # one line, unwrapped
+    assert "Traceback" not in res.stderr + res.stdout
+
+
+@pytest.mark.realdata
+@pytest.mark.skipif(not DATA.is_dir(), reason=f"shared data not found at {DATA}")
+def test_info_on_real_data_sets():
+    dart = sorted((DATA / "dart").glob("*/*.csv"))[0]
+    res = _roadgrip("info", str(dart))
+    assert res.returncode == 0, res.stderr
+    assert "jetracer" in res.stdout and "dart" in res.stdout and "steer_cmd" in res.stdout
+    res = _roadgrip("info", str(DATA / "frictionmaps" / "DS3"))
+    assert res.returncode == 0, res.stderr
+    assert "f1tenth" in res.stdout and "50.00 Hz" in res.stdout and "pose_jump" in res.stdout
+    res = _roadgrip("info", str(DATA / "frictionmaps"))  # the parent folder is ambiguous
+    assert res.returncode == 2
+    assert res.stderr.startswith("error: cannot tell the format of folder")
