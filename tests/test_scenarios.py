@@ -222,6 +222,17 @@ def test_parquet_round_trip_is_identical(drives, name, tmp_path):
     assert back.true_tire("front").to_dict() == d.true_tire("front").to_dict()
 
 
+@pytest.mark.parametrize("name", ["snow-slalom", "f1tenth-patches"])
+def test_csv_round_trip_is_identical(drives, name, tmp_path):
+    io = pytest.importorskip("roadgrip.io")
+    d = drives[name]
+    path = tmp_path / "d.csv"
+    d.to_csv(path)
+    back = io.read_drive(path)
+    pd.testing.assert_frame_equal(back.data, d.data)
+    assert back.meta.truth == d.meta.truth
+
+
 def test_cli_simulate_and_list(tmp_path):
     from typer.testing import CliRunner
 
