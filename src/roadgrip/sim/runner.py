@@ -23,6 +23,9 @@ Truth conventions
   longitudinal force is zero.
 * ``mu_true``: peak friction of the surface under the vehicle's CG [-].
 * ``kappa_*_true``: longitudinal slip of each wheel (paper 002, eq. 2).
+* ``x_true``, ``y_true``, ``psi_true``, ``steer_true``: exact pose (heading
+  unwrapped, so laps count) and steering; the measured ``psi`` is wrapped to
+  ``(-pi, pi]`` as a localisation system reports it.
 * ``meta.truth``: ``surfaces`` (curves per label), ``sensors`` (noise model of
   each channel), ``scenario``, ``seed``, ``model``, ``internal_rate``, ``v_eps``,
   ``friction_field`` and anything the caller adds.
