@@ -99,6 +99,9 @@ __all__ = [
 
 CALIBRATION_VERSION = 1
 
+SWITCH_PENALTY = 0.01
+"""Score penalty per class switch in :func:`calibrate` (fraction of time)."""
+
 
 @dataclass(frozen=True)
 class ChannelCalibration:
@@ -162,6 +165,8 @@ class BRLSConfig:
         State before any information.
     theta0_long, theta0_lat : float or None
         Initial estimates; default the initial state's references.
+    min_speed : float
+        Below this speed [m/s] the regressors are zeroed (no information).
     """
 
     long: ChannelCalibration
@@ -174,8 +179,11 @@ class BRLSConfig:
     initial_state: str = "high"
     theta0_long: float | None = None
     theta0_lat: float | None = None
+    min_speed: float = 0.5
 
     def __post_init__(self) -> None:
+        if not (math.isfinite(self.min_speed) and self.min_speed >= 0):
+            raise ValueError(f"min_speed must be >= 0, got {self.min_speed!r}")
         for name in ("memory_s", "s0", "s_max", "excitation_tau_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
@@ -493,10 +501,19 @@ def brls_batch(
     return _state_from_vector(st), out
 
 
-def regressors(kin: KinematicOutput, steer: NDArray) -> tuple[NDArray, NDArray]:
-    """``phi_long = sum of wheel slips`` and ``phi_lat = alpha_f cos(delta) + alpha_r`` (eq. 4)."""
+def regressors(
+    kin: KinematicOutput, steer: NDArray, min_speed: float = 0.0
+) -> tuple[NDArray, NDArray]:
+    """``phi_long = sum of wheel slips`` and ``phi_lat = alpha_f cos(delta) + alpha_r`` (eq. 4).
+
+    Both are set to 0 (no information) where ``|vx| < min_speed`` [m/s]: near
+    standstill the slips are dominated by the low-speed regularisation.
+    """
     kappa = np.asarray(kin.kappa, float)
-    return kappa.sum(axis=-1), np.asarray(kin.alpha_f) * np.cos(steer) + np.asarray(kin.alpha_r)
+    slow = np.abs(np.asarray(kin.vx, float)) < min_speed
+    phi_long = np.where(slow, 0.0, kappa.sum(axis=-1))
+    phi_lat = np.where(slow, 0.0, np.asarray(kin.alpha_f) * np.cos(steer) + np.asarray(kin.alpha_r))
+    return phi_long, phi_lat
 
 
 # ---------------------------------------------------------------------------------------
@@ -540,7 +557,7 @@ class BRLSClassifier:
         """Process one sample; returns the classification after it."""
         kin = self.kinematic.step(sample)
         dt = 0.01 if self._t_prev is None else float(sample.t) - self._t_prev
-        phi_long, phi_lat = regressors(kin, np.asarray(sample.steer))
+        phi_long, phi_lat = regressors(kin, np.asarray(sample.steer), self.config.min_speed)
         self.state_, out = brls_step(self.state_, dt, float(phi_long), float(sample.ax),
                                      float(phi_lat), float(sample.ay), self.config)
         self._t_prev = float(sample.t)
@@ -557,7 +574,7 @@ def _run_table(
 ) -> tuple[pd.DataFrame, KinematicOutput]:
     kin = estimate_kinematics(drive, kin_cfg)
     steer = drive.col("steer")
-    phi_long, phi_lat = regressors(kin, steer)
+    phi_long, phi_lat = regressors(kin, steer, config.min_speed)
     _, out = brls_batch(drive.t, phi_long, drive.col("ax"), phi_lat, drive.col("ay"), config,
                         dt0=dt0)
     table = pd.DataFrame({
@@ -655,44 +672,110 @@ def _best_threshold(hi: NDArray, lo: NDArray) -> tuple[float, float]:
     return float(np.median(best)), float(acc[k])
 
 
+def _channel_candidates(
+    name: str, data: list, base: BRLSConfig, quantiles: Sequence[float], memory: float
+) -> list[ChannelCalibration]:
+    """Candidate settings of one channel for one memory (see :func:`calibrate`)."""
+    from roadgrip.estimators.rls import brls_scalar_batch
+
+    ln2 = math.log(2.0)
+    pooled = {}
+    for lab in ("high", "low"):
+        pooled[lab] = (
+            np.concatenate([d[3][name][0][d[4]] for d in data if d[1] == lab]),
+            np.concatenate([d[3][name][1][d[4]] for d in data if d[1] == lab]),
+        )
+    phi_abs = np.abs(np.concatenate([pooled[k][0] for k in pooled]))
+    out = []
+    if phi_abs.size < 20:
+        return out
+    gammas = [getattr(base, name).gamma] + [float(np.quantile(phi_abs, q)) / ln2 for q in quantiles]
+    for gamma in gammas:
+        if not gamma > 0:
+            continue
+        refs = {}
+        for lab, (phi, y) in pooled.items():
+            m = np.abs(phi) >= gamma * ln2
+            refs[lab] = float(phi[m] @ y[m] / (phi[m] @ phi[m])) if m.sum() >= 10 else float("nan")
+        if not (np.isfinite(refs["high"]) and np.isfinite(refs["low"]) and refs["high"] > refs["low"]):
+            continue
+        est: dict[str, list] = {"high": [], "low": []}
+        for drive, lab, _kin, regs, moving in data:
+            phi, y = regs[name]
+            dt = float(np.median(np.diff(drive.t))) if drive.n > 1 else 0.01
+            th, _, _ = brls_scalar_batch(
+                np.where(moving, phi, 0.0), y, np.full(drive.n, np.nan),
+                0.5 * (refs["high"] + refs["low"]), base.s0, math.exp(-dt / memory), 0.0, base.s_max,
+            )
+            est[lab].append(th[(np.abs(phi) >= gamma * ln2) & moving])
+        hi, lo = np.concatenate(est["high"]), np.concatenate(est["low"])
+        thr = 0.5 * (refs["high"] + refs["low"])
+        if hi.size >= 10 and lo.size >= 10:
+            thr = _best_threshold(hi, lo)[0]
+        thr = min(max(thr, refs["low"]), refs["high"])
+        out.append(ChannelCalibration(refs["high"], refs["low"], thr, gamma, True))
+    return out
+
+
+def _score(cfg: BRLSConfig, data: list) -> tuple[float, int]:
+    """Mean fraction of time in the labelled class, starting in the other state; extra switches."""
+    accs, switches = [], 0
+    for drive, lab, _kin, regs, _moving in data:
+        c = replace(cfg, initial_state="low" if lab == "high" else "high")
+        _, out = brls_batch(drive.t, regs["long"][0], regs["long"][1], regs["lat"][0],
+                            regs["lat"][1], c)
+        cls = out.grip_class
+        accs.append(float((cls == lab).mean()))
+        known = cls[cls != "unknown"]
+        switches += max(int(np.sum(known[1:] != known[:-1])) - 1, 0)
+    return float(np.mean(accs)), switches
+
+
 def calibrate(
     drives: Sequence[tuple[Drive, str]],
     *,
     base: BRLSConfig | None = None,
     kinematic: KinematicConfig = KinematicConfig(),
-    min_accuracy: float = 0.75,
-    accel_noise: float | None = None,
+    quantiles: Sequence[float] = (0.5, 0.7, 0.85, 0.95),
+    memories: Sequence[float] = (1.0, 2.0, 4.0, 8.0),
 ) -> Calibration:
-    """Learn the bRLS references, thresholds and gammas, and the slip-map curves.
+    """Learn the bRLS references, thresholds, gammas and memory, and the slip-map curves.
 
-    Procedure per channel: the excited samples of all drives (default gamma)
-    are fitted by least squares through the origin per label, giving
-    ``ref_high`` and ``ref_low``; plain RLS (same memory) is run over each
-    drive and its estimates on the channel's excited samples are collected per
-    label; the threshold maximises the balanced accuracy of ``theta > thr ->
-    high`` on them. A channel whose best balanced accuracy is below
-    ``min_accuracy`` or whose references are not ordered is disabled. The
-    acceleration noise (robust spread of the fit residuals on weakly excited
-    samples, unless given) sets gamma.
+    On the samples where the vehicle moves, per channel and candidate:
+
+    1. excitation level ``gamma ln 2`` = a quantile (``quantiles``) of ``|phi|``,
+       or ``base``'s gamma;
+       ``ref_high`` / ``ref_low`` = least squares through the origin per label on
+       the samples that level calls excited (the candidate is dropped unless
+       ``ref_high > ref_low``);
+    2. memory = ``base.memory_s`` times one of ``memories``; plain RLS is run
+       over each drive and the threshold maximises the balanced accuracy of
+       ``theta > thr -> high`` on the excited samples.
+
+    Every combination (memory; longitudinal candidate or off; lateral candidate
+    or off) is then run as the full classifier over each labelled drive,
+    starting in the *other* state (so that it must detect the labelled class),
+    and scored by the mean fraction of time spent in the labelled class minus
+    ``SWITCH_PENALTY`` per class switch beyond the first (a labelled drive has
+    one true class, so every further switch is false); the best wins.
+    The calibration drives should therefore each contain some excitation.
 
     Parameters
     ----------
     drives : sequence of (Drive, label)
         Labels 'high' or 'low'; both must occur.
     base : BRLSConfig, optional
-        Settings kept from it (memory, time constants); default :func:`default_config`.
+        Settings kept from it (time constants, ``s0``); default :func:`default_config`.
     kinematic : KinematicConfig
-    min_accuracy : float
-        Balanced accuracy below which a channel is switched off.
-    accel_noise : float, optional
-        Acceleration noise [m/s²]; default estimated.
+    quantiles, memories : sequence of float
+        Candidate grids (see above).
 
     Returns
     -------
     Calibration
+        ``diagnostics`` holds the winning score and each channel's status.
     """
     from roadgrip.estimators import slipmap
-    from roadgrip.estimators.rls import brls_scalar_batch
 
     labels = [lab for _, lab in drives]
     for lab in labels:
@@ -704,78 +787,37 @@ def calibrate(
     data = []
     for drive, lab in drives:
         kin = estimate_kinematics(drive, kinematic)
-        pl, pa = regressors(kin, drive.col("steer"))
-        moving = np.abs(kin.vx) > 3.0 * kinematic.v_min
-        data.append((drive, lab, kin, {"long": (pl, drive.col("ax")), "lat": (pa, drive.col("ay"))}, moving))
+        pl, pa = regressors(kin, drive.col("steer"), base.min_speed)
+        moving = np.abs(kin.vx) >= base.min_speed
+        regs = {"long": (pl, drive.col("ax")), "lat": (pa, drive.col("ay"))}
+        data.append((drive, lab, kin, regs, moving))
 
-    chans: dict[str, ChannelCalibration] = {}
-    diag: dict[str, Any] = {}
-    for name, ch0 in (("long", base.long), ("lat", base.lat)):
-        # 1. noise and references from excited samples (first with the base gamma)
-        fits = {}
-        for lab in ("high", "low"):
-            phi = np.concatenate([d[3][name][0][d[4]] for d in data if d[1] == lab])
-            y = np.concatenate([d[3][name][1][d[4]] for d in data if d[1] == lab])
-            fits[lab] = (phi, y)
-        phi_all = np.concatenate([fits[k][0] for k in fits])
-        y_all = np.concatenate([fits[k][1] for k in fits])
-        g0 = ch0.gamma
-        sel_ex = {k: np.abs(fits[k][0]) >= g0 * math.log(2.0) for k in fits}
-        refs = {}
-        for lab in fits:
-            phi, y = fits[lab][0][sel_ex[lab]], fits[lab][1][sel_ex[lab]]
-            refs[lab] = float(phi @ y / (phi @ phi)) if phi.size >= 10 else float("nan")
-        quiet = np.abs(phi_all) < np.quantile(np.abs(phi_all), 0.3)
-        sig = accel_noise
-        if sig is None:
-            r = y_all[quiet] - np.median(y_all[quiet]) if quiet.sum() > 10 else y_all
-            sig = float(1.4826 * np.median(np.abs(r - np.median(r))))
-            sig = max(sig, 0.05)
-        ok_refs = np.isfinite(refs["high"]) and np.isfinite(refs["low"]) and refs["high"] > refs["low"]
-        if not ok_refs:
-            diag[f"{name}_disabled_because"] = f"references not ordered: {refs}"
-            chans[name] = replace(ch0, enabled=False)
-            continue
-        gamma = gamma_from_noise(refs["high"], refs["low"], sig)
-        # 2. RLS estimates on excited samples -> threshold
-        mu_mem = base.memory_s
-        est = {"high": [], "low": []}
-        for drive, lab, _kin, regs, moving in data:
-            phi, y = regs[name]
-            dt = np.median(np.diff(drive.t)) if drive.n > 1 else 0.01
-            th, _, _ = brls_scalar_batch(
-                np.where(moving, phi, 0.0), y, np.full(drive.n, np.nan),
-                0.5 * (refs["high"] + refs["low"]), base.s0, math.exp(-dt / mu_mem), 0.0, base.s_max,
-            )
-            w = 1.0 - np.exp(-np.abs(phi) / gamma)
-            ex = (w >= 0.5) & moving
-            est[lab].append(th[ex])
-        hi = np.concatenate(est["high"])
-        lo = np.concatenate(est["low"])
-        if hi.size < 10 or lo.size < 10:
-            diag[f"{name}_disabled_because"] = (
-                f"too few excited samples (high {hi.size}, low {lo.size})"
-            )
-            chans[name] = replace(ch0, enabled=False)
-            continue
-        thr, acc = _best_threshold(hi, lo)
-        thr = min(max(thr, refs["low"]), refs["high"])
-        enabled = acc >= min_accuracy
-        chans[name] = ChannelCalibration(refs["high"], refs["low"], thr, gamma, enabled)
-        diag.update({
-            f"{name}_balanced_accuracy": acc,
-            f"{name}_accel_noise": sig,
-            f"{name}_excited_high": int(hi.size),
-            f"{name}_excited_low": int(lo.size),
-        })
-        if not enabled:
-            diag[f"{name}_disabled_because"] = f"balanced accuracy {acc:.2f} < {min_accuracy}"
-    if not (chans["long"].enabled or chans["lat"].enabled):
+    best = None
+    for mfac in memories:
+        mem = base.memory_s * float(mfac)
+        cands = {name: _channel_candidates(name, data, base, quantiles, mem) for name in ("long", "lat")}
+        off = {name: replace(getattr(base, name), enabled=False) for name in ("long", "lat")}
+        for cl in [off["long"], *cands["long"]]:
+            for ca in [off["lat"], *cands["lat"]]:
+                if not (cl.enabled or ca.enabled):
+                    continue
+                cfg = replace(base, long=cl, lat=ca, memory_s=mem)
+                acc, sw = _score(cfg, data)
+                key = acc - SWITCH_PENALTY * sw
+                if best is None or key > best[0]:
+                    best = (key, cfg, acc, sw)
+    if best is None:
         raise ValueError(
-            "calibration failed: neither channel separates the labelled drives "
-            f"({diag}); are the drives excited and correctly labelled?"
+            "calibration failed: no channel gives ordered high/low stiffness references; "
+            "are the drives excited and correctly labelled?"
         )
-    cfg = replace(base, long=chans["long"], lat=chans["lat"])
+    _, cfg, acc, sw = best
+    diag: dict[str, Any] = {
+        "fraction_in_labelled_class": acc,
+        "class_switches": sw,
+        "long_channel": "on" if cfg.long.enabled else "off",
+        "lat_channel": "on" if cfg.lat.enabled else "off",
+    }
     sm = slipmap.calibrate_section([(d[0], d[1], d[2]) for d in data])
     veh = data[0][0].vehicle.name
     prov = tuple({"source": d[0].meta.source, "label": d[1], "samples": int(d[0].n)} for d in data)

@@ -16,8 +16,10 @@ complementary-filter gains (``k = dt / tau``, at most 1) from:
   CG (track offset ``-/+ r w / 2`` for left/right, the steering rotation for the
   front wheels). Robust selection against spin and braking slip: in traction
   (``ax > accel_threshold``) the undriven wheels are used, or the slowest wheel
-  when all are driven; in braking (``ax < -accel_threshold``) the fastest
-  wheel; otherwise the mean. A selected speed that disagrees with the
+  when all are driven; in braking (``ax < -accel_threshold``) all wheels slip,
+  so none is used and the speed coasts on the accelerometer (a braking
+  manoeuvre lasts seconds, over which the integrated accelerometer drifts far
+  less than the braking slip of the wheels); otherwise the mean. A selected speed that disagrees with the
   prediction by more than ``gate_abs + gate_rel |vx|`` is treated as slip and
   ignored (the estimate then coasts on ``ax``).
 * **pose** (speed and lateral velocity), when the drive carries a map pose
@@ -277,11 +279,9 @@ def _kin_update(
                         m += 1
             vsel = acc / m if m > 0 else lo
         elif ax < -a_thr:
-            hi = -np.inf
-            for i in range(4):
-                if wv[i] == wv[i]:
-                    hi = max(hi, wv[i])
-            vsel = hi
+            # braking: every wheel slips, so the wheels cannot correct the speed;
+            # coast on the accelerometer (unless no wheel is braked, never the case here)
+            vsel = np.nan
         else:
             acc = 0.0
             for i in range(4):
