@@ -9,7 +9,7 @@ from scipy.optimize import brentq
 
 from roadgrip.constants import GRAVITY
 from roadgrip.sim import SCENARIOS, simulate_scenario
-from roadgrip.sim.friction import Patch, PatchFriction
+from roadgrip.sim.friction import Patch, PatchFriction, mu_at
 from roadgrip.tire import model_from_dict
 from roadgrip.vehicle.lateral import lateral_measurement
 
@@ -166,6 +166,7 @@ def test_dry_gravel_dry_changes_and_phases(drives):
     expect = np.where((t >= 60) & (t < 120), "gravel", "dry_asphalt")
     np.testing.assert_array_equal(df["surface"].to_numpy(), expect)
     np.testing.assert_allclose(df["mu_true"], np.where(expect == "gravel", 0.6, 1.0))
+    np.testing.assert_allclose(df["mu_true"], mu_at(tr["friction_field"], t, 0.0, 0.0))
     ax, ay = df["ax_true"] if "ax_true" in df else df["ax"], df["ay"]
     for t0 in (0.0, 60.0, 120.0):
         seg = (t >= t0) & (t < t0 + 60.0)
@@ -195,6 +196,7 @@ def test_f1tenth_laps_patches_and_mu_at_position(drives):
     labels = np.array(field.labels)[field.labels_at(d.t, df["x_true"], df["y_true"])]
     np.testing.assert_array_equal(df["surface"].to_numpy(), labels)
     np.testing.assert_allclose(df["mu_true"], [ff["mu"][s] for s in labels])
+    np.testing.assert_allclose(df["mu_true"], mu_at(ff, d.t, df["x_true"], df["y_true"]))
     assert set(labels) == {"track", "low_grip", "high_grip"}
     assert (df["x"] - df["x_true"]).std() == pytest.approx(0.03, rel=0.15)
     # the corners on low grip saturate the front axle

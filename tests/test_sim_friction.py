@@ -13,6 +13,8 @@ from roadgrip.sim.friction import (
     SurfaceTires,
     brush_surface,
     encode_tire,
+    field_from_dict,
+    mu_at,
     surface_from_preset,
     tire_table,
 )
@@ -73,3 +75,23 @@ def test_patches_later_wins_and_validation():
     with pytest.raises(ValueError, match="x1 > x0"):
         Patch(1, 0, 0, 1, "x")
     assert ConstantFriction("a").to_dict() == {"kind": "constant", "surface": "a"}
+
+
+def test_fields_round_trip_through_dicts():
+    fields = [
+        ConstantFriction("a"),
+        PiecewiseTime((0.0, 5.0), ("a", "b")),
+        PatchFriction("a", (Patch(0, 2, 0, 2, "b"),)),
+    ]
+    rng = np.random.default_rng(0)
+    t, x, y = rng.uniform(0, 10, 200), rng.uniform(-1, 3, 200), rng.uniform(-1, 3, 200)
+    for f in fields:
+        back = field_from_dict(f.to_dict())
+        assert back == f
+        np.testing.assert_array_equal(back.labels_at(t, x, y), f.labels_at(t, x, y))
+        mu = mu_at(dict(f.to_dict(), mu={"a": 0.7, "b": 0.3}), t, x, y)
+        np.testing.assert_allclose(mu, np.where(f.labels_at(t, x, y) == 0, 0.7, 0.3))
+    with pytest.raises(ValueError, match="kind"):
+        field_from_dict({"kind": "spline"})
+    with pytest.raises(ValueError, match="'mu'"):
+        mu_at(ConstantFriction("a").to_dict(), 0.0, 0.0, 0.0)

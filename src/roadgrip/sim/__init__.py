@@ -16,6 +16,8 @@ from roadgrip.sim.friction import (
     PiecewiseTime,
     SurfaceTires,
     brush_surface,
+    field_from_dict,
+    mu_at,
     surface_from_preset,
 )
 from roadgrip.sim.maneuvers import Maneuver
@@ -37,6 +39,8 @@ __all__ = [
     "SurfaceTires",
     "TrackDriver",
     "brush_surface",
+    "field_from_dict",
+    "mu_at",
     "simulate",
     "simulate_scenario",
     "surface_from_preset",

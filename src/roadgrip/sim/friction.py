@@ -48,6 +48,8 @@ __all__ = [
     "TireRole",
     "brush_surface",
     "encode_tire",
+    "field_from_dict",
+    "mu_at",
     "surface_from_preset",
     "tire_table",
 ]
@@ -352,3 +354,45 @@ class PatchFriction(FrictionField):
                 for p in self.patches
             ],
         }
+
+
+def field_from_dict(d: dict[str, Any]) -> FrictionField:
+    """Rebuild a friction field from :meth:`FrictionField.to_dict` (e.g. ``meta.truth['friction_field']``).
+
+    Raises
+    ------
+    ValueError
+        Unknown ``kind``.
+    """
+    kind = d.get("kind")
+    if kind == "constant":
+        return ConstantFriction(d["surface"])
+    if kind == "piecewise_time":
+        return PiecewiseTime(tuple(float(t) for t in d["starts"]), tuple(d["surfaces"]))
+    if kind == "patches":
+        return PatchFriction(
+            d["base"],
+            tuple(Patch(p["x0"], p["x1"], p["y0"], p["y1"], p["surface"]) for p in d["patches"]),
+        )
+    raise ValueError(f"unknown friction field kind {kind!r}; expected constant, piecewise_time or patches")
+
+
+def mu_at(field_dict: dict[str, Any], t: ArrayLike, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+    """True peak friction [-] of a stored friction field at times ``t`` [s] and positions ``(x, y)`` [m].
+
+    ``field_dict`` is ``drive.meta.truth['friction_field']``, which carries the
+    peak of each label under ``'mu'``; use it to score a friction map cell by
+    cell (evaluate at the cell centres).
+
+    Examples
+    --------
+    >>> d = {"kind": "patches", "base": "a", "mu": {"a": 0.7, "b": 0.4},
+    ...      "patches": [{"x0": 0, "x1": 1, "y0": 0, "y1": 1, "surface": "b"}]}
+    >>> mu_at(d, 0.0, [0.5, 2.0], [0.5, 0.5]).tolist()
+    [0.4, 0.7]
+    """
+    if "mu" not in field_dict:
+        raise ValueError("friction field has no 'mu' table (peak friction per surface label)")
+    field = field_from_dict(field_dict)
+    table = np.array([float(field_dict["mu"][label]) for label in field.labels])
+    return table[field.labels_at(t, x, y)]
