@@ -95,6 +95,7 @@ __all__ = [
     "regressors",
     "run_cli",
     "save_calibration",
+    "sufficiently_excited",
 ]
 
 CALIBRATION_VERSION = 1
@@ -514,6 +515,39 @@ def regressors(
     phi_long = np.where(slow, 0.0, kappa.sum(axis=-1))
     phi_lat = np.where(slow, 0.0, np.asarray(kin.alpha_f) * np.cos(steer) + np.asarray(kin.alpha_r))
     return phi_long, phi_lat
+
+
+def sufficiently_excited(
+    t: NDArray, phi_long: NDArray, phi_lat: NDArray, config: BRLSConfig,
+    min_duration: float = 0.2,
+) -> NDArray[np.bool_]:
+    """Samples inside a *sufficiently excited manoeuvre*.
+
+    Definition (used by the acceptance tests and the benchmark): a sample is
+    sufficiently excited when, for an enabled channel, the measurement weight of
+    eq. 6 is at least 1/2, ``|phi| >= gamma ln 2``, and this has held for at
+    least ``min_duration`` [s]. With true slips (simulator truth) this marks
+    the manoeuvres that carry friction information, independently of the
+    estimator's own slip estimates.
+
+    Parameters
+    ----------
+    t : ndarray, shape (T,)
+    phi_long, phi_lat : ndarray, shape (T,)
+        Regressors (sum of wheel slips; ``alpha_f cos(delta) + alpha_r``).
+    config : BRLSConfig
+    min_duration : float
+        [s].
+    """
+    from roadgrip.evaluate.metrics import sustained
+
+    ln2 = math.log(2.0)
+    ex = np.zeros(len(t), bool)
+    if config.long.enabled:
+        ex |= np.abs(phi_long) >= config.long.gamma * ln2
+    if config.lat.enabled:
+        ex |= np.abs(phi_lat) >= config.lat.gamma * ln2
+    return sustained(ex, t, min_duration)
 
 
 # ---------------------------------------------------------------------------------------

@@ -1,0 +1,265 @@
+"""bRLS friction-state classifier (paper 002, Sec. III-IV, eq. 6-8)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from roadgrip.estimators import brls
+from roadgrip.estimators.base import EstimateRequest, EstimateResult
+from roadgrip.estimators.brls import (
+    BRLSClassifier,
+    BRLSConfig,
+    ChannelCalibration,
+    brls_batch,
+    brls_init,
+    brls_step,
+    default_config,
+    load_calibration,
+    save_calibration,
+    sufficiently_excited,
+)
+from roadgrip.estimators.kinematic import KinematicEstimator
+from roadgrip.evaluate.metrics import count_switches, detection_delays, truth_grip_class
+
+OFF = ChannelCalibration(1.0, 0.0, 0.5, 1.0, enabled=False)
+
+
+def _fig6(seed=0):
+    """Paper 002 Fig. 6: steps 0.8 -> 0.2 -> 0.8 at samples 1000 and 2000."""
+    rng = np.random.default_rng(seed)
+    n = 3000
+    i = np.arange(n)
+    theta = np.where((i >= 1000) & (i < 2000), 0.2, 0.8)
+    amp = np.full(n, 0.15)  # weak excitation ...
+    amp[:200] = 1.0  # ... except at the start
+    amp[2000:2200] = 1.0  # ... and at the second step
+    phi = amp * rng.standard_normal(n)
+    y = phi * theta + 0.02 * rng.standard_normal(n)
+    cfg = BRLSConfig(
+        long=OFF,
+        lat=ChannelCalibration(ref_high=0.8, ref_low=0.2, threshold=0.6, gamma=0.3),
+        memory_s=-1.0 / math.log(0.96),  # forgetting 0.96 per sample (t in samples)
+        s0=100.0,
+        excitation_tau_s=5.0,
+        excitation_min=0.2,
+        initial_state="low",
+        theta0_lat=0.2,
+    )
+    return i.astype(float), phi, y, cfg
+
+
+def test_fig6_fast_excited_transitions_slow_unexcited_one():
+    t, phi, y, cfg = _fig6()
+    _, out = brls_batch(t, np.zeros_like(t), np.zeros_like(t), phi, y, cfg, dt0=1.0)
+    cls = out.grip_class
+    changes = np.flatnonzero(cls[1:] != cls[:-1]) + 1
+    known = changes[cls[changes - 1] != "unknown"]
+    # initial excited stretch: low -> high within a few samples
+    first_high = np.flatnonzero(cls == "high")[0]
+    assert first_high < 10
+    # exactly two switches afterwards: to low after the unexcited step, to high after the excited one
+    assert cls[known].tolist() == ["low", "high"]
+    t_low, t_high = known
+    assert 1010 < t_low < 1300  # slow: the reference drives the estimate ("slow RLS")
+    assert 2000 <= t_high < 2010  # fast: excited data ("fast RLS")
+    # estimates settle on the true values
+    assert abs(out.theta_lat[999] - 0.8) < 0.03
+    assert abs(out.theta_lat[1999] - 0.2) < 0.03
+    assert abs(out.theta_lat[-1] - 0.8) < 0.03
+    assert out.grip_index[1999] < 0.1 and out.grip_index[-1] > 0.9
+
+
+def test_fig6_plain_rls_drifts_where_brls_holds():
+    t, phi, y, cfg = _fig6()
+    from roadgrip.estimators.rls import brls_scalar_batch
+
+    rls, _, _ = brls_scalar_batch(phi, y, np.full(t.size, np.nan), 0.2, 100.0, 0.96, 0.0, 1e4)
+    _, out = brls_batch(t, np.zeros_like(t), np.zeros_like(t), phi, y, cfg, dt0=1.0)
+    seg = slice(1300, 2000)  # weakly excited low-friction stretch
+    assert np.std(out.theta_lat[seg]) < 0.7 * np.std(rls[seg])
+
+
+def test_unexcited_data_never_switch_and_hold_the_estimate():
+    t, _, _, cfg = _fig6()
+    rng = np.random.default_rng(1)
+    y = rng.standard_normal(t.size)  # anything: the regressor is zero
+    st0 = brls_init(replace(cfg, initial_state="high", theta0_lat=None))
+    st, out = brls_batch(t, 0 * t, 0 * t, 0 * t, y, replace(cfg, initial_state="high",
+                                                             theta0_lat=None), state=st0)
+    assert (out.grip_class == "unknown").all()
+    assert (out.theta_lat == 0.8).all()
+    assert not out.excited.any()
+    assert st.high
+
+
+def test_state_machine_both_channels_eq8():
+    """Either channel can switch (eq. 8); an informed contradicting channel vetoes."""
+    cfg = BRLSConfig(
+        long=ChannelCalibration(40.0, 15.0, 25.0, 0.005),
+        lat=ChannelCalibration(75.0, 45.0, 60.0, 0.005),
+        memory_s=0.5, excitation_tau_s=0.1,
+    )
+    n = 600
+    t = np.arange(n) * 0.01
+    phi = 0.05 * np.sin(2 * np.pi * t)
+    # longitudinal data say low, lateral silent -> switch to low
+    _, out = brls_batch(t, phi, 15.0 * phi, 0 * t, 0 * t, cfg)
+    assert out.grip_class[-1] == "low" and out.theta_long[-1] == pytest.approx(15.0, rel=0.02)
+    # lateral data say low, longitudinal silent -> switch to low
+    _, out = brls_batch(t, 0 * t, 0 * t, phi, 45.0 * phi, cfg)
+    assert out.grip_class[-1] == "low"
+    # longitudinal says low but lateral says high: no switch
+    _, out = brls_batch(t, phi, 15.0 * phi, phi, 75.0 * phi, cfg)
+    assert (out.grip_class[out.grip_class != "unknown"] == "high").all()
+
+
+def test_step_equals_batch_and_input_errors():
+    t, phi, y, cfg = _fig6()
+    _, out = brls_batch(t[:400], 0 * t[:400], 0 * t[:400], phi[:400], y[:400], cfg, dt0=1.0)
+    st = brls_init(cfg)
+    for i in range(400):
+        st, o = brls_step(st, 1.0, 0.0, 0.0, phi[i], y[i], cfg)
+        assert o.theta_lat == out.theta_lat[i]
+        assert o.grip_class == out.grip_class[i]
+        assert o.grip_index == out.grip_index[i]
+    with pytest.raises(ValueError, match="non-finite"):
+        brls_step(st, 1.0, np.nan, 0.0, 0.0, 0.0, cfg)
+    with pytest.raises(ValueError, match="increasing"):
+        brls_batch(np.array([0.0, 0.0]), *(np.zeros(2),) * 4, cfg)
+
+
+def test_config_validation():
+    with pytest.raises(ValueError, match="ref_high"):
+        ChannelCalibration(1.0, 2.0, 1.5, 0.1)
+    with pytest.raises(ValueError, match="threshold"):
+        ChannelCalibration(2.0, 1.0, 3.0, 0.1)
+    with pytest.raises(ValueError, match="both bRLS channels"):
+        BRLSConfig(OFF, OFF)
+    with pytest.raises(ValueError, match="unknown bRLS setting"):
+        BRLSConfig.from_dict({**default_config().to_dict(), "forgeting": 0.9})
+
+
+def test_calibration_file_roundtrip_and_errors(tmp_path):
+    cal = brls.Calibration(default_config(), {"config": {}}, "sedan", ({"label": "high"},), {"x": 1.0})
+    p = tmp_path / "cal.yaml"
+    save_calibration(cal, p)
+    back = load_calibration(p)
+    assert back.brls == cal.brls
+    assert back.vehicle == "sedan"
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("a: 1\n")
+    with pytest.raises(ValueError, match="not a roadgrip calibration"):
+        load_calibration(bad)
+    with pytest.raises(ValueError, match="does not exist"):
+        load_calibration(tmp_path / "none.yaml")
+
+
+# --------------------------------------------------------------------------- simulator
+
+
+@pytest.fixture(scope="module")
+def dgd():
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    return simulate_scenario("dry-gravel-dry", seed=0)
+
+
+def _true_regressors(drive):
+    kappa = sum(drive.col(f"kappa_{w}_true") for w in ("fl", "fr", "rl", "rr"))
+    steer = drive.col("steer_true") if drive.has("steer_true") else drive.col("steer")
+    return kappa, drive.col("alpha_f_true") * np.cos(steer) + drive.col("alpha_r_true")
+
+
+def detection_report(drive, table, config=None):
+    """Delays from the first sufficiently excited manoeuvre after each change, and accuracy."""
+    config = config or default_config()
+    pl, pa = _true_regressors(drive)
+    exc = sufficiently_excited(drive.t, pl, pa, config)
+    truth = truth_grip_class(drive.col("mu_true"))
+    cls = table["grip_class"].to_numpy()
+    events = detection_delays(drive.t, cls, truth, exc, hold=1.0)
+    return events, float((cls == truth).mean()), truth
+
+
+def test_dry_gravel_dry_detection_and_no_false_switch(dgd):
+    result = brls.run_cli(dgd, EstimateRequest(progress=False))
+    table = result.table
+    events, acc, truth = detection_report(dgd, table)
+    assert [e.new_class for e in events] == ["low", "high"]
+    for e in events:
+        print(f"change at {e.t_change:.1f} s -> {e.new_class}: first excited {e.t_excited:.2f} s, "
+              f"detected {e.t_detected:.2f} s, delay from excitation {e.delay_from_excitation:.2f} s")
+        assert e.detected
+        assert e.t_detected - e.t_excited <= 2.0
+    print(f"fraction of time classified correctly: {acc:.3f}")
+    # no false switches: once informed, the class changes exactly at the two detections
+    assert count_switches(table["grip_class"]) == 2
+    cls = table["grip_class"].to_numpy()
+    known = cls != "unknown"
+    assert (cls[known] == truth[known]).mean() > 0.85
+    assert acc > 0.8
+
+
+def test_straight_cruise_never_switches():
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    drive = simulate_scenario("straight-cruise", seed=0)
+    table = brls.run_cli(drive, EstimateRequest(progress=False)).table
+    assert count_switches(table["grip_class"]) == 0
+    assert not (table["grip_class"] == "low").any()
+
+
+def test_run_equals_stepping(dgd):
+    short = dgd.slice_time(55.0, 75.0)
+    clf = BRLSClassifier(short.vehicle)
+    batch = clf.run(short)
+    rows = [clf.step(s) for s in KinematicEstimator.samples(short)]
+    np.testing.assert_array_equal(batch["grip_class"].to_numpy(), [r.grip_class for r in rows])
+    np.testing.assert_allclose(batch["theta_lat"], [r.theta_lat for r in rows], rtol=1e-12)
+    np.testing.assert_allclose(batch["theta_long"], [r.theta_long for r in rows], rtol=1e-12)
+    np.testing.assert_allclose(batch["grip_index"], [r.grip_index for r in rows], rtol=1e-12)
+    assert (batch["grip_class"] == "low").any()  # the window contains the detection
+
+
+def test_calibrate_on_one_seed_classify_another(dgd, tmp_path):
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    d1 = simulate_scenario("dry-gravel-dry", seed=1)
+    cal = brls.calibrate([(d1.slice_time(0, 60), "high"), (d1.slice_time(60, 120), "low"),
+                          (d1.slice_time(120, 1e9), "high")])
+    lat, lon = cal.brls.lat, cal.brls.long
+    # learned references bracket the physics-based defaults' ordering
+    for ch in (lat, lon):
+        assert ch.ref_high > ch.threshold > ch.ref_low
+    path = tmp_path / "cal.yaml"
+    save_calibration(cal, path)
+    result = brls.run_cli(dgd, EstimateRequest(calibration=str(path), progress=False))
+    events, acc, _ = detection_report(dgd, result.table)
+    assert all(e.detected for e in events)
+    assert acc > 0.8
+    assert count_switches(result.table["grip_class"]) == 2
+
+
+def test_run_cli_output_contract_and_options(dgd, tmp_path):
+    short = dgd.slice_time(0.0, 30.0)
+    png = tmp_path / "trace.png"
+    res = brls.run_cli(short, EstimateRequest(plot_path=str(png), progress=False))
+    for col in ("t", "grip_class", "grip_index", "excited", "theta_long", "theta_lat", "mu_front"):
+        assert col in res.table.columns
+    assert res.table["grip_index"].between(0, 1).all()
+    assert np.isfinite(res.table["theta_lat"]).all()
+    assert set(res.table["grip_class"]) <= {"high", "low", "unknown"}
+    assert res.meta["timing"]["samples"] == short.n
+    assert res.meta["summary"]["GripClass"] in ("high", "low", "unknown")
+    assert png.stat().st_size > 10_000
+    out = tmp_path / "est.parquet"
+    res.to_parquet(out)
+    back = EstimateResult.read_parquet(out)
+    assert isinstance(back.table, pd.DataFrame) and len(back.table) == short.n
+    with pytest.raises(ValueError, match="--particles"):
+        brls.run_cli(short, EstimateRequest(particles=10))
