@@ -107,6 +107,7 @@ class DriveMeta:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def to_json(self) -> str:
+        """JSON text; numpy scalars and arrays in ``truth`` / ``extra`` become numbers and lists."""
         return json.dumps(
             {
                 "vehicle": self.vehicle.to_dict(),
@@ -114,7 +115,8 @@ class DriveMeta:
                 "sample_rate": self.sample_rate,
                 "truth": self.truth,
                 "extra": self.extra,
-            }
+            },
+            default=_json_default,
         )
 
     @classmethod
@@ -127,6 +129,14 @@ class DriveMeta:
             truth=d.get("truth"),
             extra=d.get("extra") or {},
         )
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    raise TypeError(f"metadata value of type {type(obj).__name__} is not JSON-serialisable")
 
 
 def _first_bad(t: np.ndarray, mask: np.ndarray) -> str:
