@@ -130,3 +130,15 @@ def test_access_helpers():
         d.require("x", why="pose")
     part = d.slice_time(0.5, 1.0)
     assert part.t[0] == pytest.approx(0.5) and part.t[-1] < 1.0 and part.n == 50
+
+
+def test_metadata_with_numpy_values_serialises(tmp_path):
+    extra = {"n": np.int64(3), "a": np.arange(3), "f": np.float32(0.5), "b": np.bool_(True)}
+    d = Drive.from_frame(_cornering(), PRESETS["sedan"], extra=extra)
+    p = tmp_path / "d.parquet"
+    d.save(p)
+    from roadgrip.io import read_drive
+
+    assert read_drive(p).meta.extra == {"n": 3, "a": [0, 1, 2], "f": 0.5, "b": True}
+    with pytest.raises(TypeError, match="metadata value of type object is not JSON-serialisable"):
+        Drive.from_frame(_cornering(), PRESETS["sedan"], extra={"x": object()}).meta.to_json()
