@@ -106,6 +106,8 @@ class SlipMapConfig:
         Accumulated weight before a class is claimed [-].
     w_excited : float
         Weight at which a sample counts as excited [-].
+    min_speed : float
+        Below this speed [m/s] both weights are 0 (slips near standstill carry no information).
     """
 
     long_curve: MagicFormula
@@ -119,13 +121,14 @@ class SlipMapConfig:
     hysteresis: float = 0.1
     info_min: float = 3.0
     w_excited: float = 0.1
+    min_speed: float = 0.5
 
     def __post_init__(self) -> None:
         for name in ("sigma_x", "sigma_y", "lowpass_tau_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be positive, got {v!r}")
-        for name in ("slip_min_long", "slip_min_lat", "accel_min", "info_min"):
+        for name in ("slip_min_long", "slip_min_lat", "accel_min", "info_min", "min_speed"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be >= 0, got {v!r}")
@@ -190,6 +193,7 @@ class SlipMapEvidence(NamedTuple):
 def evidence(
     kappa: NDArray, alpha_f: NDArray, alpha_r: NDArray, ax: NDArray, ay: NDArray,
     steer: NDArray, wheels_valid: NDArray, params: VehicleParams, config: SlipMapConfig,
+    vx: NDArray | None = None,
 ) -> SlipMapEvidence:
     """Reference accelerations, weights and probabilities (eq. 9-15), vectorised.
 
@@ -205,6 +209,8 @@ def evidence(
         Which wheel speeds are measured.
     params : VehicleParams
     config : SlipMapConfig
+    vx : ndarray, shape (T,), optional
+        Speed [m/s]; samples slower than ``config.min_speed`` get zero weights.
     """
     kappa = np.asarray(kappa, float)
     valid = np.asarray(wheels_valid, bool)
@@ -239,8 +245,9 @@ def evidence(
     quad_x = k_eff * ax < 0.0
     quad_y = phi_lat * ay < 0.0
     no_x = np.where(accel, n_dr == 0, n_all == 0)
-    wx = np.where(box_x | quad_x | no_x, 0.0, wx)
-    wy = np.where(box_y | quad_y, 0.0, wy)
+    slow = np.zeros(ax.shape, bool) if vx is None else np.abs(np.asarray(vx, float)) < config.min_speed
+    wx = np.where(box_x | quad_x | no_x | slow, 0.0, wx)
+    wy = np.where(box_y | quad_y | slow, 0.0, wy)
     above_x = np.abs(ax) > np.abs(ax_ref)
     above_y = np.abs(ay) > np.abs(ay_ref)
     p_high = 0.5 * (np.where(above_x, wx, 0.0) + np.where(above_y, wy, 0.0))
@@ -345,7 +352,7 @@ def slipmap_batch(
 def _evidence_from_kin(kin: KinematicOutput, ax, ay, steer, params, config) -> SlipMapEvidence:
     return evidence(np.atleast_2d(kin.kappa), np.atleast_1d(kin.alpha_f), np.atleast_1d(kin.alpha_r),
                     np.atleast_1d(ax), np.atleast_1d(ay), np.atleast_1d(steer),
-                    np.atleast_2d(kin.wheels_valid), params, config)
+                    np.atleast_2d(kin.wheels_valid), params, config, np.atleast_1d(kin.vx))
 
 
 class SlipMapClassifier:

@@ -1,0 +1,173 @@
+"""Slip-acceleration map classifier (paper 002, Sec. V, eq. 9-16)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from roadgrip.constants import GRAVITY
+from roadgrip.estimators import slipmap
+from roadgrip.estimators.base import EstimateRequest
+from roadgrip.estimators.brls import default_config as brls_default
+from roadgrip.estimators.brls import sufficiently_excited
+from roadgrip.estimators.kinematic import KinematicEstimator
+from roadgrip.estimators.slipmap import (
+    SlipMapClassifier,
+    SlipMapConfig,
+    default_config,
+    evidence,
+    slipmap_batch,
+    slipmap_init,
+    slipmap_step,
+)
+from roadgrip.evaluate.metrics import count_switches, detection_delays, truth_grip_class
+from roadgrip.vehicle import PRESETS
+
+SEDAN = PRESETS["sedan"]  # front-wheel drive
+
+
+def _ev(kappa_front=0.0, alpha=0.0, ax=0.0, ay=0.0, cfg=None):
+    cfg = cfg or default_config()
+    kappa = np.array([[kappa_front, kappa_front, 0.0, 0.0]])
+    return evidence(kappa, np.array([alpha]), np.array([alpha]), np.array([ax]), np.array([ay]),
+                    np.zeros(1), np.ones((1, 4), bool), SEDAN, cfg)
+
+
+def test_reference_curves_are_the_mid_friction_magic_formula():
+    cfg = default_config(0.8)
+    L = SEDAN.lf + SEDAN.lr
+    ev = _ev(alpha=0.05, ay=3.0)
+    assert ev.ay_ref[0] == pytest.approx(GRAVITY * cfg.lat_curve.mu(0.05))  # lr/L + lf/L = 1
+    # front-wheel drive accelerating: the front axle share of the weight, with load transfer
+    ax = 2.0
+    ev = _ev(kappa_front=0.05, ax=ax)
+    share = SEDAN.lr / L - SEDAN.cg_height * ax / (GRAVITY * L)
+    assert ev.ax_ref[0] == pytest.approx(GRAVITY * share * cfg.long_curve.mu(0.05))
+    assert cfg.lat_curve.D == 0.8 and cfg.long_curve.D == 0.8
+
+
+def test_weights_and_probabilities_eq9_to_15():
+    cfg = default_config()
+    # far above the lateral reference: high-friction evidence with W_y = 1 - exp(-d²/sigma²)
+    ev = _ev(alpha=0.02, ay=8.0)
+    d = 8.0 - ev.ay_ref[0]
+    w = 1 - np.exp(-(d**2) / cfg.sigma_y**2)
+    assert ev.w_y[0] == pytest.approx(w)
+    assert ev.p_high[0] == pytest.approx(0.5 * w)  # the longitudinal channel is excluded (box)
+    assert ev.p_low[0] == 0.0
+    assert ev.p_old[0] == pytest.approx(0.5 * (1 - w) + 0.5)
+    # large slip, small acceleration: low-friction evidence
+    ev = _ev(alpha=0.1, ay=2.0)
+    assert ev.p_low[0] > 0.3 and ev.p_high[0] == 0.0
+    # probabilities sum to one
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        e = _ev(rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(-8, 8), rng.uniform(-8, 8))
+        assert e.p_high[0] + e.p_low[0] + e.p_old[0] == pytest.approx(1.0)
+
+
+def test_exclusions_quadrant_box_and_speed():
+    # low slip and low acceleration: excluded
+    ev = _ev(kappa_front=0.002, alpha=0.002, ax=0.5, ay=0.5)
+    assert ev.w_x[0] == 0.0 and ev.w_y[0] == 0.0 and ev.p_old[0] == 1.0
+    # acceleration against the slip: excluded (2nd/4th quadrant)
+    ev = _ev(kappa_front=0.05, ax=-3.0)
+    assert ev.w_x[0] == 0.0
+    ev = _ev(alpha=0.05, ay=-3.0)
+    assert ev.w_y[0] == 0.0
+    # same sign: included
+    ev = _ev(alpha=-0.05, ay=-9.0)
+    assert ev.w_y[0] > 0.5 and ev.p_high[0] > 0.25
+    # standstill: nothing
+    cfg = default_config()
+    kappa = np.array([[0.05, 0.05, 0.0, 0.0]])
+    ev = evidence(kappa, np.array([0.05]), np.array([0.05]), np.array([9.0]), np.array([9.0]),
+                  np.zeros(1), np.ones((1, 4), bool), SEDAN, cfg, vx=np.array([0.1]))
+    assert ev.w_x[0] == 0.0 and ev.w_y[0] == 0.0
+
+
+def test_recursion_eq16_converges_and_says_unknown_without_information():
+    cfg = replace(default_config(), lowpass_tau_s=0.05)
+    n = 300
+    t = np.arange(n) * 0.01
+    z = np.zeros(n)
+    ev = slipmap.SlipMapEvidence(z, z, np.full(n, 0.4), z, np.full(n, 0.2), z, np.full(n, 0.8), z)
+    _, out = slipmap_batch(t, ev, cfg)
+    assert out.grip_index[-1] == pytest.approx(1.0, abs=1e-3)  # F -> v^H
+    assert out.grip_class[-1] == "high"
+    ev_lo = ev._replace(p_high=z, p_low=np.full(n, 0.2))
+    _, out = slipmap_batch(t, ev_lo, cfg)
+    assert out.grip_index[-1] == pytest.approx(0.0, abs=1e-3)
+    assert out.grip_class[-1] == "low"
+    none = ev._replace(w_x=z, p_high=z, p_old=np.ones(n))
+    _, out = slipmap_batch(t, none, cfg)
+    assert (out.grip_class == "unknown").all() and (out.grip_index == 0.5).all()
+    assert not out.excited.any()
+    # step equals batch
+    st = slipmap_init()
+    _, outb = slipmap_batch(t, ev, cfg)
+    for i in range(n):
+        e1 = slipmap.SlipMapEvidence(*(np.atleast_1d(np.asarray(f)[i]) for f in ev))
+        st, o = slipmap_step(st, 0.01, e1, cfg)
+        assert o.grip_index == pytest.approx(outb.grip_index[i], rel=1e-12)
+        assert o.grip_class == outb.grip_class[i]
+
+
+def test_config_validation_and_roundtrip():
+    cfg = default_config()
+    assert SlipMapConfig.from_dict(cfg.to_dict()) == cfg
+    with pytest.raises(ValueError, match="sigma_x"):
+        replace(cfg, sigma_x=0.0)
+    with pytest.raises(ValueError, match="unknown slipmap setting"):
+        SlipMapConfig.from_dict({**cfg.to_dict(), "sigma": 1.0})
+
+
+# --------------------------------------------------------------------------- simulator
+
+
+@pytest.fixture(scope="module")
+def dgd():
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    return simulate_scenario("dry-gravel-dry", seed=0)
+
+
+def test_dry_gravel_dry_detection_and_no_false_switch(dgd):
+    table = slipmap.run_cli(dgd, EstimateRequest(progress=False)).table
+    assert table["theta_lat"].isna().all()
+    kappa = sum(dgd.col(f"kappa_{w}_true") for w in ("fl", "fr", "rl", "rr"))
+    phi_lat = dgd.col("alpha_f_true") * np.cos(dgd.col("steer")) + dgd.col("alpha_r_true")
+    exc = sufficiently_excited(dgd.t, kappa, phi_lat, brls_default())
+    truth = truth_grip_class(dgd.col("mu_true"))
+    cls = table["grip_class"].to_numpy()
+    events = detection_delays(dgd.t, cls, truth, exc, hold=1.0)
+    assert [e.new_class for e in events] == ["low", "high"]
+    for e in events:
+        print(f"change at {e.t_change:.1f} s -> {e.new_class}: first excited {e.t_excited:.2f} s, "
+              f"detected {e.t_detected:.2f} s, delay from excitation {e.delay_from_excitation:.2f} s")
+        assert e.detected and e.t_detected - e.t_excited <= 2.0
+    acc = float((cls == truth).mean())
+    print(f"fraction of time classified correctly: {acc:.3f}")
+    assert count_switches(cls) == 2
+    assert acc > 0.75
+
+
+def test_straight_cruise_never_switches():
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    drive = simulate_scenario("straight-cruise", seed=0)
+    table = slipmap.run_cli(drive, EstimateRequest(progress=False)).table
+    assert count_switches(table["grip_class"]) == 0
+    assert not (table["grip_class"] == "low").any()
+
+
+def test_run_equals_stepping(dgd):
+    short = dgd.slice_time(60.0, 75.0)
+    clf = SlipMapClassifier(short.vehicle)
+    batch = clf.run(short)
+    rows = [clf.step(s) for s in KinematicEstimator.samples(short)]
+    np.testing.assert_array_equal(batch["grip_class"].to_numpy(), [r.grip_class for r in rows])
+    np.testing.assert_allclose(batch["grip_index"], [r.grip_index for r in rows], rtol=1e-12)
+    assert (batch["grip_class"] == "low").any()
