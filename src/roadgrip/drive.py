@@ -236,6 +236,26 @@ def _check_units(df: pd.DataFrame) -> None:
                     f"'ay' is about {ratio:.4f} x vx*yaw_rate in turns: yaw_rate looks like "
                     "deg/s, expected rad/s"
                 )
+    # Consistency of ax with the derivative of vx while accelerating or braking:
+    # catches ax in g. Only where the two correlate clearly (noisy or spinning-wheel
+    # speeds give no verdict).
+    if {"ax", "vx", "t"} <= set(cols) and len(df) >= 200:
+        t = df["t"].to_numpy(float)
+        if np.all(np.diff(t) > 0):
+            # central difference over about 0.5 s, robust to speed-sensor noise
+            w = max(1, int(0.25 / float(np.median(np.diff(t)))))
+            vx = df["vx"].to_numpy(float)
+            ax = df["ax"].to_numpy(float)[w:-w]
+            a_kin = (vx[2 * w:] - vx[:-2 * w]) / (t[2 * w:] - t[:-2 * w])
+            sel = np.abs(a_kin) > 0.5
+            if sel.sum() >= 20 and np.std(ax[sel]) > 0 and np.std(a_kin[sel]) > 0:
+                corr = float(np.corrcoef(ax[sel], a_kin[sel])[0, 1])
+                ratio = float(np.dot(ax[sel], a_kin[sel]) / np.dot(a_kin[sel], a_kin[sel]))
+                if corr > 0.5 and 0.05 < ratio < 0.2:
+                    raise DriveValidationError(
+                        f"column 'ax' is about {ratio:.3f} x d(vx)/dt while accelerating: ax "
+                        "looks like it is in g, expected m/s²"
+                    )
 
 
 @dataclass(frozen=True)
