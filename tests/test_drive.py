@@ -76,6 +76,24 @@ def test_acceleration_in_g():
         validate_frame(df)
 
 
+def _accelerating(n: int = 1000, seed: int = 1) -> pd.DataFrame:
+    """Straight-line speed changes with a noisy speed sensor (SI units)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.01
+    ax = 2.0 * np.sin(2 * np.pi * 0.2 * t)
+    vx = 15.0 + np.cumsum(ax) * 0.01
+    return pd.DataFrame({"t": t, "ax": ax + 0.1 * rng.standard_normal(n),
+                         "vx": vx + 0.05 * rng.standard_normal(n)})
+
+
+def test_longitudinal_acceleration_in_g():
+    df = _accelerating()
+    validate_frame(df)
+    df["ax"] = df["ax"] / GRAVITY
+    with pytest.raises(DriveValidationError, match="ax looks like it is in g"):
+        validate_frame(df)
+
+
 def test_acceleration_magnitude_in_wrong_unit():
     df = _cornering()
     df["ax"] = 100.0  # e.g. a raw count or cm/s²
