@@ -95,7 +95,7 @@ def _snow_slalom(seed: int, duration: float, progress: bool) -> Drive:
     snow = surface_from_preset("snow")
     man = Maneuver(
         speed=RandomSpeed(8.0, 15.0, corr_time=30.0),
-        steering=RandomSteer(ay_min=0.5, ay_max=3.3, corr_time=1.0, envelope_period=40.0),
+        steering=RandomSteer(ay_min=0.6, ay_max=3.5, corr_time=1.0, envelope_period=40.0),
         yaw_gain=0.3,
         sideslip_gain=1.5,
     )
