@@ -357,10 +357,10 @@ def integrate_planar(
     table, peaks : ndarray
         Encoded curves, shapes (n_surfaces, 4, 5) and (n_surfaces, 4).
     lam_wheel : float
-        ``R² m g k_x,max / I_w`` [m/s²·1/s... i.e. 1/s at 1 m/s]; the wheel
-        eigenvalue bound is ``lam_wheel / sqrt(vx² + v_eps²)``.
+        Wheel-mode stiffness ``R² m g k_x,max / I_w`` [m/s²]: the wheel eigenvalue
+        bound [1/s] is ``lam_wheel / sqrt(vx² + v_eps²)``.
     lam_body : float
-        Body eigenvalue bound at 1 m/s, divided by the speed likewise.
+        Body-mode stiffness [m/s²], divided by the speed likewise.
     steer_mode : int
         0: ``steer_ff + k_r (rref - r)``; 1: pure pursuit of the path.
     steer_ff, rref, v_ref, a_ref : ndarray, shape (n_steps + 1,)
