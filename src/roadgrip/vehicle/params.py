@@ -161,6 +161,8 @@ class VehicleParams:
             data = yaml.safe_load(Path(path).read_text())
         except FileNotFoundError:
             raise ValueError(f"vehicle file not found: {path}") from None
+        except OSError as exc:
+            raise ValueError(f"vehicle file {path} cannot be read: {exc.strerror}") from None
         except yaml.YAMLError as exc:
             raise ValueError(f"vehicle file {path} is not valid YAML: {exc}") from None
         return cls.from_dict(data)
