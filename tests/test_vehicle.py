@@ -109,3 +109,10 @@ def test_understeer_gradient_formula():
     k = v.mass / v.wheelbase * (v.lr / v.cornering_stiffness_front - v.lf / v.cornering_stiffness_rear)
     assert v.understeer_gradient == pytest.approx(k)
     assert v.understeer_gradient > 0
+
+
+def test_vehicle_path_that_is_a_folder(tmp_path):
+    d = tmp_path / "car.yaml"
+    d.mkdir()
+    with pytest.raises(ValueError, match="cannot be read"):
+        load_vehicle(d)
