@@ -251,3 +251,14 @@ def test_cli_simulate_and_list(tmp_path):
     assert res.exit_code == 0
     for name in NAMES:
         assert name in res.output
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_other_seeds_stay_finite_and_within_friction(seed):
+    for name in NAMES:
+        d = simulate_scenario(name, seed=seed)
+        df = d.data
+        assert np.isfinite(df.drop(columns=["surface"]).to_numpy(float)).all()
+        for axle in ("f", "r"):
+            assert np.all(np.abs(df[f"Fy{axle}_true"]) <= 1.01 * df["mu_true"] * df[f"Fz{axle}_true"])
+        assert np.abs(df["vy_true"]).max() < 0.3 * df["vx_true"].max()  # no spin-out
