@@ -1,0 +1,1000 @@
+r"""GP-SSM particle filter: online Bayesian learning of the tire-friction curve (paper 000).
+
+Berntorp's Algorithm 1: a particle filter over the lateral state ``x = [vy, yaw_rate]``
+in which every particle carries its own reduced-rank GP posterior of the friction
+function ``mu(alpha)`` as matrix-normal inverse-Wishart (MNIW) sufficient statistics.
+
+Model
+-----
+State transition (eq. 7) and measurement (eq. 8), :mod:`roadgrip.vehicle.lateral`::
+
+    x[k+1] = a(x_k, u_k) + G(x_k, u_k) mu_k,     y_k = h(x_k, u_k) + D(x_k, u_k) mu_k + e_k
+
+with ``u = [steer, vx]``, ``y = [ay, yaw_rate]``, ``e ~ N(0, R)``, ``R = diag(sigma_ay²,
+sigma_yaw_rate²)`` (configuration values, not read from the data). The axle friction is
+
+    mu_k = mu_prior(alpha_k) + A phi(alpha_k) + w_k,   w_k ~ N(0, Q)
+
+(eq. 14 with ``zeta_{k+1} = G^{-1}(x_{k+1} - a) - mu_prior(alpha_k)``), where
+``mu_prior`` is a low-friction Magic Formula (paper Sec. 4) and ``phi`` a Hilbert-space
+basis (:mod:`roadgrip.estimators.basis`). ``A`` and ``Q`` have the MNIW prior of eq. 24.
+
+Sign convention: ``alpha`` is the ISO slip angle of :mod:`roadgrip.vehicle.slip`
+(``alpha = -arctan(v_y,w / v_x,w)``); positive ``alpha`` gives positive (leftward) ``mu``,
+as in the paper.
+
+Kernel scale
+------------
+In the MNIW prior the covariance of the weights is ``Q`` (row) times ``V`` (column), so the
+GP prior variance of ``A phi`` at a point is ``Q_nn * s_f`` (times the fraction of the
+kernel captured by the truncated basis). ``Q`` is in friction units squared, so ``s_f`` is
+a dimensionless ratio; with the paper's ``s_f = 500`` and the prior noise level
+``sigma_w0 = 0.02`` the prior standard deviation of the friction deviation is about
+``0.02 * sqrt(500 * 0.5) = 0.32`` for the 10 x 10 basis (which captures about half of the
+SE kernel's variance at ``ell = 2 deg``): wide enough to cover every road surface from ice
+to dry asphalt around the 0.05-peak prior mean.
+
+Filter (Algorithm 1), one step at time ``t_k``
+----------------------------------------------
+1. Propagate ``x_k^i = a + G mu_{k-1}^i`` with ``dt = t_k - t_{k-1}`` (eq. 7) and apply
+   the forgetting time update to the statistics (eq. 29).
+2. Slip angles ``alpha_k^i`` and features ``phi(alpha_k^i)``.
+3. Sample ``zeta^i`` from the MNIW predictive (eq. 31-32; multivariate Student-t with
+   ``nu - d + 1`` degrees of freedom). ``A`` enters the step only through ``A phi``, so
+   the exact marginal of ``A phi + w`` is sampled instead of the full matrix ``A`` (same
+   distribution of ``x_{k+1}``, ``O(m²)`` instead of ``O(m³)``);
+   :func:`roadgrip.estimators.mniw.sample_matrix_t` draws whole matrices.
+4. Weights (eq. 22): ``q^i *= N(y_k; h + D mu_k^i, R)`` where ``mu_k^i = mu_prior +
+   zeta^i`` is the particle's own friction sample, the same that drives ``x_{k+1}``.
+5. Data update of the statistics with ``(phi, zeta)`` (eq. 28).
+6. Estimates (lines 11-12) with the normalised weights; resampling (systematic) when the
+   effective sample size falls below ``ess_threshold * N``; statistics travel with their
+   particles.
+
+Separable basis, kept conjugate
+-------------------------------
+``basis='separable:n'`` uses ``n`` functions of ``alpha_f`` for the front axle and ``n`` of
+``alpha_r`` for the rear. A matrix-normal prior shares one column covariance between the
+rows, so it cannot zero the cross terms while staying conjugate. Here ``Q`` is taken
+diagonal and each axle gets its own MNIW model with ``d = 1`` (a normal-inverse-gamma
+model): ``zeta_f = a_f^T phi(alpha_f) + w_f``, ``zeta_r = a_r^T phi(alpha_r) + w_r`` with
+independent ``w_f, w_r``. Each is exactly conjugate; the two share nothing but the
+particle's state trajectory.
+
+Outputs
+-------
+Friction curves are reported for the odd part ``(mu(alpha) - mu(-alpha)) / 2`` on
+``alpha >= 0`` for the peak (so both turning directions pool), and on any slip grid for the
+curves. For the tensor basis the front curve is evaluated along the data manifold
+``alpha_r = c alpha_f`` with ``c`` the running least-squares ratio of the estimated slips
+(and the rear curve along ``alpha_f = alpha_r / c``). Each particle's function posterior is
+Student-t; the curve band is the 95 % interval of the particle mixture (quantiles of the
+mixture of t's); the per-step peak band uses the mixture's mean and variance. The peak is
+*observed* when the slip histogram reached at least one length scale past the argmax of the
+posterior mean curve with ``peak_visits`` samples; otherwise ``mu_*`` is the highest
+friction demonstrated inside the visited range, a lower bound, ``mu_*_lower`` its lower
+band and ``mu_*_upper`` the upper band of the unrestricted peak.
+
+Notation: ``N`` particles, ``G`` basis groups (1 tensor, 2 separable), ``d`` outputs per
+group (2 tensor, 1 separable), ``m`` features per group.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any, NamedTuple
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from roadgrip.estimators import gpssm_linalg as la
+from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
+from roadgrip.estimators.basis import SeparableBasis, TensorBasis, make_basis
+from roadgrip.tire import SURFACES, MagicFormula
+from roadgrip.vehicle.lateral import LateralState, lateral_discrete, lateral_measurement
+from roadgrip.vehicle.params import VehicleParams
+from roadgrip.vehicle.slip import slip_angles
+
+__all__ = [
+    "AXLES",
+    "GPSSM",
+    "CurvePosterior",
+    "GPSSMConfig",
+    "GPSSMEstimate",
+    "GPSSMState",
+    "Sample",
+    "curve_accuracy",
+    "drive_inputs",
+    "init",
+    "posterior_curves",
+    "run_cli",
+    "step",
+]
+
+AXLES = ("front", "rear")
+_Z95 = 1.959963984540054
+
+DEFAULT_PRIOR_TIRE = SURFACES["ice"].lateral.with_peak(0.05)
+"""Prior mean friction curve: the ice preset's shape scaled to a 0.05 peak (paper Sec. 4)."""
+
+
+@dataclass(frozen=True)
+class GPSSMConfig:
+    """Hyperparameters of the GP-SSM filter (SI units).
+
+    Attributes
+    ----------
+    vehicle : VehicleParams
+    basis : TensorBasis or SeparableBasis
+        Reduced-rank basis; default the paper's 10 x 10 tensor basis, SE kernel,
+        ``s_f = 500``, ``L = 30 deg``, ``ell = 2 deg``.
+    particles : int
+        ``N``.
+    forgetting : float
+        ``lam`` in (0, 1] (eq. 29); memory about ``1 / (1 - lam)`` steps.
+    nu0 : float
+        Prior degrees of freedom of ``Q`` (eq. 24), ``> d + 1``.
+    sigma_w0 : float
+        Prior mean standard deviation of the friction process noise ``w`` [-]; sets
+        ``Lambda_0 = sigma_w0² (nu0 - d - 1) I``.
+    sigma_ay : float
+        Lateral-acceleration noise std in ``R`` [m/s²].
+    sigma_yaw_rate : float
+        Yaw-rate noise std in ``R`` [rad/s].
+    sigma_vy0 : float
+        Initial lateral-velocity spread [m/s] (``vy_0 ~ N(0, sigma_vy0²)``).
+    prior_tire : MagicFormula
+        Prior mean ``mu_prior(alpha)`` on both axles.
+    ess_threshold : float
+        Resample when ``N_eff <= ess_threshold * N``.
+    linalg : {'exact', 'fast', 'direct'}
+        Backend of :mod:`roadgrip.estimators.gpssm_linalg`.
+    refactor_every : int
+        Steps between refactorisations (``'exact'``, ``'fast'``).
+    peak_grid : int
+        Points of the slip grid on ``[0, peak_range]`` used for the peak each step.
+    peak_range : float
+        Largest slip angle searched for the peak [rad].
+    bin_width : float
+        Width of the slip-angle histogram bins [rad].
+    peak_visits : int
+        Samples per bin for a bin to count as visited (peak observability).
+    excitation_slip : float
+        ``excited`` when an estimated axle slip angle exceeds this [rad].
+    proposal : {'conditional', 'prior'}
+        ``'prior'``: the paper's bootstrap proposal (eq. 22). ``'conditional'``: the
+        friction sample is drawn conditioned on the lateral acceleration, which is linear
+        in it (the locally optimal proposal for that part of ``y``, eq. 20-21); see
+        :func:`_conditional_sample`.
+    """
+
+    vehicle: VehicleParams
+    basis: TensorBasis | SeparableBasis = field(default_factory=TensorBasis)
+    particles: int = 200
+    forgetting: float = 0.9998
+    nu0: float = 10.0
+    sigma_w0: float = 0.02
+    sigma_ay: float = 0.15
+    sigma_yaw_rate: float = 0.01
+    sigma_vy0: float = 0.3
+    prior_tire: MagicFormula = DEFAULT_PRIOR_TIRE
+    ess_threshold: float = 0.5
+    linalg: str = "exact"
+    refactor_every: int = 25
+    peak_grid: int = 41
+    peak_range: float = math.radians(20.0)
+    bin_width: float = math.radians(0.5)
+    peak_visits: int = 10
+    excitation_slip: float = math.radians(1.0)
+    proposal: str = "conditional"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.vehicle, VehicleParams):
+            raise ValueError("GPSSMConfig.vehicle must be a VehicleParams")
+        if int(self.particles) != self.particles or self.particles < 2:
+            raise ValueError(f"particles must be an integer >= 2, got {self.particles!r}")
+        if not 0.0 < self.forgetting <= 1.0:
+            raise ValueError(f"forgetting factor must be in (0, 1], got {self.forgetting!r}")
+        d = self.basis.outputs
+        if not self.nu0 > d + 1:
+            raise ValueError(f"nu0 must exceed d + 1 = {d + 1}, got {self.nu0!r}")
+        for name in ("sigma_w0", "sigma_ay", "sigma_yaw_rate", "sigma_vy0", "peak_range",
+                     "bin_width"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or v <= 0:
+                raise ValueError(f"{name} must be positive and finite, got {v!r}")
+        if not 0.0 < self.ess_threshold <= 1.0:
+            raise ValueError(f"ess_threshold must be in (0, 1], got {self.ess_threshold!r}")
+        if self.linalg not in la.LINALG_MODES:
+            raise ValueError(f"linalg must be one of {la.LINALG_MODES}, got {self.linalg!r}")
+        if self.proposal not in ("conditional", "prior"):
+            raise ValueError(f"proposal must be 'conditional' or 'prior', got {self.proposal!r}")
+        if self.refactor_every < 1 or self.peak_grid < 3 or self.peak_visits < 1:
+            raise ValueError("refactor_every, peak_grid (>= 3) and peak_visits must be positive")
+
+    @property
+    def Lambda0(self) -> NDArray[np.float64]:
+        d = self.basis.outputs
+        return self.sigma_w0**2 * (self.nu0 - d - 1.0) * np.eye(d)
+
+
+class Sample(NamedTuple):
+    """One time sample of the filter's inputs (SI units)."""
+
+    t: float
+    ay: float
+    yaw_rate: float
+    steer: float
+    vx: float
+
+
+class GPSSMState(NamedTuple):
+    """Filter state after a step. Arrays are owned by the state and reused by :func:`step`.
+
+    Attributes
+    ----------
+    k : int
+        Steps taken.
+    t : float
+        Time of the last sample [s].
+    u : ndarray, shape (2,)
+        Last input ``[steer, vx]``.
+    x : ndarray, shape (N, 2)
+        Particle states ``[vy, yaw_rate]`` at ``t``.
+    mu : ndarray, shape (N, 2)
+        Each particle's friction sample at ``t`` (drives the next propagation).
+    logw : ndarray, shape (N,)
+        Normalised log weights.
+    lin : LinAlgState
+        Information matrices ``Sigma + I`` (eq. 28b).
+    Psi : ndarray, shape (N, G, d, m)
+    Phi : ndarray, shape (N, G, d, d)
+    nu : float
+        Common degrees of freedom (eq. 28f, 29d).
+    visits : ndarray, shape (2, n_bins)
+        Histogram of ``|alpha|`` of the state estimate, per axle.
+    slip_moments : ndarray, shape (2,)
+        ``[sum alpha_f², sum alpha_f alpha_r]`` (tensor-basis manifold ratio).
+    peak_alpha : ndarray, shape (2,)
+        Argmax of the last posterior mean curve, per axle [rad].
+    rng : dict
+        Bit-generator state.
+    """
+
+    k: int
+    t: float
+    u: NDArray
+    x: NDArray
+    mu: NDArray
+    logw: NDArray
+    lin: la.LinAlgState
+    Psi: NDArray
+    Phi: NDArray
+    nu: float
+    visits: NDArray
+    slip_moments: NDArray
+    peak_alpha: NDArray
+    rng: dict
+
+
+class GPSSMEstimate(NamedTuple):
+    """Estimates after one step (scalars unless noted)."""
+
+    t: float
+    vy: float
+    vy_std: float
+    yaw_rate: float
+    yaw_rate_std: float
+    alpha_f: float
+    alpha_r: float
+    mu_now_front: float
+    mu_now_rear: float
+    mu_front: float
+    mu_rear: float
+    mu_front_lower: float
+    mu_front_upper: float
+    mu_rear_lower: float
+    mu_rear_upper: float
+    peak_alpha_front: float
+    peak_alpha_rear: float
+    peak_observed_front: bool
+    peak_observed_rear: bool
+    excited: bool
+    ess: float
+    resampled: bool
+
+
+class CurvePosterior(NamedTuple):
+    """Posterior friction curves of both axles on a slip grid.
+
+    Attributes
+    ----------
+    alpha : ndarray, shape (n,)
+        Slip angles [rad].
+    mean, lower, upper : ndarray, shape (2, n)
+        Mixture mean and 95 % band, rows front and rear [-].
+    prior : ndarray, shape (2, n)
+        Prior mean curve.
+    """
+
+    alpha: NDArray
+    mean: NDArray
+    lower: NDArray
+    upper: NDArray
+    prior: NDArray
+
+
+# -------------------------------------------------------------------------------------
+# helpers
+# -------------------------------------------------------------------------------------
+def _n_bins(config: GPSSMConfig) -> int:
+    return math.ceil(config.basis.L / config.bin_width)
+
+
+def _manifold_ratio(state: GPSSMState) -> float:
+    sxx, sxy = state.slip_moments
+    if sxx <= 1e-10:
+        return 1.0
+    return float(np.clip(sxy / sxx, 0.2, 5.0))
+
+
+def _axle_features(
+    config: GPSSMConfig, ratio: float, alpha: NDArray
+) -> tuple[NDArray, NDArray]:
+    """Features of each axle's curve at ``alpha``: two arrays (n, m) and the (group, row).
+
+    Returns ``feats`` of shape (2, n, m) and ``where`` of shape (2, 2) = (group, row).
+    """
+    b = config.basis
+    if b.kind == "tensor":
+        ff = b.features(alpha, ratio * alpha)[..., 0, :]
+        fr = b.features(alpha / ratio, alpha)[..., 0, :]
+        return np.stack([ff, fr]), np.array([[0, 0], [0, 1]])
+    f = b.features(alpha, alpha)
+    return np.stack([f[..., 0, :], f[..., 1, :]]), np.array([[0, 0], [1, 0]])
+
+
+def _odd(config: GPSSMConfig, ratio: float, alpha: NDArray) -> tuple[NDArray, NDArray]:
+    fp, where = _axle_features(config, ratio, alpha)
+    fm, _ = _axle_features(config, ratio, -alpha)
+    return 0.5 * (fp - fm), where
+
+
+def _zeta_to_axles(config: GPSSMConfig, zeta: NDArray) -> NDArray:
+    """(N, G, d) -> (N, 2) front/rear."""
+    if config.basis.kind == "tensor":
+        return zeta[:, 0, :]
+    return zeta[:, :, 0]
+
+
+def _systematic(rng: np.random.Generator, w: NDArray) -> NDArray:
+    n = len(w)
+    pos = (rng.random() + np.arange(n)) / n
+    c = np.cumsum(w)
+    c[-1] = 1.0
+    return np.searchsorted(c, pos)
+
+
+def _student_t(rng: np.random.Generator, loc: NDArray, scale: NDArray, dof: float) -> NDArray:
+    """Multivariate t draws; ``loc`` (..., d), ``scale`` (..., d, d) SPD."""
+    d = loc.shape[-1]
+    z = rng.standard_normal(loc.shape)
+    g = rng.chisquare(dof, size=loc.shape[:-1])
+    if d == 1:
+        dev = np.sqrt(scale[..., 0, 0])[..., None] * z
+    else:
+        L = np.linalg.cholesky(scale)
+        dev = np.einsum("...ij,...j->...i", L, z)
+    return loc + dev * np.sqrt(dof / g)[..., None]
+
+
+def _sym_pd(S: NDArray, floor: float) -> NDArray:
+    """Symmetrise a (..., d, d) stack and keep its diagonal above ``floor``."""
+    S = 0.5 * (S + np.swapaxes(S, -1, -2))
+    d = S.shape[-1]
+    idx = np.arange(d)
+    S[..., idx, idx] = np.maximum(S[..., idx, idx], floor)
+    if d == 2:
+        # 2x2 PD: |off| < sqrt(a b)
+        lim = np.sqrt(S[..., 0, 0] * S[..., 1, 1]) * (1.0 - 1e-9)
+        off = np.clip(S[..., 0, 1], -lim, lim)
+        S[..., 0, 1] = off
+        S[..., 1, 0] = off
+    return S
+
+
+# -------------------------------------------------------------------------------------
+# kernel
+# -------------------------------------------------------------------------------------
+def init(config: GPSSMConfig, sample: Sample, seed: int = 0) -> GPSSMState:
+    """Prior state at the first sample (Algorithm 1, 'Initialize')."""
+    b = config.basis
+    N, G, d, m = config.particles, b.groups, b.outputs, b.m
+    rng = np.random.default_rng(seed)
+    x = np.empty((N, LateralState.SIZE))
+    x[:, LateralState.VY] = config.sigma_vy0 * rng.standard_normal(N)
+    x[:, LateralState.YAW_RATE] = sample.yaw_rate + config.sigma_yaw_rate * rng.standard_normal(N)
+    return GPSSMState(
+        k=0,
+        t=float(sample.t),
+        u=np.array([sample.steer, sample.vx], dtype=float),
+        x=x,
+        mu=np.zeros((N, 2)),
+        logw=np.full(N, -math.log(N)),
+        lin=la.init(config.linalg, N, G, m),
+        Psi=np.zeros((N, G, d, m)),
+        Phi=np.zeros((N, G, d, d)),
+        nu=float(config.nu0),
+        visits=np.zeros((2, _n_bins(config)), dtype=np.int64),
+        slip_moments=np.zeros(2),
+        peak_alpha=np.full(2, config.prior_tire.peak()[0]),
+        rng=rng.bit_generator.state,
+    )
+
+
+def _check_sample(sample: Sample) -> None:
+    vals = np.array([sample.t, sample.ay, sample.yaw_rate, sample.steer, sample.vx], float)
+    if not np.all(np.isfinite(vals)):
+        names = [n for n, v in zip(Sample._fields, vals, strict=True) if not np.isfinite(v)]
+        raise ValueError(f"GP-SSM sample at t = {sample.t} has non-finite input(s) {names}")
+
+
+def step(
+    state: GPSSMState | None, sample: Sample, config: GPSSMConfig, seed: int = 0
+) -> tuple[GPSSMState, GPSSMEstimate]:
+    """One step of Algorithm 1 at ``sample.t``.
+
+    Pure in the sense of a donated buffer: the returned state reuses (and overwrites) the
+    arrays of ``state``; keep :func:`copy_state` of it if the old state is still needed.
+    ``state=None`` initialises from ``sample`` with ``seed``.
+
+    Returns
+    -------
+    state : GPSSMState
+    estimate : GPSSMEstimate
+    """
+    _check_sample(sample)
+    veh = config.vehicle
+    b = config.basis
+    lam = config.forgetting
+    N, d = config.particles, b.outputs
+    if state is None:
+        state = init(config, sample, seed)
+        x, lin, Psi, Phi, nu = state.x, state.lin, state.Psi, state.Phi, state.nu
+    else:
+        dt = sample.t - state.t
+        if not dt > 0:
+            raise ValueError(f"GP-SSM samples must have increasing time: {state.t} then {sample.t}")
+        # 1. propagate (eq. 7) and forget (eq. 29)
+        a, G = lateral_discrete(state.x, state.u, veh, dt)
+        x = a + np.einsum("nij,nj->ni", G, state.mu)
+        lin = la.forget(state.lin, lam, config.refactor_every)
+        Psi = state.Psi
+        Psi *= lam
+        Phi = state.Phi
+        Phi *= lam
+        nu = lam * state.nu
+    rng = np.random.default_rng()
+    rng.bit_generator.state = state.rng
+
+    u = np.array([sample.steer, sample.vx], dtype=float)
+    # 2. slips and features
+    alpha_f, alpha_r = slip_angles(sample.vx, x[:, LateralState.VY], x[:, LateralState.YAW_RATE],
+                                   sample.steer, veh)
+    phi = b.features(alpha_f, alpha_r)  # (N, G, m)
+    mu_prior = np.stack([config.prior_tire.mu(alpha_f), config.prior_tire.mu(alpha_r)], axis=1)
+
+    ratio = _manifold_ratio(state)
+    fpk2, where = _odd(config, ratio, state.peak_alpha)  # (2, 2, m)
+    fpk = np.stack([fpk2[0, 0], fpk2[1, 1]])  # front curve at its peak, rear at its peak
+    # right-hand sides: phi, Psi^T, peak features of the groups
+    if b.kind == "tensor":
+        rp = np.broadcast_to(fpk.T[None, None], (N, 1, b.m, 2))
+    else:
+        rp = np.broadcast_to(fpk[None, :, :, None], (N, 2, b.m, 1))
+    R = np.concatenate([phi[..., None], np.swapaxes(Psi, -1, -2), rp], axis=-1)
+    X, pb_phi = la.solve(lin, R, n_exact=1 + d)
+    uvec = X[..., 0]                      # H^{-1} phi          (N, G, m)
+    s = np.einsum("ngm,ngm->ng", phi, uvec)
+    PPsiT = X[..., 1:1 + d]               # H^{-1} Psi^T        (N, G, m, d)
+    Ppk = X[..., 1 + d:]                  # H^{-1} phi_peak     (N, G, m, np)
+
+    # 3. predictive (eq. 32) and sample
+    loc = np.einsum("ngdm,ngm->ngd", Psi, uvec)
+    Lam_star = config.Lambda0 + Phi - np.einsum("ngdm,ngme->ngde", Psi, PPsiT)
+    Lam_star = _sym_pd(Lam_star, 1e-12)
+    dof = nu - d + 1.0
+    scale = Lam_star * ((1.0 + s) / dof)[..., None, None]
+    h, D = lateral_measurement(x, u, veh)
+    r_pred = x[:, LateralState.YAW_RATE]
+    if config.proposal == "prior":
+        # bootstrap proposal (eq. 22): zeta from the predictive, weight by y_k
+        zeta = _student_t(rng, loc, scale, dof)
+        mu = mu_prior + _zeta_to_axles(config, zeta)
+        ay_pred = h[:, 0] + np.einsum("nj,nj->n", D[:, 0, :], mu)
+        loglik = -0.5 * ((sample.ay - ay_pred) / config.sigma_ay) ** 2
+    else:
+        zeta, loglik = _conditional_sample(config, rng, loc, scale, dof, mu_prior, h, D, sample.ay)
+        mu = mu_prior + _zeta_to_axles(config, zeta)
+    loglik = loglik - 0.5 * ((sample.yaw_rate - r_pred) / config.sigma_yaw_rate) ** 2
+
+    # 4. weights (eq. 21-22)
+    logw = state.logw + loglik
+    logw -= logw.max()
+    w = np.exp(logw)
+    w /= w.sum()
+    ess = float(1.0 / np.sum(w * w))
+
+    # 5. data update (eq. 28)
+    lin = la.update(lin, phi, pb_phi)
+    e = zeta - loc
+    Psi += zeta[..., :, None] * phi[..., None, :]
+    Phi += zeta[..., :, None] * zeta[..., None, :]
+    nu = nu + 1.0
+    # posterior quantities by Sherman-Morrison on the predictive ones
+    inv1s = 1.0 / (1.0 + s)
+    MT = PPsiT + uvec[..., None] * zeta[..., None, :]
+    MT -= uvec[..., None] * ((loc + zeta * s[..., None]) * inv1s[..., None])[..., None, :]
+    Lam_post = _sym_pd(Lam_star + e[..., :, None] * e[..., None, :] * inv1s[..., None, None], 1e-12)
+    upk = np.einsum("ngm,ngmp->ngp", uvec, Ppk)
+    fpk_g = rp[0]  # (G, m, np)
+    vpk = np.einsum("gmp,ngmp->ngp", fpk_g, Ppk) - upk**2 * inv1s[..., None]  # (N, G, np)
+
+    # 6. estimates (Algorithm 1 lines 11-12) with the normalised weights
+    xm = w @ x
+    xs = np.sqrt(np.maximum(w @ (x - xm) ** 2, 0.0))
+    af_m, ar_m = float(w @ alpha_f), float(w @ alpha_r)
+    mu_now = w @ (mu_prior + _zeta_mean(config, MT, phi))
+    visits = state.visits
+    nb = visits.shape[1]
+    for ax, a_ in enumerate((af_m, ar_m)):
+        visits[ax, min(int(abs(a_) / config.bin_width), nb - 1)] += 1
+    moments = state.slip_moments + np.array([af_m * af_m, af_m * ar_m])
+    excited = bool(max(abs(af_m), abs(ar_m)) > config.excitation_slip)
+
+    peak = _peak_estimates(config, ratio, MT, Lam_post, nu, w, vpk, visits, where)
+
+    resampled = ess <= config.ess_threshold * N
+    mu_state = mu
+    if resampled:
+        idx = _systematic(rng, w)
+        x, mu_state = x[idx], mu[idx]
+        lin = la.take(lin, idx)
+        Psi, Phi = Psi[idx], Phi[idx]
+        logw = np.full(N, -math.log(N))
+    else:
+        logw = np.log(np.maximum(w, 1e-300))
+
+    new = GPSSMState(
+        k=state.k + 1,
+        t=float(sample.t), u=u, x=x, mu=mu_state, logw=logw, lin=lin, Psi=Psi, Phi=Phi,
+        nu=float(nu), visits=visits, slip_moments=moments,
+        peak_alpha=np.array([peak["alpha"][0], peak["alpha"][1]]),
+        rng=rng.bit_generator.state,
+    )
+    est = GPSSMEstimate(
+        t=float(sample.t),
+        vy=float(xm[LateralState.VY]), vy_std=float(xs[LateralState.VY]),
+        yaw_rate=float(xm[LateralState.YAW_RATE]), yaw_rate_std=float(xs[LateralState.YAW_RATE]),
+        alpha_f=af_m, alpha_r=ar_m,
+        mu_now_front=float(mu_now[0]), mu_now_rear=float(mu_now[1]),
+        mu_front=peak["mu"][0], mu_rear=peak["mu"][1],
+        mu_front_lower=peak["lo"][0], mu_front_upper=peak["hi"][0],
+        mu_rear_lower=peak["lo"][1], mu_rear_upper=peak["hi"][1],
+        peak_alpha_front=peak["alpha"][0], peak_alpha_rear=peak["alpha"][1],
+        peak_observed_front=peak["obs"][0], peak_observed_rear=peak["obs"][1],
+        excited=excited, ess=ess, resampled=bool(resampled),
+    )
+    return new, est
+
+
+def _conditional_sample(
+    config: GPSSMConfig, rng: np.random.Generator, loc: NDArray, scale: NDArray, dof: float,
+    mu_prior: NDArray, h: NDArray, D: NDArray, ay: float,
+) -> tuple[NDArray, NDArray]:
+    """Draw ``zeta`` from its predictive conditioned on the lateral acceleration.
+
+    The Student-t predictive is the scale mixture ``zeta | g ~ N(loc, scale dof / g)``,
+    ``g ~ chi²(dof)``. ``g`` is drawn from its prior and, given ``g``, ``ay = h_0 + D_0
+    (mu_prior + zeta) + e`` is linear-Gaussian in ``zeta``, so ``zeta`` is drawn from its
+    exact Gaussian conditional. The importance weight of this proposal (eq. 21) is the
+    predictive density ``N(ay; h_0 + D_0 (mu_prior + loc), D_0 S D_0^T + sigma_ay²)``.
+    (The separable basis draws one ``g`` per axle.)
+
+    Returns ``zeta`` (N, G, d) and the log weight factor (N,).
+    """
+    N = loc.shape[0]
+    g = rng.chisquare(dof, size=loc.shape[:2])  # (N, G)
+    Sg = scale * (dof / g)[..., None, None]      # (N, G, d, d)
+    if config.basis.kind == "tensor":
+        m0, S = loc[:, 0, :], Sg[:, 0]
+    else:
+        m0 = loc[:, :, 0]
+        S = np.zeros((N, 2, 2))
+        S[:, 0, 0] = Sg[:, 0, 0, 0]
+        S[:, 1, 1] = Sg[:, 1, 0, 0]
+    c = D[:, 0, :]                                # (N, 2)
+    v = ay - h[:, 0] - np.einsum("nj,nj->n", c, mu_prior + m0)
+    Sc = np.einsum("nij,nj->ni", S, c)
+    sy = np.einsum("ni,ni->n", c, Sc) + config.sigma_ay**2
+    K = Sc / sy[:, None]
+    mean = m0 + K * v[:, None]
+    cov = S - K[:, :, None] * Sc[:, None, :]
+    cov = _sym_pd(cov, 1e-18)
+    # 2x2 Cholesky (cov is PSD of rank >= 1)
+    l00 = np.sqrt(np.maximum(cov[:, 0, 0], 0.0))
+    l10 = np.where(l00 > 0, cov[:, 1, 0] / np.where(l00 > 0, l00, 1.0), 0.0)
+    l11 = np.sqrt(np.maximum(cov[:, 1, 1] - l10**2, 0.0))
+    z = rng.standard_normal((N, 2))
+    za = mean + np.stack([l00 * z[:, 0], l10 * z[:, 0] + l11 * z[:, 1]], axis=1)
+    loglik = -0.5 * v**2 / sy - 0.5 * np.log(sy)
+    if config.basis.kind == "tensor":
+        return za[:, None, :], loglik
+    return za[:, :, None], loglik
+
+
+def _zeta_mean(config: GPSSMConfig, MT: NDArray, phi: NDArray) -> NDArray:
+    """Posterior mean ``M phi`` per particle mapped to axles, (N, 2)."""
+    z = np.einsum("ngmd,ngm->ngd", MT, phi)
+    return _zeta_to_axles(config, z)
+
+
+def _peak_estimates(
+    config: GPSSMConfig, ratio: float, MT: NDArray, Lam: NDArray, nu: float, w: NDArray,
+    vpk: NDArray, visits: NDArray, where: NDArray,
+) -> dict[str, list]:
+    """Peak friction per axle with band and observability (module docstring)."""
+    d = config.basis.outputs
+    grid = np.linspace(0.0, config.peak_range, config.peak_grid)
+    feats, _ = _odd(config, ratio, grid)  # (2, n, m)
+    prior = config.prior_tire.mu(grid)
+    qdof = max(nu - d - 1.0, 1.0)
+    out: dict[str, list] = {"mu": [], "lo": [], "hi": [], "alpha": [], "obs": []}
+    for ax in range(2):
+        g, r = where[ax]
+        curves = MT[:, g, :, r] @ feats[ax].T + prior  # (N, n)
+        mean = w @ curves
+        j = int(np.argmax(mean))
+        a_pk = float(grid[j])
+        # within-particle variance at the previous argmax (column ax of the peak features)
+        col = ax if config.basis.kind == "tensor" else 0
+        var_in = np.maximum(vpk[:, g, col], 0.0) * Lam[:, g, r, r] / qdof
+        peaks = curves.max(axis=1)
+        pm = float(w @ peaks)
+        pv = float(w @ ((peaks - pm) ** 2 + var_in))
+        hi = pm + _Z95 * math.sqrt(max(pv, 0.0))
+        # visited range: largest bin edge with enough samples
+        vb = np.flatnonzero(visits[ax] >= config.peak_visits)
+        a_vis = (vb[-1] + 1) * config.bin_width if len(vb) else 0.0
+        observed = bool(a_vis >= a_pk + config.basis.ell and a_pk > 0.0 and j < len(grid) - 1)
+        if observed:
+            mu_hat, lo = pm, pm - _Z95 * math.sqrt(max(pv, 0.0))
+        else:
+            inside = grid <= a_vis
+            if inside.sum() <= 1:
+                mu_hat, lo = 0.0, 0.0
+            else:
+                ci = curves[:, inside]
+                vis_peaks = ci.max(axis=1)
+                mu_hat = float(w @ vis_peaks)
+                vv = float(w @ ((vis_peaks - mu_hat) ** 2 + var_in))
+                lo = mu_hat - _Z95 * math.sqrt(max(vv, 0.0))
+        out["mu"].append(float(mu_hat))
+        out["lo"].append(float(max(lo, 0.0)))
+        out["hi"].append(float(max(hi, mu_hat)))
+        out["alpha"].append(a_pk)
+        out["obs"].append(observed)
+    return out
+
+
+def copy_state(state: GPSSMState) -> GPSSMState:
+    """A deep copy (``step`` reuses the arrays of its input state)."""
+    return state._replace(
+        u=state.u.copy(), x=state.x.copy(), mu=state.mu.copy(), logw=state.logw.copy(),
+        lin=la.copy(state.lin), Psi=state.Psi.copy(), Phi=state.Phi.copy(),
+        visits=state.visits.copy(), slip_moments=state.slip_moments.copy(),
+        peak_alpha=state.peak_alpha.copy(), rng=dict(state.rng),
+    )
+
+
+def posterior_curves(
+    state: GPSSMState, config: GPSSMConfig, alpha: NDArray, level: float = 0.95
+) -> CurvePosterior:
+    """Posterior front and rear friction curves on ``alpha`` [rad] (any signs).
+
+    The mean is the weighted particle mixture of ``mu_prior + M phi`` (Algorithm 1, line
+    12); the band is the central ``level`` interval of the mixture of the particles'
+    Student-t function posteriors (eq. 25: ``A phi | data`` is t with ``nu - d + 1``
+    degrees of freedom and scale ``Lambda_nn phi^T (Sigma + I)^{-1} phi / (nu - d + 1)``).
+    """
+    from scipy.special import stdtr
+
+    alpha = np.asarray(alpha, dtype=float)
+    b = config.basis
+    N, d = config.particles, b.outputs
+    ratio = _manifold_ratio(state)
+    feats, where = _axle_features(config, ratio, alpha)  # (2, n, m)
+    n = len(alpha)
+    w = np.exp(state.logw - state.logw.max())
+    w /= w.sum()
+    if b.kind == "tensor":
+        rhs = np.concatenate([np.swapaxes(state.Psi, -1, -2),
+                              np.broadcast_to(np.concatenate([feats[0].T, feats[1].T], axis=1)[None, None],
+                                              (N, 1, b.m, 2 * n))], axis=-1)
+    else:
+        rhs = np.concatenate([np.swapaxes(state.Psi, -1, -2),
+                              np.broadcast_to(feats.transpose(0, 2, 1)[None], (N, 2, b.m, n))], axis=-1)
+    X, _ = la.solve(state.lin, np.ascontiguousarray(rhs))
+    MT = X[..., :d]
+    Lam = _sym_pd(config.Lambda0 + state.Phi - np.einsum("ngdm,ngme->ngde", state.Psi, MT), 1e-12)
+    dof = state.nu - d + 1.0
+    prior = config.prior_tire.mu(alpha)
+    mean = np.empty((2, n))
+    lo = np.empty((2, n))
+    hi = np.empty((2, n))
+    tail = 0.5 * (1.0 - level)
+    for ax in range(2):
+        g, r = where[ax]
+        if b.kind == "tensor":
+            Pf = X[:, 0, :, d + ax * n: d + (ax + 1) * n]
+        else:
+            Pf = X[:, g, :, d:]
+        loc = MT[:, g, :, r] @ feats[ax].T + prior  # (N, n)
+        quad = np.maximum(np.einsum("nm,kmn->kn", feats[ax], Pf), 1e-300)
+        sc = np.sqrt(Lam[:, g, r, r][:, None] * quad / dof)
+        mean[ax] = w @ loc
+        # mixture quantiles by bisection on the mixture CDF
+        a_lo = (loc - 40 * sc).min(axis=0)
+        a_hi = (loc + 40 * sc).max(axis=0)
+        for target, outarr in ((tail, lo), (1.0 - tail, hi)):
+            left, right = a_lo.copy(), a_hi.copy()
+            for _ in range(50):
+                mid = 0.5 * (left + right)
+                cdf = w @ stdtr(dof, (mid[None, :] - loc) / sc)
+                below = cdf < target
+                left = np.where(below, mid, left)
+                right = np.where(below, right, mid)
+            outarr[ax] = 0.5 * (left + right)
+    return CurvePosterior(alpha, mean, lo, hi, np.stack([prior, prior]))
+
+
+# -------------------------------------------------------------------------------------
+# drive handling and the online object
+# -------------------------------------------------------------------------------------
+def drive_vx(drive: Any) -> NDArray[np.float64]:
+    """Longitudinal speed [m/s]: wheel speeds times radius, else the ``vx`` column.
+
+    With wheel speeds the mean of the non-driven axle is used (all four wheels for
+    all-wheel drive).
+    """
+    veh = drive.vehicle
+    if drive.has_wheel_speeds:
+        wheels = {"fwd": ("omega_rl", "omega_rr"), "rwd": ("omega_fl", "omega_fr")}.get(
+            veh.drive, ("omega_fl", "omega_fr", "omega_rl", "omega_rr"))
+        return np.mean([drive.col(c) for c in wheels], axis=0) * veh.wheel_radius
+    if drive.has("vx"):
+        return drive.col("vx")
+    raise ValueError(
+        f"drive from {drive.meta.source} has neither wheel speeds (omega_fl..omega_rr) nor a "
+        "'vx' column: the GP-SSM filter needs the longitudinal speed"
+    )
+
+
+def drive_inputs(drive: Any) -> NDArray[np.float64]:
+    """Columns ``t, ay, yaw_rate, steer, vx`` of a drive as an array (n, 5)."""
+    drive.require("t", "ay", "yaw_rate", "steer", why="inputs of the GP-SSM filter")
+    return np.column_stack([drive.col("t"), drive.col("ay"), drive.col("yaw_rate"),
+                            drive.col("steer"), drive_vx(drive)])
+
+
+class GPSSM:
+    """Online GP-SSM friction learner: ``step(sample)`` or ``run(drive)``.
+
+    Parameters
+    ----------
+    config : GPSSMConfig
+    seed : int
+
+    Examples
+    --------
+    >>> from roadgrip.vehicle import PRESETS
+    >>> f = GPSSM(GPSSMConfig(PRESETS["suv"], particles=20, basis=make_basis("separable:8")))
+    >>> est = f.step(Sample(t=0.0, ay=0.0, yaw_rate=0.0, steer=0.0, vx=15.0))
+    >>> est.excited
+    False
+    """
+
+    def __init__(self, config: GPSSMConfig, seed: int = 0) -> None:
+        self.config = config
+        self.seed = seed
+        self.state_: GPSSMState | None = None
+
+    def step(self, sample: Sample) -> GPSSMEstimate:
+        self.state_, est = step(self.state_, sample, self.config, self.seed)
+        return est
+
+    def curves(self, alpha: NDArray, level: float = 0.95) -> CurvePosterior:
+        if self.state_ is None:
+            raise ValueError("no data yet: call step() first")
+        return posterior_curves(self.state_, self.config, alpha, level)
+
+    def run(
+        self,
+        drive: Any,
+        *,
+        curve_times: tuple[float, ...] | None = None,
+        curve_alpha: NDArray | None = None,
+        progress: Any = None,
+    ) -> tuple[pd.DataFrame, dict[float, CurvePosterior]]:
+        """Process a whole drive.
+
+        Returns
+        -------
+        table : DataFrame
+            One row per sample (fields of :class:`GPSSMEstimate`).
+        curves : dict
+            Requested time -> :class:`CurvePosterior` at the first sample at or after it
+            (the last sample for times beyond the end).
+        """
+        data = drive_inputs(drive)
+        rows = []
+        curves: dict[float, CurvePosterior] = {}
+        pending = sorted(curve_times or ())
+        if curve_alpha is None:
+            curve_alpha = np.linspace(-self.config.peak_range, self.config.peak_range, 161)
+        for i, row in enumerate(data):
+            rows.append(self.step(Sample(*row)))
+            while pending and (row[0] >= pending[0] or i == len(data) - 1):
+                curves[pending.pop(0)] = self.curves(curve_alpha)
+            if progress is not None and i % 50 == 49:
+                progress(50)
+        return pd.DataFrame(rows, columns=GPSSMEstimate._fields), curves
+
+
+# -------------------------------------------------------------------------------------
+# CLI
+# -------------------------------------------------------------------------------------
+def curves_frame(curves: dict[float, CurvePosterior], drive: Any = None) -> pd.DataFrame:
+    """Long table ``t, axle, alpha, mu_mean, mu_lower, mu_upper, mu_prior[, mu_true]``."""
+    frames = []
+    for t, c in curves.items():
+        for ax, axle in enumerate(AXLES):
+            f = pd.DataFrame({
+                "t": t, "axle": axle, "alpha": c.alpha, "mu_mean": c.mean[ax],
+                "mu_lower": c.lower[ax], "mu_upper": c.upper[ax], "mu_prior": c.prior[ax],
+            })
+            if drive is not None and drive.has_truth:
+                try:
+                    f["mu_true"] = drive.true_tire(axle).mu(c.alpha)
+                except Exception:
+                    pass
+            frames.append(f)
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+
+def curve_accuracy(
+    curve: CurvePosterior,
+    drive: Any,
+    t_end: float | None = None,
+    *,
+    bin_width: float = math.radians(0.5),
+    min_visits: int = 20,
+) -> dict[str, dict[str, float]]:
+    """Accuracy of posterior curves against a simulated drive's true tire curves.
+
+    Slip bins of ``bin_width`` [rad] (signed) visited at least ``min_visits`` times by the
+    true slip angles up to ``t_end`` form the covered range; over their centres the
+    posterior mean is compared with the true curve (mean absolute error) and the 95 % band
+    is checked to contain it (coverage fraction).
+
+    Returns
+    -------
+    dict
+        ``{'front': {'mae', 'coverage', 'bins', 'alpha_min', 'alpha_max'}, 'rear': ...}``.
+    """
+    out: dict[str, dict[str, float]] = {}
+    t = drive.t
+    sel = t <= (t_end if t_end is not None else t[-1]) + 1e-9
+    for ax, axle in enumerate(AXLES):
+        a_true = drive.col(f"alpha_{axle[0]}_true")[sel]
+        idx = np.floor(a_true / bin_width).astype(int)
+        ids, counts = np.unique(idx, return_counts=True)
+        centres = (ids[counts >= min_visits] + 0.5) * bin_width
+        if len(centres) == 0:
+            out[axle] = {"mae": float("nan"), "coverage": float("nan"), "bins": 0,
+                         "alpha_min": 0.0, "alpha_max": 0.0}
+            continue
+        mean = np.interp(centres, curve.alpha, curve.mean[ax])
+        lo = np.interp(centres, curve.alpha, curve.lower[ax])
+        hi = np.interp(centres, curve.alpha, curve.upper[ax])
+        true = drive.true_tire(axle).mu(centres)
+        out[axle] = {
+            "mae": float(np.mean(np.abs(mean - true))),
+            "coverage": float(np.mean((lo <= true) & (true <= hi))),
+            "bins": len(centres),
+            "alpha_min": float(centres.min()),
+            "alpha_max": float(centres.max()),
+        }
+    return out
+
+
+def config_from_request(drive: Any, request: EstimateRequest) -> GPSSMConfig:
+    opts = dict(request.options or {})
+    basis = make_basis(request.basis)
+    cfg = GPSSMConfig(drive.vehicle, basis=basis,
+                      particles=request.particles or 200)
+    if opts:
+        known = {f for f in GPSSMConfig.__dataclass_fields__}
+        bad = sorted(set(opts) - known)
+        if bad:
+            raise ValueError(f"unknown gpssm option(s) {bad}")
+        cfg = replace(cfg, **opts)
+    return cfg
+
+
+def run_cli(drive: Any, request: EstimateRequest) -> EstimateResult:
+    """``roadgrip estimate --method gpssm``: run, write curves/plot when asked."""
+    request.reject("gpssm", "calibration")
+    cfg = config_from_request(drive, request)
+    filt = GPSSM(cfg, seed=request.seed)
+    times = tuple(request.curve_times or ())
+    if request.plot_path and not times:
+        times = (4.0, 20.0, 40.0, 50.0)
+    t0 = float(drive.t[0])
+    abs_times = tuple(t0 + t for t in times)
+    meta: dict[str, Any] = {"config": _config_meta(cfg)}
+    progress_ctx = None
+    if request.progress:
+        from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+        progress_ctx = Progress(TextColumn("gpssm"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                                TimeRemainingColumn(), transient=True)
+    if progress_ctx is not None:
+        with progress_ctx as prog:
+            task = prog.add_task("gpssm", total=drive.n)
+            with timed(meta, drive.n, drive.duration):
+                table, curves = filt.run(drive, curve_times=abs_times,
+                                         progress=lambda k: prog.advance(task, k))
+    else:
+        with timed(meta, drive.n, drive.duration):
+            table, curves = filt.run(drive, curve_times=abs_times)
+    curves = {t - t0: c for t, c in curves.items()}
+    out = table.rename(columns={"yaw_rate": "yaw_rate_est"})
+    last = out.iloc[-1]
+    meta["diagnostics"] = {
+        "ess_mean": float(out["ess"].mean()),
+        "ess_min": float(out["ess"].min()),
+        "resampling_rate": float(out["resampled"].mean()),
+        "particles": cfg.particles,
+        "basis": cfg.basis.label(),
+        "linalg": cfg.linalg,
+    }
+    if not out["excited"].any():
+        meta["diagnostics"]["information"] = "no excitation: posterior equals the prior"
+    lo = min(last["mu_front_lower"], last["mu_rear_lower"])
+    hi = max(last["mu_front_upper"], last["mu_rear_upper"])
+    meta["summary"] = {
+        "MostProbable": float(min(last["mu_front"], last["mu_rear"])),
+        "LowerBound": float(lo), "UpperBound": float(hi),
+    }
+    cframe = curves_frame(curves, drive) if curves else None
+    if request.curves_path and cframe is not None:
+        cframe.to_parquet(request.curves_path, index=False)
+    if request.plot_path:
+        from roadgrip.plots.gpssm import plot_curves
+
+        plot_curves(cframe, table, request.plot_path, title=str(drive.meta.source))
+    return EstimateResult("gpssm", conform(out), meta, cframe)
+
+
+def _config_meta(cfg: GPSSMConfig) -> dict[str, Any]:
+    return {
+        "basis": cfg.basis.label(), "kernel": cfg.basis.kernel, "s_f": cfg.basis.s_f,
+        "ell_rad": cfg.basis.ell, "L_rad": cfg.basis.L, "particles": cfg.particles,
+        "forgetting": cfg.forgetting, "nu0": cfg.nu0, "sigma_w0": cfg.sigma_w0,
+        "sigma_ay": cfg.sigma_ay, "sigma_yaw_rate": cfg.sigma_yaw_rate,
+        "prior_tire": cfg.prior_tire.to_dict(), "linalg": cfg.linalg,
+    }
+

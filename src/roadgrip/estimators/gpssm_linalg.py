@@ -1,0 +1,298 @@
+r"""Per-particle linear algebra of the GP-SSM filter: solves with ``H = Sigma + I``.
+
+Every particle (and basis group) carries the information matrix ``H = Sigma + I`` of its
+MNIW posterior (whitened features, so the prior precision is ``I``; paper 000, eq. 25).
+Each step the filter needs ``H^{-1} R`` for a few right-hand sides ``R`` (the new feature
+vector, ``Psi^T`` and the features at the peak), then adds ``phi phi^T`` to ``Sigma`` and,
+at the next step, scales ``Sigma`` by the forgetting factor ``lam`` (eq. 29c). Because the
+prior ``I`` is not forgotten, ``lam Sigma + I`` is not a rank-1 change of the previous
+``H``: a straightforward implementation inverts ``H`` for every particle at every step,
+``O(N m³)``.
+
+Three interchangeable backends (``GPSSMConfig.linalg``):
+
+``'direct'``
+    Stores ``Sigma`` and calls ``numpy.linalg.solve`` on the stack ``(N, G, m, m)`` every
+    step. The reference, and the baseline of the benchmark.
+``'exact'``
+    Deferred forgetting of the prior. With ``c = lam^j`` (``j`` steps since the last
+    refactorisation) the stored matrix is ``B = Sigma + c I``: forgetting scales ``B`` by
+    ``lam`` (a scalar on its inverse, ``O(1)``) and the data update is rank 1
+    (Sherman-Morrison on ``P_B = B^{-1}``, ``O(m²)``). The exact ``H = B + (1 - c) I`` is
+    solved by the Neumann series ``H^{-1} = sum_n (-(1 - c))^n P_B^{n+1}``, which converges
+    geometrically because ``P_B <= I / c`` and ``1 - c << c``; terms are added until they
+    fall below ``1e-13`` of the sum. Every ``refactor_every`` steps ``P_B`` is recomputed
+    from ``Sigma`` (Cholesky of ``Sigma + I``, ``c = 1``), which also removes rounding
+    drift of the rank-1 updates. ``O(N m²)`` per step, exact to rounding.
+``'fast'``
+    As ``'exact'`` with ``Sigma`` and ``P_B`` stored in single precision, a single
+    Neumann correction term and a refactorisation in double precision every
+    ``refactor_every`` steps. ``O(N m²)`` with half the memory traffic.
+
+All arrays are indexed ``(N, G, ...)``: particles, basis groups. The state is consumed by
+each call (buffers are updated in place and returned); :func:`take` copies rows on
+resampling.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["LINALG_MODES", "LinAlgState", "forget", "init", "refactor", "solve", "take", "update"]
+
+LINALG_MODES = ("exact", "fast", "direct")
+
+
+class LinAlgState(NamedTuple):
+    """Per-particle information matrices.
+
+    Attributes
+    ----------
+    mode : str
+        ``'exact'``, ``'fast'`` or ``'direct'``.
+    sigma : ndarray, shape (N, G, m, m)
+        ``Sigma / sigma_scale`` (``Sigma`` itself for ``'direct'``).
+    pinv : ndarray, shape (N, G, m, m) or (0,)
+        ``P_B / p_scale`` with ``P_B = (Sigma + c I)^{-1}`` (``'exact'``, ``'fast'``).
+    sigma_scale, p_scale : float
+        Global scalar factors (forgetting is applied to them, not to the arrays).
+    c : float
+        Prior weight currently inside ``P_B``.
+    since_refactor : int
+        Steps since the last refactorisation.
+    """
+
+    mode: str
+    sigma: NDArray
+    pinv: NDArray
+    sigma_scale: float
+    p_scale: float
+    c: float
+    since_refactor: int
+
+
+def init(mode: str, n: int, groups: int, m: int) -> LinAlgState:
+    """Prior state: ``Sigma = 0``, ``H = I``."""
+    if mode not in LINALG_MODES:
+        raise ValueError(f"unknown linear-algebra mode {mode!r}; expected one of {LINALG_MODES}")
+    dtype = np.float32 if mode == "fast" else np.float64
+    sigma = np.zeros((n, groups, m, m), dtype=dtype)
+    if mode == "direct":
+        return LinAlgState(mode, sigma, np.zeros(0), 1.0, 1.0, 1.0, 0)
+    pinv = np.broadcast_to(np.eye(m, dtype=dtype), (n, groups, m, m)).copy()
+    return LinAlgState(mode, sigma, pinv, 1.0, 1.0, 1.0, 0)
+
+
+def forget(st: LinAlgState, lam: float, refactor_every: int) -> LinAlgState:
+    """Time update ``Sigma <- lam Sigma`` (eq. 29c)."""
+    if st.mode == "direct":
+        sig = st.sigma
+        sig *= lam
+        return st
+    st = st._replace(
+        sigma_scale=st.sigma_scale * lam, p_scale=st.p_scale / lam, c=st.c * lam,
+        since_refactor=st.since_refactor + 1,
+    )
+    if st.since_refactor >= refactor_every:
+        st = refactor(st)
+    return st
+
+
+def refactor(st: LinAlgState) -> LinAlgState:
+    """Recompute ``P_B = (Sigma + I)^{-1}`` from ``Sigma``, ``c = 1``."""
+    if st.mode == "direct":
+        return st
+    _refactor(st.sigma.reshape((-1, *st.sigma.shape[-2:])),
+              st.pinv.reshape((-1, *st.pinv.shape[-2:])), st.sigma_scale)
+    return st._replace(sigma_scale=1.0, p_scale=1.0, c=1.0, since_refactor=0)
+
+
+@numba.njit(cache=True, fastmath=True)
+def _refactor(sigma, pinv, sigma_scale):  # pragma: no cover - compiled
+    """In place: sigma <- sym(sigma_scale sigma); pinv <- (sigma + I)^{-1} by Cholesky."""
+    B, m, _ = sigma.shape
+    L = np.zeros((m, m))
+    Linv = np.zeros((m, m))
+    for b in range(B):
+        S = sigma[b]
+        for i in range(m):
+            for j in range(i + 1):
+                v = 0.5 * sigma_scale * (float(S[i, j]) + float(S[j, i]))
+                S[i, j] = v
+                S[j, i] = v
+        # Cholesky of H = S + I (row-oriented)
+        for i in range(m):
+            for j in range(i + 1):
+                acc = float(S[i, j]) + (1.0 if i == j else 0.0)
+                Li = L[i]
+                Lj = L[j]
+                for k in range(j):
+                    acc -= Li[k] * Lj[k]
+                if i == j:
+                    L[i, i] = np.sqrt(max(acc, 1e-300))
+                else:
+                    L[i, j] = acc / L[j, j]
+        # inverse of the lower-triangular L, row by row: Linv L = I
+        for i in range(m):
+            for j in range(m):
+                Linv[i, j] = 0.0
+        for j in range(m):
+            Linv[j, j] = 1.0 / L[j, j]
+            for i in range(j + 1, m):
+                acc = 0.0
+                for k in range(j, i):
+                    acc -= L[i, k] * Linv[k, j]
+                Linv[i, j] = acc / L[i, i]
+        # P = Linv^T Linv
+        P = pinv[b]
+        for i in range(m):
+            for j in range(i + 1):
+                acc = 0.0
+                for k in range(i, m):
+                    acc += Linv[k, i] * Linv[k, j]
+                P[i, j] = acc
+                P[j, i] = acc
+
+
+@numba.njit(cache=True, fastmath=True)
+def _neumann(pinv, p_scale, delta, Rt, n_exact, tol, max_terms):  # pragma: no cover - compiled
+    """Per batch element: X = sum_n (-delta)^n P_B^{n+1} R, with ``Rt = R^T`` (B, nr, m).
+
+    The first ``n_exact`` right-hand sides get terms until they fall below ``tol`` of the
+    sum; the others get the first two terms (error ``O(delta²)``). Also returns
+    ``P_B R[:, 0]``.
+    """
+    B, nr, m = Rt.shape
+    Xt = np.zeros((B, nr, m))
+    PB0 = np.zeros((B, m))
+    term = np.empty((nr, m))
+    nxt = np.empty((nr, m))
+    for b in range(B):
+        P = pinv[b]
+        for i in range(m):
+            Pi = P[i]
+            for r in range(nr):
+                acc = 0.0
+                for j in range(m):
+                    acc += Pi[j] * Rt[b, r, j]
+                term[r, i] = p_scale * acc
+        for i in range(m):
+            PB0[b, i] = term[0, i]
+        for r in range(nr):
+            for i in range(m):
+                Xt[b, r, i] = term[r, i]
+        if delta > 0.0:
+            xmax = 0.0
+            for r in range(n_exact):
+                for i in range(m):
+                    v = abs(term[r, i])
+                    if v > xmax:
+                        xmax = v
+            fac = -delta * p_scale
+            n_rhs = nr
+            for _it in range(max_terms):
+                tmax = 0.0
+                for i in range(m):
+                    Pi = P[i]
+                    for r in range(n_rhs):
+                        acc = 0.0
+                        for j in range(m):
+                            acc += Pi[j] * term[r, j]
+                        nxt[r, i] = fac * acc
+                for r in range(n_rhs):
+                    for i in range(m):
+                        v = nxt[r, i]
+                        term[r, i] = v
+                        Xt[b, r, i] += v
+                        if r < n_exact and abs(v) > tmax:
+                            tmax = abs(v)
+                n_rhs = n_exact
+                if tmax <= tol * xmax:
+                    break
+    return Xt, PB0
+
+
+@numba.njit(cache=True, fastmath=True)
+def _rank1(sigma, pinv, phi, pb_phi, sigma_scale, p_scale):  # pragma: no cover - compiled
+    """sigma += phi phi^T / sigma_scale;  P_B <- P_B - (P_B phi)(P_B phi)^T / (1 + phi^T P_B phi)."""
+    B, m = phi.shape
+    for b in range(B):
+        s = 0.0
+        for i in range(m):
+            s += phi[b, i] * pb_phi[b, i]
+        g = 1.0 / ((1.0 + s) * p_scale)
+        S = sigma[b]
+        P = pinv[b]
+        pb = pb_phi[b]
+        ph = phi[b]
+        for i in range(m):
+            fi = ph[i] / sigma_scale
+            ui = pb[i] * g
+            Si = S[i]
+            Pr = P[i]
+            for j in range(m):
+                Si[j] += fi * ph[j]
+                Pr[j] -= ui * pb[j]
+
+
+def solve(st: LinAlgState, R: NDArray, n_exact: int | None = None) -> tuple[NDArray, NDArray | None]:
+    """``H^{-1} R`` for ``R`` of shape (N, G, m, nr), ``H = Sigma + I``.
+
+    With ``n_exact`` only the first ``n_exact`` columns are solved to rounding precision
+    by ``'exact'``; the rest to ``O((1 - c)²)`` relative (used for the band of the peak).
+
+    Returns
+    -------
+    X : ndarray, shape (N, G, m, nr)
+    pb_phi : ndarray, shape (N, G, m) or None
+        ``P_B R[..., 0]``, needed by :func:`update` (``None`` for ``'direct'``).
+    """
+    N, G, m, nr = R.shape
+    if st.mode == "direct":
+        H = st.sigma + np.eye(m)
+        return np.linalg.solve(H, R), None
+    delta = 1.0 - st.c
+    if st.mode == "fast":
+        tol, max_terms = 1.0, 1
+    else:
+        tol, max_terms = 1e-13, 60
+    n_exact = nr if n_exact is None else n_exact
+    Rt = np.ascontiguousarray(np.swapaxes(R, -1, -2).reshape(N * G, nr, m), dtype=st.pinv.dtype)
+    Xt, pb = _neumann(st.pinv.reshape(N * G, m, m), st.p_scale, delta, Rt, n_exact, tol, max_terms)
+    return np.swapaxes(Xt.reshape(N, G, nr, m), -1, -2), pb.reshape(N, G, m)
+
+
+def update(st: LinAlgState, phi: NDArray, pb_phi: NDArray | None) -> LinAlgState:
+    """Data update ``Sigma <- Sigma + phi phi^T`` (eq. 28b); ``phi`` (N, G, m)."""
+    N, G, m = phi.shape
+    if st.mode == "direct":
+        sig = st.sigma
+        sig += phi[..., :, None] * phi[..., None, :]
+        return st
+    _rank1(
+        st.sigma.reshape(N * G, m, m), st.pinv.reshape(N * G, m, m),
+        np.ascontiguousarray(phi.reshape(N * G, m)), pb_phi.reshape(N * G, m),
+        st.sigma_scale, st.p_scale,
+    )
+    return st
+
+
+def take(st: LinAlgState, idx: NDArray) -> LinAlgState:
+    """Rows ``idx`` (resampling): each particle keeps its own matrices."""
+    return st._replace(
+        sigma=st.sigma[idx], pinv=st.pinv[idx] if st.pinv.ndim == 4 else st.pinv
+    )
+
+
+def copy(st: LinAlgState) -> LinAlgState:
+    return st._replace(sigma=st.sigma.copy(), pinv=st.pinv.copy())
+
+
+def information(st: LinAlgState) -> NDArray:
+    """``H = Sigma + I`` in double precision, shape (N, G, m, m) (for checks)."""
+    m = st.sigma.shape[-1]
+    return st.sigma.astype(np.float64) * st.sigma_scale + np.eye(m)
