@@ -265,7 +265,7 @@ def run_case(case: Case, settings: BenchSettings, seed: int, cache: dict) -> Run
     try:
         drive = _load_drive(case, settings, seed, cache)
     except Exception as exc:  # reported in the table, never fatal
-        return RunRecord(case, f"error: drive: {exc}")
+        return RunRecord(case, _status("error: drive", exc), details=[f"drive: {exc}"])
     from roadgrip.estimators import run_estimator
 
     try:
@@ -274,13 +274,22 @@ def run_case(case: Case, settings: BenchSettings, seed: int, cache: dict) -> Run
         result = run_estimator(case.method, drive, request)
         wall = time.perf_counter() - t0
     except Exception as exc:  # reported in the table, never fatal
-        return RunRecord(case, f"error: {type(exc).__name__}: {exc}", drive=drive)
+        return RunRecord(case, _status(f"error: {type(exc).__name__}", exc), drive=drive,
+                         details=[f"{type(exc).__name__}: {exc}"])
     rec = RunRecord(case, "ok", drive=drive, result=result, wall_s=wall)
     try:
         score(rec)
     except Exception as exc:  # reported in the table, never fatal
-        rec.status = f"error: scoring: {type(exc).__name__}: {exc}"
+        rec.status = _status(f"error: scoring: {type(exc).__name__}", exc)
+        rec.details.append(f"scoring failed: {type(exc).__name__}: {exc}")
     return rec
+
+
+def _status(prefix: str, exc: BaseException, width: int = 100) -> str:
+    """One-line status: the prefix and the first line of the message, shortened."""
+    first = (str(exc).strip().splitlines() or [""])[0]
+    text = f"{prefix}: {first}"
+    return text if len(text) <= width else text[: width - 1] + "…"
 
 
 def run_suite(
@@ -421,16 +430,21 @@ def _score_classes(rec: RunRecord) -> None:
     m["class_acc_exc"] = M.classification_accuracy(pred, truth, excited).accuracy
     m["conf_wrong"] = M.confident_wrong_class_rate(pred, truth)
     m["switches"] = float(M.count_switches(pred))
-    events = M.detection_delays(t, pred, truth, excited, hold=0.5)
+    # Delays count from the first sample after a change that the estimator itself flags as
+    # excited (the contract's `excited`); without that flag, from the measured excitation.
+    own = tab["excited"].to_numpy(bool) if "excited" in tab.columns else None
+    exc_ref = own if own is not None and own.any() else excited
+    events = M.detection_delays(t, pred, truth, exc_ref, hold=0.5)
     if events:
         delays = [e.delay_from_excitation for e in events]
         m["detected"] = float(sum(e.detected for e in events)) / len(events)
         m["max_delay_s"] = float(np.max(delays)) if all(np.isfinite(delays)) else np.inf
         for e in events:
             rec.details.append(
-                f"change to {e.new_class} at t = {e.t_change:.1f} s: first excitation "
-                f"{e.t_excited:.1f} s, detected {e.t_detected:.1f} s "
-                f"(delay {e.delay_from_excitation:.2f} s after excitation)"
+                f"change to {e.new_class} at t = {e.t_change:.1f} s: first excited sample "
+                f"{e.t_excited:.1f} s, detected {e.t_detected:.1f} s (delay "
+                f"{e.delay_from_excitation:.2f} s after excitation, {e.delay_from_change:.2f} s "
+                "after the change)"
             )
 
 
@@ -535,16 +549,40 @@ def table_markdown(table: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
+_SUMMARY_KEYS = (
+    ("curve_mae", "curve MAE"), ("curve_cov", "band"), ("peak_err_f", "peak err f"),
+    ("peak_err_r", "r"), ("mu_band_cov", "μ band"), ("class_acc", "acc"),
+    ("class_acc_exc", "acc exc."), ("max_delay_s", "delay"), ("switches", "switches"),
+    ("conf_wrong", "conf. wrong"), ("map_mae", "map MAE"), ("map_cov95", "map cov"),
+)
+
+
+def accuracy_summary(row) -> str:
+    """The accuracy figures of one table row as one short line (for the terminal)."""
+    parts = []
+    for key, short in _SUMMARY_KEYS:
+        v = row.get(key, np.nan)
+        if isinstance(v, float) and np.isnan(v):
+            continue
+        parts.append(f"{short} {format_cell(key, v)}")
+    return ", ".join(parts)
+
+
 def rich_table(table: pd.DataFrame, title: str = "benchmark"):
+    """A compact terminal table: speed columns and the accuracy figures as one line."""
+    from rich import box
     from rich.table import Table
 
-    keys = ["drive", "method"] + [k for k in BENCH_COLUMNS if table[k].notna().any()] + ["status"]
-    out = Table(title=title)
-    for k in keys:
-        out.add_column(BENCH_COLUMNS[k][0] if k in BENCH_COLUMNS else k,
-                       justify="left" if k in ("drive", "method", "status") else "right")
+    out = Table(title=title, box=box.SIMPLE_HEAD, padding=(0, 1))
+    out.add_column("drive", no_wrap=True)
+    out.add_column("method", no_wrap=True)
+    out.add_column("samples/s", justify="right", no_wrap=True)
+    out.add_column("real-time ×", justify="right", no_wrap=True)
+    out.add_column("accuracy")
+    out.add_column("status", max_width=24, overflow="ellipsis", no_wrap=True)
     for _, row in table.iterrows():
-        out.add_row(*(format_cell(k, row[k]) for k in keys))
+        out.add_row(row["drive"], row["method"], format_cell("samples_per_s", row["samples_per_s"]),
+                    format_cell("rtf", row["rtf"]), accuracy_summary(row), str(row["status"]))
     return out
 
 
@@ -561,7 +599,8 @@ def write_outputs(records: Sequence[RunRecord], out_dir: Path, settings: BenchSe
         "peak err. = final peak estimate − true peak (reference value on real data); μ band cov. = "
         "fraction of time the true peak lies in the 95 % band; class acc. (excited) = on "
         "sufficiently excited samples (|a| ≥ 2 m/s² for ≥ 0.3 s); max delay = worst detection "
-        "delay after the first sufficiently excited time following a surface change; confident "
+        "delay (the new class held ≥ 0.5 s) after the first sample the estimator flags as excited "
+        "following a surface change; confident "
         "wrong = fraction of samples with a confident claim outside tolerance (0.1 in μ, or the "
         "wrong class); map = cells with ≥ 10 excited observations.\n"
     )

@@ -1,0 +1,53 @@
+"""``roadgrip demo`` end to end on shortened settings."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from html.parser import HTMLParser
+
+import pandas as pd
+import pytest
+
+from roadgrip.evaluate.suite import DEMO, default_cases, method_available
+from roadgrip.report import SECTIONS, demo_cli
+
+
+class _Ids(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.ids, self.imgs = set(), []
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if "id" in a:
+            self.ids.add(a["id"])
+        if tag == "img":
+            self.imgs.append(a.get("src", ""))
+
+
+def test_demo_covers_the_three_scenarios_and_applicable_methods():
+    pairs = {(c.drive, c.method) for c in default_cases(DEMO)}
+    assert pairs == {("snow-slalom", "gpssm"), ("dry-gravel-dry", "brls"), ("dry-gravel-dry", "slipmap"),
+                     ("f1tenth-patches", "cascade")}
+
+
+@pytest.mark.slow
+def test_demo_writes_report_with_all_sections(tmp_path):
+    pytest.importorskip("roadgrip.sim.scenarios")
+    settings = replace(DEMO, name="test", particles=20,
+                       durations={"snow-slalom": 30.0, "dry-gravel-dry": 40.0, "f1tenth-patches": 40.0})
+    path = demo_cli(tmp_path / "report", seed=0, settings=settings)
+    assert path == tmp_path / "report" / "index.html" and path.is_file()
+    p = _Ids()
+    p.feed(path.read_text(encoding="utf-8"))
+    assert set(SECTIONS) <= p.ids
+    assert p.imgs and all(s.startswith("data:image/png;base64,") for s in p.imgs)
+    table = pd.read_csv(tmp_path / "report" / "bench.csv")
+    assert len(table) == len(default_cases(DEMO))
+    for _, row in table.iterrows():
+        if method_available(row["method"]):
+            assert row["status"] == "ok", f"{row['drive']} / {row['method']}: {row['status']}"
+            assert row["samples_per_s"] > 0
+        else:
+            assert row["status"].startswith("not available")
+    assert (tmp_path / "report" / "bench.md").is_file()
