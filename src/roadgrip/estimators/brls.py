@@ -168,6 +168,11 @@ class BRLSConfig:
         Initial estimates; default the initial state's references.
     min_speed : float
         Below this speed [m/s] the regressors are zeroed (no information).
+    prefilter_tau_s : float
+        Time constant [s] of a first-order low-pass applied alike to each
+        channel's regressor and output before bRLS (0 = none). Filtering both
+        sides keeps ``y = theta phi`` and removes the noise that a 10 Hz
+        inertial sensor leaves at the sample level.
     """
 
     long: ChannelCalibration
@@ -181,8 +186,11 @@ class BRLSConfig:
     theta0_long: float | None = None
     theta0_lat: float | None = None
     min_speed: float = 0.5
+    prefilter_tau_s: float = 0.0
 
     def __post_init__(self) -> None:
+        if not (math.isfinite(self.prefilter_tau_s) and self.prefilter_tau_s >= 0):
+            raise ValueError(f"prefilter_tau_s must be >= 0, got {self.prefilter_tau_s!r}")
         if not (math.isfinite(self.min_speed) and self.min_speed >= 0):
             raise ValueError(f"min_speed must be >= 0, got {self.min_speed!r}")
         for name in ("memory_s", "s0", "s_max", "excitation_tau_s"):
@@ -259,6 +267,8 @@ class BRLSState(NamedTuple):
         Some channel has been informed since the start.
     e_long, e_lat : float
         Low-passed measurement weights (channel information) in [0, 1].
+    filtered : tuple of 4 float
+        Prefilter states of ``phi_long, ax, phi_lat, ay``.
     """
 
     theta_long: float
@@ -269,6 +279,7 @@ class BRLSState(NamedTuple):
     informed: bool
     e_long: float
     e_lat: float
+    filtered: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
 
 
 class BRLSOutput(NamedTuple):
@@ -287,15 +298,16 @@ class _P:
     """Index layout of the flat parameter vector handed to the compiled kernel."""
 
     REF_H, REF_L, THR, GAMMA, ON = 0, 1, 2, 3, 4  # + 5 * channel (0 long, 1 lat)
-    MEMORY, S_MAX, TAU_E, E_MIN = 10, 11, 12, 13
-    SIZE = 14
+    MEMORY, S_MAX, TAU_E, E_MIN, PREFILTER = 10, 11, 12, 13, 14
+    SIZE = 15
 
 
 class _S:
     """Index layout of the flat state vector of the compiled kernel."""
 
     THETA_LONG, S_LONG, THETA_LAT, S_LAT, HIGH, INFORMED, E_LONG, E_LAT = range(8)
-    SIZE = 8
+    F_PHI_LONG, F_AX, F_PHI_LAT, F_AY = range(8, 12)
+    SIZE = 12
 
 
 def _param_vector(cfg: BRLSConfig) -> NDArray[np.float64]:
@@ -306,17 +318,19 @@ def _param_vector(cfg: BRLSConfig) -> NDArray[np.float64]:
         p[o + _P.THR], p[o + _P.GAMMA], p[o + _P.ON] = ch.threshold, ch.gamma, float(ch.enabled)
     p[_P.MEMORY], p[_P.S_MAX] = cfg.memory_s, cfg.s_max
     p[_P.TAU_E], p[_P.E_MIN] = cfg.excitation_tau_s, cfg.excitation_min
+    p[_P.PREFILTER] = cfg.prefilter_tau_s
     return p
 
 
 def _state_vector(s: BRLSState) -> NDArray[np.float64]:
     return np.array([s.theta_long, s.s_long, s.theta_lat, s.s_lat, float(s.high),
-                     float(s.informed), s.e_long, s.e_lat])
+                     float(s.informed), s.e_long, s.e_lat, *s.filtered])
 
 
 def _state_from_vector(v: NDArray[np.float64]) -> BRLSState:
     return BRLSState(float(v[0]), float(v[1]), float(v[2]), float(v[3]), bool(v[4] > 0.5),
-                     bool(v[5] > 0.5), float(v[6]), float(v[7]))
+                     bool(v[5] > 0.5), float(v[6]), float(v[7]),
+                     (float(v[8]), float(v[9]), float(v[10]), float(v[11])))
 
 
 @numba.njit(cache=True)
@@ -324,22 +338,27 @@ def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - 
     """One classifier update in place on ``st``; returns (index, w_long, w_lat)."""
     mu = np.exp(-dt / p[10])
     ke = 1.0 - np.exp(-dt / p[12])
+    kf = 1.0 if p[14] <= 0.0 else 1.0 - np.exp(-dt / p[14])
     e_min = p[13]
     high = st[4] > 0.5
-    ws = np.zeros(2)
-    phis = (phi_long, phi_lat)
-    ys = (y_long, y_lat)
+    # identical first-order prefilter on regressor and output (keeps y = theta phi)
+    st[8] += kf * (phi_long - st[8])
+    st[9] += kf * (y_long - st[9])
+    st[10] += kf * (phi_lat - st[10])
+    st[11] += kf * (y_lat - st[11])
+    w0 = 0.0
+    w1 = 0.0
     for c in range(2):
         o = 5 * c
         if p[o + 4] < 0.5:
             continue
         th = st[2 * c]
         s = st[2 * c + 1]
-        ph = phis[c]
+        ph = st[8 + 2 * c]
         g = p[o + 3]
         w = 1.0 if g == 0.0 else 1.0 - np.exp(-abs(ph) / g)
         ref = p[o + 0] if high else p[o + 1]
-        eps = ys[c] - ph * th
+        eps = st[9 + 2 * c] - ph * th
         eps_ref = w * eps + (1.0 - w) * ph * (ref - th)
         sp = s * ph
         eta = mu + ph * sp
@@ -350,7 +369,10 @@ def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - 
         st[2 * c] = th
         st[2 * c + 1] = s
         st[6 + c] = st[6 + c] + ke * (w - st[6 + c])
-        ws[c] = w
+        if c == 0:
+            w0 = w
+        else:
+            w1 = w
     # state machine, eq. 8 (roadgrip sign: larger stiffness = higher grip)
     says_low = False
     says_high = False
@@ -383,13 +405,13 @@ def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - 
     idx = num / den
     if st[5] < 0.5:
         idx = 0.5
-    return idx, ws[0], ws[1]
+    return idx, w0, w1
 
 
 @numba.njit(cache=True)
 def _batch(st, t, phi_long, y_long, phi_lat, y_lat, p, dt0):  # pragma: no cover - compiled
     n = t.shape[0]
-    out_state = np.empty((n, 8))
+    out_state = np.empty((n, st.shape[0]))
     idx = np.empty(n)
     wl = np.empty(n)
     wa = np.empty(n)
@@ -409,7 +431,8 @@ def brls_init(config: BRLSConfig) -> BRLSState:
         tl = config.long.ref_high if high else config.long.ref_low
     if ta is None:
         ta = config.lat.ref_high if high else config.lat.ref_low
-    return BRLSState(float(tl), config.s0, float(ta), config.s0, high, False, 0.0, 0.0)
+    return BRLSState(float(tl), config.s0, float(ta), config.s0, high, False, 0.0, 0.0,
+                     (0.0, 0.0, 0.0, 0.0))
 
 
 def _classes(high: NDArray, informed: NDArray) -> NDArray[np.str_]:
@@ -706,6 +729,25 @@ def _best_threshold(hi: NDArray, lo: NDArray) -> tuple[float, float]:
     return float(np.median(best)), float(acc[k])
 
 
+def _lowpass(x: NDArray, dt: float, tau: float) -> NDArray:
+    """First-order low-pass at a constant step (the kernel's prefilter, for calibration)."""
+    if tau <= 0:
+        return x
+    from scipy.signal import lfilter
+
+    k = 1.0 - math.exp(-dt / tau)
+    return lfilter([k], [1.0, k - 1.0], x)
+
+
+def _filtered(data: list, tau: float) -> list:
+    out = []
+    for drive, lab, kin, regs, moving in data:
+        dt = float(np.median(np.diff(drive.t))) if drive.n > 1 else 0.01
+        f = {k: (_lowpass(v[0], dt, tau), _lowpass(v[1], dt, tau)) for k, v in regs.items()}
+        out.append((drive, lab, kin, f, moving))
+    return out
+
+
 def _channel_candidates(
     name: str, data: list, base: BRLSConfig, quantiles: Sequence[float], memory: float
 ) -> list[ChannelCalibration]:
@@ -743,11 +785,10 @@ def _channel_candidates(
             )
             est[lab].append(th[(np.abs(phi) >= gamma * ln2) & moving])
         hi, lo = np.concatenate(est["high"]), np.concatenate(est["low"])
-        thr = 0.5 * (refs["high"] + refs["low"])
-        if hi.size >= 10 and lo.size >= 10:
-            thr = _best_threshold(hi, lo)[0]
-        thr = min(max(thr, refs["low"]), refs["high"])
-        out.append(ChannelCalibration(refs["high"], refs["low"], thr, gamma, True))
+        mid = 0.5 * (refs["high"] + refs["low"])
+        for thr in {mid, _best_threshold(hi, lo)[0] if hi.size >= 10 and lo.size >= 10 else mid}:
+            thr = min(max(thr, refs["low"]), refs["high"])
+            out.append(ChannelCalibration(refs["high"], refs["low"], thr, gamma, True))
     return out
 
 
@@ -772,6 +813,7 @@ def calibrate(
     kinematic: KinematicConfig = KinematicConfig(),
     quantiles: Sequence[float] = (0.5, 0.7, 0.85, 0.95),
     memories: Sequence[float] = (1.0, 2.0, 4.0, 8.0),
+    prefilters: Sequence[float] = (0.0, 0.5, 1.0),
 ) -> Calibration:
     """Learn the bRLS references, thresholds, gammas and memory, and the slip-map curves.
 
@@ -783,11 +825,13 @@ def calibrate(
        the samples that level calls excited (the candidate is dropped unless
        ``ref_high > ref_low``);
     2. memory = ``base.memory_s`` times one of ``memories``; plain RLS is run
-       over each drive and the threshold maximises the balanced accuracy of
+       over each drive; the threshold candidates are the midpoint of the
+       references and the value that maximises the balanced accuracy of
        ``theta > thr -> high`` on the excited samples.
 
-    Every combination (memory; longitudinal candidate or off; lateral candidate
-    or off) is then run as the full classifier over each labelled drive,
+    Both steps run on the prefiltered signals, for each prefilter time constant
+    in ``prefilters`` [s]. Every combination (prefilter; memory; longitudinal
+    candidate or off; lateral candidate or off) is then run as the full classifier over each labelled drive,
     starting in the *other* state (so that it must detect the labelled class),
     and scored by the mean fraction of time spent in the labelled class minus
     ``SWITCH_PENALTY`` per class switch beyond the first (a labelled drive has
@@ -801,7 +845,7 @@ def calibrate(
     base : BRLSConfig, optional
         Settings kept from it (time constants, ``s0``); default :func:`default_config`.
     kinematic : KinematicConfig
-    quantiles, memories : sequence of float
+    quantiles, memories, prefilters : sequence of float
         Candidate grids (see above).
 
     Returns
@@ -827,19 +871,22 @@ def calibrate(
         data.append((drive, lab, kin, regs, moving))
 
     best = None
-    for mfac in memories:
-        mem = base.memory_s * float(mfac)
-        cands = {name: _channel_candidates(name, data, base, quantiles, mem) for name in ("long", "lat")}
-        off = {name: replace(getattr(base, name), enabled=False) for name in ("long", "lat")}
-        for cl in [off["long"], *cands["long"]]:
-            for ca in [off["lat"], *cands["lat"]]:
-                if not (cl.enabled or ca.enabled):
-                    continue
-                cfg = replace(base, long=cl, lat=ca, memory_s=mem)
-                acc, sw = _score(cfg, data)
-                key = acc - SWITCH_PENALTY * sw
-                if best is None or key > best[0]:
-                    best = (key, cfg, acc, sw)
+    off = {name: replace(getattr(base, name), enabled=False) for name in ("long", "lat")}
+    for tau in prefilters:
+        fdata = _filtered(data, float(tau))
+        for mfac in memories:
+            mem = base.memory_s * float(mfac)
+            cands = {name: _channel_candidates(name, fdata, base, quantiles, mem)
+                     for name in ("long", "lat")}
+            for cl in [off["long"], *cands["long"]]:
+                for ca in [off["lat"], *cands["lat"]]:
+                    if not (cl.enabled or ca.enabled):
+                        continue
+                    cfg = replace(base, long=cl, lat=ca, memory_s=mem, prefilter_tau_s=float(tau))
+                    acc, sw = _score(cfg, data)
+                    key = acc - SWITCH_PENALTY * sw
+                    if best is None or key > best[0]:
+                        best = (key, cfg, acc, sw)
     if best is None:
         raise ValueError(
             "calibration failed: no channel gives ordered high/low stiffness references; "

@@ -107,7 +107,7 @@ class KinematicConfig:
 
     velocity_aid: str = "auto"
     tau_vx: float = 0.3
-    tau_pose: float = 0.15
+    tau_pose: float = 0.05
     tau_beta: float = 1.0
     a_linear: float = 1.5
     accel_threshold: float = 0.5

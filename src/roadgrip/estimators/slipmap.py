@@ -81,6 +81,9 @@ __all__ = [
     "slipmap_step",
 ]
 
+SWITCH_PENALTY = 0.01
+"""Calibration score penalty per class switch beyond the first (fraction of time)."""
+
 _DRIVEN = {"fwd": (1.0, 1.0, 0.0, 0.0), "rwd": (0.0, 0.0, 1.0, 1.0), "awd": (1.0, 1.0, 1.0, 1.0)}
 
 
@@ -428,11 +431,16 @@ def calibrate_section(
     accuracy on the labelled samples outside the exclusions, each sample
     weighted by its eq. 9 reliability.
 
+    Then the output low-pass time constant (0.5-4 s) and the hysteresis
+    (0.1-0.3) are chosen by running the classifier over each labelled drive
+    and scoring the fraction of time in the labelled class minus
+    ``SWITCH_PENALTY`` per class switch beyond the first.
+
     Returns
     -------
     dict
-        :meth:`SlipMapConfig.to_dict` of the chosen configuration plus
-        ``'balanced_accuracy_long'`` / ``'_lat'`` in a ``'fit'`` entry.
+        ``{'config': SlipMapConfig.to_dict(), 'fit': {...}}`` with the balanced
+        accuracies and the final score in ``'fit'``.
     """
     base = base or default_config()
     fit: dict[str, float] = {}
@@ -466,8 +474,28 @@ def calibrate_section(
         curves[key] = best[1]
         fit[f"balanced_accuracy_{'long' if chan == 'x' else 'lat'}"] = float(best[0])
     cfg = replace(base, **curves)
-    d = cfg.to_dict()
-    return {"config": d, "fit": fit}
+    # output dynamics: low-pass and hysteresis scored on the full recursion
+    evs = [(drive, lab, _evidence_from_kin(kin, drive.col("ax"), drive.col("ay"),
+                                            drive.col("steer"), drive.vehicle, cfg))
+           for drive, lab, kin in data]
+    best = None
+    for tau in (0.5, 1.0, 2.0, 4.0):
+        for hyst in (0.1, 0.2, 0.3):
+            c = replace(cfg, lowpass_tau_s=tau, hysteresis=hyst)
+            accs, extra = [], 0
+            for drive, lab, ev in evs:
+                _, out = slipmap_batch(drive.t, ev, c)
+                cls = out.grip_class
+                accs.append(float((cls == lab).mean()))
+                known = cls[cls != "unknown"]
+                extra += max(int(np.sum(known[1:] != known[:-1])) - 1, 0)
+            key = float(np.mean(accs)) - SWITCH_PENALTY * extra
+            if best is None or key > best[0]:
+                best = (key, c, float(np.mean(accs)), extra)
+    cfg = best[1]
+    fit["fraction_in_labelled_class"] = best[2]
+    fit["extra_switches"] = best[3]
+    return {"config": cfg.to_dict(), "fit": fit}
 
 
 def config_from_calibration(section: dict[str, Any]) -> SlipMapConfig:
