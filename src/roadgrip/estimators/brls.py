@@ -173,6 +173,8 @@ class BRLSConfig:
         channel's regressor and output before bRLS (0 = none). Filtering both
         sides keeps ``y = theta phi`` and removes the noise that a 10 Hz
         inertial sensor leaves at the sample level.
+    lateral_regressor : {'axles', 'rear'}
+        ``alpha_f cos(delta) + alpha_r`` (eq. 4) or ``2 alpha_r`` (see :func:`regressors`).
     """
 
     long: ChannelCalibration
@@ -187,8 +189,13 @@ class BRLSConfig:
     theta0_lat: float | None = None
     min_speed: float = 0.5
     prefilter_tau_s: float = 0.0
+    lateral_regressor: str = "axles"
 
     def __post_init__(self) -> None:
+        if self.lateral_regressor not in ("axles", "rear"):
+            raise ValueError(
+                f"lateral_regressor must be 'axles' or 'rear', got {self.lateral_regressor!r}"
+            )
         if not (math.isfinite(self.prefilter_tau_s) and self.prefilter_tau_s >= 0):
             raise ValueError(f"prefilter_tau_s must be >= 0, got {self.prefilter_tau_s!r}")
         if not (math.isfinite(self.min_speed) and self.min_speed >= 0):
@@ -526,17 +533,32 @@ def brls_batch(
 
 
 def regressors(
-    kin: KinematicOutput, steer: NDArray, min_speed: float = 0.0
+    kin: KinematicOutput, steer: NDArray, min_speed: float = 0.0, lateral: str = "axles",
+    params: VehicleParams | None = None,
 ) -> tuple[NDArray, NDArray]:
-    """``phi_long = sum of wheel slips`` and ``phi_lat = alpha_f cos(delta) + alpha_r`` (eq. 4).
+    """The two regressors of eq. 4.
 
-    Both are set to 0 (no information) where ``|vx| < min_speed`` [m/s]: near
-    standstill the slips are dominated by the low-speed regularisation.
+    ``phi_long`` is the sum of the wheel slips. ``phi_lat`` is
+    ``alpha_f cos(delta) + alpha_r`` (``lateral='axles'``, the paper's), or
+    ``2 alpha_r`` (``lateral='rear'``): in quasi-steady cornering the rear axle
+    carries ``lf / L`` of the lateral force whatever the front does, so the
+    rear slip angle alone is a regressor of ``ay`` that does not depend on the
+    steering angle. It is the better choice when the road-wheel angle is only
+    known through a fitted steering map. The factor 2 keeps the scale of the
+    paper's regressor in symmetric driving. Both are set to 0 (no information)
+    where ``|vx| < min_speed`` [m/s]: near standstill the slips are dominated
+    by the low-speed regularisation.
     """
     kappa = np.asarray(kin.kappa, float)
     slow = np.abs(np.asarray(kin.vx, float)) < min_speed
     phi_long = np.where(slow, 0.0, kappa.sum(axis=-1))
-    phi_lat = np.where(slow, 0.0, np.asarray(kin.alpha_f) * np.cos(steer) + np.asarray(kin.alpha_r))
+    if lateral == "axles":
+        lat = np.asarray(kin.alpha_f) * np.cos(steer) + np.asarray(kin.alpha_r)
+    elif lateral == "rear":
+        lat = 2.0 * np.asarray(kin.alpha_r)
+    else:
+        raise ValueError(f"lateral regressor must be 'axles' or 'rear', got {lateral!r}")
+    phi_lat = np.where(slow, 0.0, lat)
     return phi_long, phi_lat
 
 
@@ -614,7 +636,8 @@ class BRLSClassifier:
         """Process one sample; returns the classification after it."""
         kin = self.kinematic.step(sample)
         dt = 0.01 if self._t_prev is None else float(sample.t) - self._t_prev
-        phi_long, phi_lat = regressors(kin, np.asarray(sample.steer), self.config.min_speed)
+        phi_long, phi_lat = regressors(kin, np.asarray(sample.steer), self.config.min_speed,
+                                       self.config.lateral_regressor)
         self.state_, out = brls_step(self.state_, dt, float(phi_long), float(sample.ax),
                                      float(phi_lat), float(sample.ay), self.config)
         self._t_prev = float(sample.t)
@@ -631,7 +654,7 @@ def _run_table(
 ) -> tuple[pd.DataFrame, KinematicOutput]:
     kin = estimate_kinematics(drive, kin_cfg)
     steer = drive.col("steer")
-    phi_long, phi_lat = regressors(kin, steer, config.min_speed)
+    phi_long, phi_lat = regressors(kin, steer, config.min_speed, config.lateral_regressor)
     _, out = brls_batch(drive.t, phi_long, drive.col("ax"), phi_lat, drive.col("ay"), config,
                         dt0=dt0)
     table = pd.DataFrame({
@@ -814,6 +837,7 @@ def calibrate(
     quantiles: Sequence[float] = (0.5, 0.7, 0.85, 0.95),
     memories: Sequence[float] = (1.0, 2.0, 4.0, 8.0),
     prefilters: Sequence[float] = (0.0, 0.5, 1.0),
+    lateral_regressors: Sequence[str] = ("axles", "rear"),
 ) -> Calibration:
     """Learn the bRLS references, thresholds, gammas and memory, and the slip-map curves.
 
@@ -830,7 +854,8 @@ def calibrate(
        ``theta > thr -> high`` on the excited samples.
 
     Both steps run on the prefiltered signals, for each prefilter time constant
-    in ``prefilters`` [s]. Every combination (prefilter; memory; longitudinal
+    in ``prefilters`` [s] and each lateral regressor in ``lateral_regressors``.
+    Every combination (lateral regressor; prefilter; memory; longitudinal
     candidate or off; lateral candidate or off) is then run as the full classifier over each labelled drive,
     starting in the *other* state (so that it must detect the labelled class),
     and scored by the mean fraction of time spent in the labelled class minus
@@ -847,6 +872,8 @@ def calibrate(
     kinematic : KinematicConfig
     quantiles, memories, prefilters : sequence of float
         Candidate grids (see above).
+    lateral_regressors : sequence of {'axles', 'rear'}
+        Lateral regressors tried (:func:`regressors`).
 
     Returns
     -------
@@ -862,31 +889,32 @@ def calibrate(
     if "high" not in labels or "low" not in labels:
         raise ValueError("calibration needs at least one 'high' and one 'low' drive")
     base = base or default_config()
-    data = []
-    for drive, lab in drives:
-        kin = estimate_kinematics(drive, kinematic)
-        pl, pa = regressors(kin, drive.col("steer"), base.min_speed)
-        moving = np.abs(kin.vx) >= base.min_speed
-        regs = {"long": (pl, drive.col("ax")), "lat": (pa, drive.col("ay"))}
-        data.append((drive, lab, kin, regs, moving))
-
+    kins = [(drive, lab, estimate_kinematics(drive, kinematic)) for drive, lab in drives]
     best = None
     off = {name: replace(getattr(base, name), enabled=False) for name in ("long", "lat")}
-    for tau in prefilters:
-        fdata = _filtered(data, float(tau))
-        for mfac in memories:
-            mem = base.memory_s * float(mfac)
-            cands = {name: _channel_candidates(name, fdata, base, quantiles, mem)
-                     for name in ("long", "lat")}
-            for cl in [off["long"], *cands["long"]]:
-                for ca in [off["lat"], *cands["lat"]]:
-                    if not (cl.enabled or ca.enabled):
-                        continue
-                    cfg = replace(base, long=cl, lat=ca, memory_s=mem, prefilter_tau_s=float(tau))
-                    acc, sw = _score(cfg, data)
-                    key = acc - SWITCH_PENALTY * sw
-                    if best is None or key > best[0]:
-                        best = (key, cfg, acc, sw)
+    for lateral in lateral_regressors:
+        data = []
+        for drive, lab, kin in kins:
+            pl, pa = regressors(kin, drive.col("steer"), base.min_speed, lateral)
+            moving = np.abs(kin.vx) >= base.min_speed
+            regs = {"long": (pl, drive.col("ax")), "lat": (pa, drive.col("ay"))}
+            data.append((drive, lab, kin, regs, moving))
+        for tau in prefilters:
+            fdata = _filtered(data, float(tau))
+            for mfac in memories:
+                mem = base.memory_s * float(mfac)
+                cands = {name: _channel_candidates(name, fdata, base, quantiles, mem)
+                         for name in ("long", "lat")}
+                for cl in [off["long"], *cands["long"]]:
+                    for ca in [off["lat"], *cands["lat"]]:
+                        if not (cl.enabled or ca.enabled):
+                            continue
+                        cfg = replace(base, long=cl, lat=ca, memory_s=mem,
+                                      prefilter_tau_s=float(tau), lateral_regressor=lateral)
+                        acc, sw = _score(cfg, data)
+                        key = acc - SWITCH_PENALTY * sw
+                        if best is None or key > best[0]:
+                            best = (key, cfg, acc, sw)
     if best is None:
         raise ValueError(
             "calibration failed: no channel gives ordered high/low stiffness references; "
@@ -898,10 +926,13 @@ def calibrate(
         "class_switches": sw,
         "long_channel": "on" if cfg.long.enabled else "off",
         "lat_channel": "on" if cfg.lat.enabled else "off",
+        "lateral_regressor": cfg.lateral_regressor,
+        "prefilter_tau_s": cfg.prefilter_tau_s,
+        "memory_s": cfg.memory_s,
     }
-    sm = slipmap.calibrate_section([(d[0], d[1], d[2]) for d in data])
-    veh = data[0][0].vehicle.name
-    prov = tuple({"source": d[0].meta.source, "label": d[1], "samples": int(d[0].n)} for d in data)
+    sm = slipmap.calibrate_section(kins)
+    veh = kins[0][0].vehicle.name
+    prov = tuple({"source": d[0].meta.source, "label": d[1], "samples": int(d[0].n)} for d in kins)
     return Calibration(cfg, sm, veh, prov, diag)
 
 
