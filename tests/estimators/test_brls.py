@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -263,3 +264,101 @@ def test_run_cli_output_contract_and_options(dgd, tmp_path):
     assert isinstance(back.table, pd.DataFrame) and len(back.table) == short.n
     with pytest.raises(ValueError, match="--particles"):
         brls.run_cli(short, EstimateRequest(particles=10))
+
+
+# --------------------------------------------------------------------------- real data (DART)
+
+DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
+DART = DATA / "dart"
+SETTLING_S = 10.0
+"""Settling period after the start of each test segment [s], excluded from the accuracy."""
+
+
+def dart_split():
+    """Calibrate on the first half of every DART run, test on the second halves.
+
+    The throttle ramps up during each run, so the test halves are the faster,
+    more excited parts, and the calibration never sees them.
+    """
+    if not DART.is_dir():
+        pytest.skip(f"DART data not found at {DART} (../shared/data beside the checkout)")
+    from roadgrip.io import read_drive
+
+    high = [read_drive(p, format="dart") for p in sorted((DART / "high_grip_rubbery_floor").glob("*.csv"))]
+    low = [read_drive(p, format="dart") for p in sorted((DART / "low_grip_tape_and_tiles").glob("*.csv"))]
+
+    def halves(d):
+        mid = d.t[0] + 0.5 * d.duration
+        return d.slice_time(d.t[0], mid), d.slice_time(mid, np.inf)
+
+    cal = [(halves(d)[0], "high") for d in high] + [(halves(d)[0], "low") for d in low]
+    test = [(halves(d)[1], "high") for d in high] + [(halves(d)[1], "low") for d in low]
+    return cal, test
+
+
+def concatenate(parts):
+    """One drive from consecutive drives: time continued, pose moved to continue rigidly."""
+    from roadgrip.drive import Drive
+
+    cols = ["t", "ax", "ay", "yaw_rate", "steer", "vx", "omega_rl", "omega_rr", "x", "y", "psi"]
+    frames, t_end, last, starts = [], None, None, []
+    for d in parts:
+        f = d.data[cols].copy()
+        f["t"] = f["t"] - f["t"].iloc[0] + (0.0 if t_end is None else t_end + 0.1)
+        if last is not None:
+            dpsi = last[2] - f["psi"].iloc[0]
+            c, s = np.cos(dpsi), np.sin(dpsi)
+            dx, dy = f["x"] - f["x"].iloc[0], f["y"] - f["y"].iloc[0]
+            f["x"], f["y"] = last[0] + c * dx - s * dy, last[1] + s * dx + c * dy
+            f["psi"] = f["psi"] + dpsi
+        starts.append(float(f["t"].iloc[0]))
+        t_end = float(f["t"].iloc[-1])
+        last = (f["x"].iloc[-1], f["y"].iloc[-1], f["psi"].iloc[-1])
+        frames.append(f)
+    return Drive.from_frame(pd.concat(frames, ignore_index=True), parts[0].vehicle,
+                            source="dart concatenation"), starts
+
+
+def excited_accuracy(table, label):
+    t = table["t"].to_numpy() - table["t"].iloc[0]
+    m = table["excited"].to_numpy() & (t > SETTLING_S)
+    return float((table["grip_class"].to_numpy()[m] == label).mean())
+
+
+@pytest.mark.realdata
+def test_dart_calibrate_first_halves_classify_second_halves(tmp_path):
+    cal_set, test_set = dart_split()
+    cal = brls.calibrate(cal_set)
+    path = tmp_path / "dart.yaml"
+    save_calibration(cal, path)
+    accs = []
+    for drive, label in test_set:
+        table = brls.run_cli(drive, EstimateRequest(calibration=str(path), progress=False)).table
+        acc = excited_accuracy(table, label)
+        print(f"bRLS {label:4s} {Path(drive.meta.source).name}: excited {table['excited'].mean():.2f}, "
+              f"correct {acc:.3f} of excited time after {SETTLING_S:.0f} s")
+        accs.append(acc)
+    # three of the four test halves reach 90 %; the fourth (a high-grip run with a
+    # violent lateral-acceleration episode late in the run) stays above 70 %
+    assert sorted(accs)[1] >= 0.9
+    assert min(accs) >= 0.7
+
+
+@pytest.mark.realdata
+def test_dart_concatenation_high_low_high_is_tracked(tmp_path):
+    cal_set, test_set = dart_split()
+    cal = brls.calibrate(cal_set)
+    highs = [d for d, lab in test_set if lab == "high"]
+    lows = [d for d, lab in test_set if lab == "low"]
+    drive, starts = concatenate([highs[1], lows[0], highs[0]])
+    table, _ = brls._run_table(drive, cal.brls, KinematicEstimator(drive.vehicle).config)
+    t = drive.t
+    truth = np.where((t >= starts[1]) & (t < starts[2]), "low", "high")
+    events = detection_delays(t, table["grip_class"].to_numpy(), truth, np.ones(t.size, bool), hold=1.0)
+    for e in events:
+        print(f"DART concatenation: change at {e.t_change:.1f} s -> {e.new_class}, "
+              f"detected after {e.delay_from_change:.1f} s")
+        assert e.detected and e.delay_from_change < 5.0
+    cls = table["grip_class"].to_numpy()
+    print(f"DART concatenation: correct {np.mean(cls == truth):.3f} of the time")
+    assert np.mean(cls == truth) > 0.85

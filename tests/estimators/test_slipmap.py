@@ -171,3 +171,40 @@ def test_run_equals_stepping(dgd):
     np.testing.assert_array_equal(batch["grip_class"].to_numpy(), [r.grip_class for r in rows])
     np.testing.assert_allclose(batch["grip_index"], [r.grip_index for r in rows], rtol=1e-12)
     assert (batch["grip_class"] == "low").any()
+
+
+# --------------------------------------------------------------------------- real data (DART)
+
+
+@pytest.mark.realdata
+def test_dart_calibrate_first_halves_classify_second_halves(tmp_path):
+    from test_brls import concatenate, dart_split, excited_accuracy
+
+    from roadgrip.estimators.brls import calibrate, save_calibration
+
+    cal_set, test_set = dart_split()
+    path = tmp_path / "dart.yaml"
+    save_calibration(calibrate(cal_set), path)
+    accs = []
+    for drive, label in test_set:
+        table = slipmap.run_cli(drive, EstimateRequest(calibration=str(path), progress=False)).table
+        acc = excited_accuracy(table, label)
+        print(f"slipmap {label:4s} {drive.meta.source.rsplit('/', 1)[-1]}: excited "
+              f"{table['excited'].mean():.2f}, correct {acc:.3f} of excited time after 10 s")
+        accs.append(acc)
+    assert sorted(accs)[1] >= 0.85
+    assert min(accs) >= 0.8
+    # concatenation high -> low -> high
+    highs = [d for d, lab in test_set if lab == "high"]
+    lows = [d for d, lab in test_set if lab == "low"]
+    drive, starts = concatenate([highs[1], lows[0], highs[0]])
+    table = slipmap.run_cli(drive, EstimateRequest(calibration=str(path), progress=False)).table
+    t = drive.t
+    truth = np.where((t >= starts[1]) & (t < starts[2]), "low", "high")
+    events = detection_delays(t, table["grip_class"].to_numpy(), truth, np.ones(t.size, bool), hold=1.0)
+    for e in events:
+        print(f"slipmap DART concatenation: change at {e.t_change:.1f} s -> {e.new_class}, "
+              f"detected after {e.delay_from_change:.1f} s")
+        assert e.detected and e.delay_from_change < 5.0
+    print(f"slipmap DART concatenation: correct {np.mean(table['grip_class'] == truth):.3f} of the time")
+    assert np.mean(table["grip_class"] == truth) > 0.8

@@ -64,7 +64,7 @@ def plot_classification(
     a0.legend(loc="upper right", fontsize=8)
 
     a1 = axs[1]
-    for col, lab in (("phi_long", "sum of wheel slips [-]"), ("phi_lat", "αf cos δ + αr [rad]"),
+    for col, lab in (("phi_long", "sum of wheel slips [-]"), ("phi_lat", "lateral regressor [rad]"),
                      ("kappa_used", "κ used [-]"), ("alpha_f_hat", "αf [rad]"),
                      ("alpha_r_hat", "αr [rad]")):
         if col in table.columns:
