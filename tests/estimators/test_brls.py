@@ -362,3 +362,32 @@ def test_dart_concatenation_high_low_high_is_tracked(tmp_path):
     cls = table["grip_class"].to_numpy()
     print(f"DART concatenation: correct {np.mean(cls == truth):.3f} of the time")
     assert np.mean(cls == truth) > 0.85
+
+
+def test_cli_calibrate_and_estimate(dgd, tmp_path):
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    d1 = simulate_scenario("dry-gravel-dry", seed=2, duration=120.0)
+    hi, lo = tmp_path / "dry.parquet", tmp_path / "gravel.parquet"
+    d1.slice_time(0, 60).save(hi)
+    d1.slice_time(60, 120).save(lo)
+    test = tmp_path / "test.parquet"
+    dgd.save(test)
+    runner = CliRunner()
+    cal = tmp_path / "cal.yaml"
+    r = runner.invoke(app, ["calibrate", f"{hi}:high", f"{lo}:low", "-o", str(cal)])
+    assert r.exit_code == 0, r.output
+    assert load_calibration(cal).brls.lat.ref_high > load_calibration(cal).brls.lat.ref_low
+    for method in ("brls", "slipmap"):
+        out = tmp_path / f"{method}.parquet"
+        r = runner.invoke(app, ["estimate", str(test), "--method", method, "--calibration",
+                                str(cal), "-o", str(out)])
+        assert r.exit_code == 0, r.output
+        res = EstimateResult.read_parquet(out)
+        assert {"grip_class", "grip_index", "excited", "theta_long", "theta_lat"} <= set(res.table)
+        assert count_switches(res.table["grip_class"]) >= 2  # both changes seen
+    r = runner.invoke(app, ["calibrate", f"{hi}:dry", "-o", str(cal)])
+    assert r.exit_code != 0

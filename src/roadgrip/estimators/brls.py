@@ -968,7 +968,12 @@ def calibrate_cli(
                 f"bRLS {name}: {state}; reference high {ch.ref_high:.4g}, low {ch.ref_low:.4g}, "
                 f"threshold {ch.threshold:.4g}, gamma {ch.gamma:.3g}"
             )
-        console.print(f"slipmap: {cal.slipmap}")
+        sm = cal.slipmap.get("config", {})
+        console.print(
+            f"slipmap: mid-friction peaks long {sm['long_curve']['D']:.3g}, "
+            f"lat {sm['lat_curve']['D']:.3g}; low-pass {sm['lowpass_tau_s']:.3g} s"
+        )
+        console.print(f"fit: {_plain(cal.diagnostics)} {_plain(cal.slipmap.get('fit', {}))}")
         console.print(f"wrote {output}")
     return cal
 

@@ -142,8 +142,11 @@ class SlipMapConfig:
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
-        d["long_curve"] = {k: self.long_curve.to_dict()[k] for k in "BCDE"}
-        d["lat_curve"] = {k: self.lat_curve.to_dict()[k] for k in "BCDE"}
+        d["long_curve"] = {k: float(self.long_curve.to_dict()[k]) for k in "BCDE"}
+        d["lat_curve"] = {k: float(self.lat_curve.to_dict()[k]) for k in "BCDE"}
+        for k, v in d.items():
+            if isinstance(v, np.generic):
+                d[k] = v.item()
         return d
 
     @classmethod
