@@ -132,3 +132,24 @@ def test_step_equals_batch(dgd):
     np.testing.assert_allclose(batch.kappa, np.array([r.kappa for r in rows]), rtol=1e-10, atol=1e-15)
     with pytest.raises(ValueError, match="time must increase"):
         est.step(next(iter(KinematicEstimator.samples(short))))
+
+
+def test_pose_aid_recovers_speed_and_sideslip_on_a_circle():
+    """No wheel speeds: body velocity from the pose (e.g. motion capture) on a steady circle."""
+    n, dt = 600, 0.1
+    t = np.arange(n) * dt
+    vx, vy, r = 2.0, -0.15, 1.5  # body-frame velocity [m/s] and yaw rate [rad/s]
+    psi = r * t
+    # world velocity = Rot(psi) [vx, vy]; integrate exactly for a constant body velocity
+    x = (vx * np.sin(psi) + vy * (np.cos(psi) - 1.0)) / r
+    y = (-vx * (np.cos(psi) - 1.0) + vy * np.sin(psi)) / r
+    df = pd.DataFrame({"t": t, "ax": np.full(n, -r * vy), "ay": np.full(n, r * vx),
+                       "yaw_rate": np.full(n, r), "steer": np.full(n, 0.2), "x": x, "y": y,
+                       "psi": psi})
+    drive = Drive.from_frame(df, PRESETS["jetracer"], source="test")
+    out = estimate_kinematics(drive)  # 'auto' -> pose
+    np.testing.assert_allclose(out.vx[5:], vx, rtol=0.01)
+    np.testing.assert_allclose(out.vy[5:], vy, atol=0.01)
+    est = KinematicEstimator(drive.vehicle, aid="pose")
+    rows = [est.step(s) for s in KinematicEstimator.samples(drive)]
+    np.testing.assert_allclose([r_.vy for r_ in rows], out.vy, rtol=1e-12, atol=1e-15)
