@@ -51,8 +51,14 @@ __all__ = [
     "table_markdown",
 ]
 
-GPSSM_BASES = {"gpssm": None, "gpssm-sep": "separable:20"}
-"""Row label -> ``--basis`` of the GP-SSM variants (None: the method's default, tensor 10x10)."""
+GPSSM_VARIANTS: dict[str, tuple[str | None, tuple[tuple[str, Any], ...]]] = {
+    "gpssm": (None, ()),
+    "gpssm-fast": (None, (("linalg", "fast"),)),
+    "gpssm-sep": ("separable:20", ()),
+}
+"""Row label -> (``--basis``, options) of the GP-SSM variants: the paper's tensor 10x10
+basis with the exact per-particle linear algebra, the same with the fast backend, and
+the separable per-axle basis."""
 
 CLASSIFIERS = ("brls", "slipmap")
 FRICTION_METHODS = ("gpssm", "cascade")
@@ -83,7 +89,8 @@ class BenchSettings:
     frictionmaps_runs : tuple of str
         frictionmaps runs to use.
     gpssm_variants : tuple of str
-        Row labels of :data:`GPSSM_BASES` to run.
+        Row labels of :data:`GPSSM_VARIANTS` to run on snow-slalom (the first one also
+        runs on straight-cruise and the real data).
     """
 
     name: str
@@ -93,7 +100,7 @@ class BenchSettings:
     real_data: bool = True
     dart_files: int = 0
     frictionmaps_runs: tuple[str, ...] = ("DS1", "DS2", "DS3", "DS4", "DS5")
-    gpssm_variants: tuple[str, ...] = ("gpssm", "gpssm-sep")
+    gpssm_variants: tuple[str, ...] = ("gpssm", "gpssm-fast", "gpssm-sep")
 
     def describe(self) -> str:
         """One line saying what was shortened or reduced."""
@@ -122,7 +129,7 @@ DEMO = BenchSettings(
     durations={"straight-cruise": 30.0},
     scenarios=("snow-slalom", "dry-gravel-dry", "f1tenth-patches"),
     real_data=False,
-    gpssm_variants=("gpssm",),
+    gpssm_variants=("gpssm-fast",),
 )
 
 
@@ -140,6 +147,8 @@ class Case:
         Estimator name in :data:`roadgrip.estimators.METHODS`.
     basis : str or None
         GP-SSM basis.
+    options : tuple of (name, value)
+        Method options (``EstimateRequest.options``).
     path : str or None
         Real data file or folder.
     format : str or None
@@ -152,6 +161,7 @@ class Case:
     label: str
     method: str
     basis: str | None = None
+    options: tuple[tuple[str, Any], ...] = ()
     path: str | None = None
     format: str | None = None
     reference: str | None = None
@@ -196,16 +206,17 @@ def real_data_root() -> Path | None:
 def default_cases(settings: BenchSettings) -> list[Case]:
     """All (drive, estimator) pairs that apply, in table order."""
     cases: list[Case] = []
+    gp = [Case("", v, "gpssm", *GPSSM_VARIANTS[v]) for v in settings.gpssm_variants]
     sim_methods = {
-        "snow-slalom": [(v, "gpssm", GPSSM_BASES[v]) for v in settings.gpssm_variants],
-        "dry-gravel-dry": [(m, m, None) for m in CLASSIFIERS],
-        "f1tenth-patches": [("cascade", "cascade", None)],
-        "straight-cruise": [("gpssm", "gpssm", None), *[(m, m, None) for m in CLASSIFIERS],
-                            ("cascade", "cascade", None)],
+        "snow-slalom": gp,
+        "dry-gravel-dry": [Case("", m, m) for m in CLASSIFIERS],
+        "f1tenth-patches": [Case("", "cascade", "cascade")],
+        "straight-cruise": [*gp[:1], *[Case("", m, m) for m in CLASSIFIERS],
+                            Case("", "cascade", "cascade")],
     }
     for sc in settings.scenarios:
-        for label, method, basis in sim_methods.get(sc, []):
-            cases.append(Case(sc, label, method, basis))
+        for c in sim_methods.get(sc, []):
+            cases.append(replace(c, drive=sc))
     root = real_data_root() if settings.real_data else None
     if root is not None:
         for floor, ref in (("high_grip_rubbery_floor", "high"), ("low_grip_tape_and_tiles", "low")):
@@ -213,9 +224,9 @@ def default_cases(settings: BenchSettings) -> list[Case]:
             if settings.dart_files:
                 files = files[: settings.dart_files]
             for f in files:
-                for m in ("gpssm", *CLASSIFIERS):
-                    cases.append(Case(f"dart:{ref}:{f.stem[-12:]}", m, m, path=str(f),
-                                      format="dart", reference=ref))
+                name = f"dart:{ref}:{f.stem[-12:]}"
+                for c in (*gp[:1], *[Case("", m, m) for m in CLASSIFIERS]):
+                    cases.append(replace(c, drive=name, path=str(f), format="dart", reference=ref))
         for ds in settings.frictionmaps_runs:
             p = root / "frictionmaps" / ds
             if p.is_dir():
@@ -246,14 +257,15 @@ def _load_drive(case: Case, settings: BenchSettings, seed: int, cache: dict):
 def _request(case: Case, settings: BenchSettings, seed: int, drive):
     from roadgrip.estimators import EstimateRequest
 
+    options = dict(case.options)
     if case.method != "gpssm":
-        return EstimateRequest(seed=seed, progress=False)
-    t = drive.t
-    times = [float(t[-1])]
-    if drive.has_truth and t[-1] > 50.0:
+        return EstimateRequest(seed=seed, progress=False, options=options)
+    # Curve times are relative to the drive's start: t = 50 s (paper 000) and the end.
+    times = [drive.duration]
+    if drive.has_truth and drive.duration > 50.0:
         times.insert(0, 50.0)
     return EstimateRequest(seed=seed, particles=settings.particles, basis=case.basis,
-                           curve_times=tuple(times), progress=False)
+                           curve_times=tuple(times), progress=False, options=options)
 
 
 def run_case(case: Case, settings: BenchSettings, seed: int, cache: dict) -> RunRecord:
@@ -395,7 +407,7 @@ def _score_curves(rec: RunRecord) -> None:
             c = curves[(curves["t"] == t_c) & (curves["axle"] == axle)].sort_values("alpha")
             if c.empty or col not in drive.data.columns:
                 continue
-            visited = drive.col(col)[drive.t <= t_c + 1e-9]
+            visited = drive.col(col)[drive.t - drive.t[0] <= t_c + 1e-9]
             if "mu_true" in c.columns and np.isfinite(c["mu_true"].to_numpy(float)).all():
                 truth: Any = c["mu_true"].to_numpy(float)
             else:
@@ -472,16 +484,15 @@ def _score_map(rec: RunRecord) -> None:
     if not module_available("roadgrip.mapping"):
         rec.details.append("friction grid: roadgrip.mapping not available")
         return
-    from roadgrip.evaluate.maps import cells_from_result
+    from roadgrip.evaluate.maps import cells_from_result, true_cell_friction
 
     cells, cell_size = cells_from_result(rec.result, rec.drive)
     rec.map_cells = cells
     m = rec.metrics
     m["map_cells"] = float((cells["n_obs"] >= 10).sum())
     drive = rec.drive
-    if drive.has_truth and drive.has("x", "y", "mu_true"):
-        truth = M.cell_truth(cells["x"], cells["y"], cell_size, drive.col("x"), drive.col("y"),
-                             drive.col("mu_true"))
+    if drive.has_truth:
+        truth = true_cell_friction(drive, cells, cell_size)
         mm = M.map_metrics(cells["mu_mean"], cells["mu_std"], cells["n_obs"], truth, min_obs=10)
         m["map_cells"] = float(mm.n_cells)
         m["map_mae"] = mm.mae

@@ -1,0 +1,64 @@
+"""Friction grids for the benchmark: build one from an estimator run, and its cell truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from roadgrip.evaluate.metrics import cell_truth
+
+__all__ = ["cells_from_result", "true_cell_friction"]
+
+
+def cells_from_result(result, drive, cell: float = 0.5) -> tuple[pd.DataFrame, float]:
+    """Fuse a run's excited estimates into a :class:`roadgrip.mapping.FrictionGrid`.
+
+    Returns every cell of the grid's extent (visited or not) as a frame with
+    ``x, y`` (centre, m), ``mu_mean``, ``mu_std``, ``n_obs``, and the cell size
+    [m]; ``frame.attrs['cell_size']`` carries the size too. Estimates without a
+    position take it from the drive's ``x, y``.
+    """
+    from roadgrip.mapping import grid_from_estimates
+
+    table = result.table
+    if not {"x", "y"} <= set(table.columns):
+        if len(table) != drive.n or not drive.has("x", "y"):
+            raise ValueError("neither the estimates nor the drive carry a position to map with")
+        table = table.assign(x=drive.col("x"), y=drive.col("y"))
+    grid = grid_from_estimates(table, cell=cell)
+    X, Y = grid.centres()
+    mean, std = grid.posterior()
+    cells = pd.DataFrame({"x": X.ravel(), "y": Y.ravel(), "mu_mean": mean.ravel(),
+                          "mu_std": std.ravel(), "n_obs": grid.n_obs.ravel()})
+    cells.attrs["cell_size"] = float(grid.cell)
+    return cells, float(grid.cell)
+
+
+def true_cell_friction(drive, cells: pd.DataFrame, cell: float, sub: int = 5) -> NDArray[np.float64]:
+    """True friction of each cell, averaged over the cell's area.
+
+    With the simulator's friction field in ``drive.meta.truth['friction_field']``
+    the field is evaluated on a ``sub x sub`` lattice inside each cell (at the
+    drive's final time) and averaged, so a cell that straddles a patch edge gets
+    the area-weighted truth. Otherwise the mean ``mu_true`` of the drive samples
+    inside the cell (:func:`roadgrip.evaluate.metrics.cell_truth`); NaN where none.
+    """
+    field = (drive.meta.truth or {}).get("friction_field")
+    x = cells["x"].to_numpy(float)
+    y = cells["y"].to_numpy(float)
+    if field is not None:
+        try:
+            from roadgrip.sim.friction import mu_at
+        except ImportError:
+            mu_at = None
+        if mu_at is not None:
+            offs = (np.arange(sub) + 0.5) / sub - 0.5
+            ox, oy = np.meshgrid(offs * cell, offs * cell)
+            px = (x[:, None] + ox.ravel()[None, :]).ravel()
+            py = (y[:, None] + oy.ravel()[None, :]).ravel()
+            mu = np.asarray(mu_at(field, float(drive.t[-1]), px, py), float)
+            return mu.reshape(len(x), -1).mean(axis=1)
+    if not drive.has("x", "y", "mu_true"):
+        return np.full(len(x), np.nan)
+    return cell_truth(x, y, cell, drive.col("x"), drive.col("y"), drive.col("mu_true"))
