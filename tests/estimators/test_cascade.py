@@ -67,12 +67,29 @@ def test_force_models_match_rigid_body_equations():
     fx = 2.0 * np.cos(d) - 10.0 * np.sin(d)
     fy = 2.0 * np.sin(d) + 10.0 * np.cos(d) + 6.0
     mz = veh.lf * (2.0 * np.sin(d) + 10.0 * np.cos(d)) - veh.lr * 6.0
-    np.testing.assert_allclose(Y[:3], [3.0 + dt * (0.5 * 0.1 + fx / veh.mass),
+    vx_n, vy_n = C._rotate_integrate(3.0, 0.1, 0.5, fx / veh.mass, fy / veh.mass, dt)
+    np.testing.assert_allclose(Y[:3], [vx_n,
                                         0.5 + dt * mz / veh.yaw_inertia,
-                                        0.1 + dt * (-0.5 * 3.0 + fy / veh.mass)], rtol=1e-14)
+                                        vy_n], rtol=1e-14)
     np.testing.assert_array_equal(Y[3:], X[0, 3:])
     Z = C.force_measurement(X, d, veh.mass)[0]
     np.testing.assert_allclose(Z, [3.0, 0.5, 0.1, fx / veh.mass, fy / veh.mass], rtol=1e-14)
+
+
+def test_velocity_step_integrates_the_kinematics():
+    from scipy.integrate import solve_ivp
+
+    vx, vy, r, ax, ay, dt = 3.0, 0.1, 1.5, 0.8, 4.0, 0.02
+
+    def rhs(_, v):  # body-frame kinematics, eq. 2 with ISO signs
+        return [ax + v[1] * r, ay - v[0] * r]
+
+    ref = solve_ivp(rhs, (0.0, dt), [vx, vy], rtol=1e-12, atol=1e-12).y[:, -1]
+    got = np.array(C._rotate_integrate(vx, vy, r, ax, ay, dt))
+    euler = np.array([vx + dt * (ax + vy * r), vy + dt * (ay - vx * r)])
+    err = np.abs(got - ref).max()
+    assert err < 1e-5  # third order in r dt; the Euler step errs by O(dt²)
+    assert np.abs(euler - ref).max() > 50 * err
 
 
 def test_tracks_states_forces_and_friction(drive06):
@@ -124,7 +141,7 @@ def test_run_equals_online_steps(drive06):
     short = drive06.slice_time(0.0, 3.0)
     cfg = C.CascadeConfig()
     out, info = C.run(short, cfg)
-    est = C.Cascade(short.vehicle, cfg, noise=info["noise"])
+    est = C.Cascade(short.vehicle, cfg, noise=info["noise"], front_share=info["front_share"])
     online = [est.step(s) for s in C.samples(short, cfg)]
     np.testing.assert_allclose([e.mu[0] for e in online], out[:, C._O.MU_F], rtol=0, atol=1e-12)
     np.testing.assert_allclose([e.forces[1] for e in online], out[:, C._O.FYF], rtol=0, atol=1e-9)
@@ -161,11 +178,12 @@ def test_speed_sources():
     rpm = v * 60.0 * veh.gear_ratio / (2 * np.pi * veh.wheel_radius)
     df = d.data.drop(columns=["vx"]).assign(motor_rpm=rpm)
     d2 = Drive.from_frame(df, veh)
-    got, src = C.measured_speed(d2)
+    got, src, _ = C.measured_speed(d2)
     assert "gear ratio" in src
     np.testing.assert_allclose(got, v, rtol=1e-12)
     w = v / veh.wheel_radius
-    df3 = d.data.assign(omega_fl=w, omega_fr=w, omega_rl=w, omega_rr=w)
-    got3, src3 = C.measured_speed(Drive.from_frame(df3, veh))
+    df3 = d.data.drop(columns=["vx"]).assign(omega_fl=w, omega_fr=w, omega_rl=w, omega_rr=w)
+    got3, src3, share = C.measured_speed(Drive.from_frame(df3, veh))
+    assert share == 0.5  # f1tenth is four-wheel driven: all four wheels
     assert "wheel" in src3
     np.testing.assert_allclose(got3, v, rtol=1e-12)

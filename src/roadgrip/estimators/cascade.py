@@ -12,7 +12,14 @@ Models (SI units, ISO 8855 axes; ``T`` is the sample interval)
 ---------------------------------------------------------------
 *Stage 1* (eq. 2-4, kinematics with the signs of ISO axes: ``ay = vy' + vx r``)::
 
-    vx_k = vx + T (ax + vy r),   vy_k = vy + T (ay - vx r),   z = vx_measured
+    [vx, vy]_k = Rot(-r T) [vx, vy] + T Rot(-r T / 2) [ax, ay],   z = vx_measured
+
+with ``ax, ay, r`` the means of the samples at both ends of the step.
+This is the paper's ``vx_k = vx + T (ax + vy r)``, ``vy_k = vy + T (ay - vx r)``
+with the rotation of the velocity vector over the step made exact (see
+:func:`_rotate_integrate`) and the inputs integrated by the trapezoid rule:
+at the yaw rates of a small car the Euler form, with the inputs of one end of
+the step, biases ``vy`` by 1-2 cm/s, i.e. the slip angles by 5 mrad. The Jacobian is ``F = Rot(-r T)``.
 
 The inputs ``u = [ax, ay, r]`` are measured, so the state noise follows from the
 sensor noise: ``Q1 = T² (diag(sa², sa²) + sr² g gᵀ)`` with ``g = [vy, -vx]``
@@ -25,7 +32,7 @@ four wheels for four-wheel drive), the motor speed through the gear ratio
 
 *Stage 2* (eq. 9-10, with the paper's sign typo in ``h5`` corrected)::
 
-    vx_k = vx + T (r vy + (Fxf cos d - Fyf sin d) / m)
+    vx_k = vx + T (r vy + (Fxf cos d - Fyf sin d) / m)          (rotation exact, as stage 1)
     r_k  = r  + T (lf (Fxf sin d + Fyf cos d) - lr Fyr) / Iz
     vy_k = vy + T (-r vx + (Fxf sin d + Fyf cos d + Fyr) / m)
     F_k  = F  (random walk)
@@ -35,10 +42,11 @@ four wheels for four-wheel drive), the motor speed through the gear ratio
 The model has one longitudinal force, applied at the front wheels as in the
 paper: on a four-wheel or rear-wheel driven car ``Fxf`` is the total
 longitudinal force (the split between axles is not observable from the
-accelerations). Noise: the forces are random walks driven by a jerk,
-``Q_F = (m j)² T`` with ``j = jerk_std`` [m/s³]; the velocities take the
-accelerometer model error, ``(T accel_model_std)²``, and the yaw rate the
-corresponding yaw acceleration. ``R2`` is not tuned: its velocity block is the
+accelerations). Noise: the forces are random walks driven by a white force
+rate of standard deviation ``m j`` (``j = jerk_std`` [m/s³]), so
+``Q_F = (m j T)²`` per step; the velocities take the accelerometer model error,
+``(T accel_model_std)²``, and the yaw rate that error across the wheelbase,
+``(T accel_model_std / l)²``. ``R2`` is not tuned: its velocity block is the
 stage-1 posterior covariance of the same step (time-varying), its yaw-rate
 entry the gyro noise and its acceleration entries the accelerometer noise plus
 model error. No force scaling is applied anywhere (the paper's factor of 100
@@ -69,9 +77,14 @@ before any data). For each axle the update's information is the precision gain
 ``Lambda = 1/P_post - 1/P_prior``; a sample is *excited* for that axle when
 ``Lambda / T >= 1 / excitation_std²``, i.e. when one second of such samples
 would determine ``mu`` to ``excitation_std`` (a threshold independent of the
-sample rate). The equivalent single-sample observation
+sample rate), and when a slip-angle bias of ``slip_bias_std`` would move the
+observation by at most ``max_slip_bias_effect``: near the linear range the
+force depends on ``mu`` only through its curvature, and a slip-angle bias (which
+does not average out like noise) would be read as a friction change. The equivalent single-sample observation
 ``mu_obs = (m_post / P_post - m_prior / P_prior) / Lambda`` with variance
-``1 / Lambda`` is reported (``mu_front_obs``, ``mu_front_obs_std``, ...): it is
+``1 / Lambda`` is reported (``mu_front_obs``, ``mu_front_obs_std``, ...), with
+the systematic part ``mu_front_obs_sys``: the shift a slip-angle bias of
+``slip_bias_std`` would cause, which does not shrink by averaging. This is
 what :mod:`roadgrip.mapping` fuses, so that a map cell collects the likelihood
 of the data taken in it rather than a filter state that remembers earlier cells.
 Below ``v_min`` the slip angles are not defined well enough and stage 3 makes
@@ -194,8 +207,8 @@ class _P(IntEnum):
     VAR_SPEED = 9
     VAR_STEER = 10
     VAR_ACC_MODEL = 11
-    Q_FORCE = 12  # (m j)² per second
-    Q_YAW = 13  # yaw-acceleration variance per second²
+    Q_FORCE = 12  # force-rate variance (m j)² [N²/s²]
+    Q_YAW = 13  # yaw-acceleration variance [rad²/s⁴]
     Q_MU = 14  # mu variance per second
     MU_VAR0 = 15
     MU_MIN = 16
@@ -204,7 +217,12 @@ class _P(IntEnum):
     EXC_PREC = 19
     V_MIN = 20
     V_EPS = 21
-    SIZE = 22
+    FRONT_SHARE = 22
+    SLIP_BIAS = 23
+    MAX_BIAS = 24
+    CR = 25
+    AY_STRAIGHT = 26
+    SIZE = 27
 
 
 class _O(IntEnum):
@@ -235,7 +253,15 @@ class _O(IntEnum):
     VX_EKF = 22
     VY_EKF = 23
     PD_OK = 24
-    SIZE = 25
+    FYF_VAR = 25
+    FYR_VAR = 26
+    ALPHA_F_VAR = 27
+    ALPHA_R_VAR = 28
+    R3_F = 29
+    R3_R = 30
+    SYS_F = 31
+    SYS_R = 32
+    SIZE = 33
 
 
 # -- configuration -------------------------------------------------------------------
@@ -257,7 +283,7 @@ class CascadeConfig:
         Accelerometer model error [m/s²] (bias, grade, mounting offset), added to
         the accelerometer noise in stages 1 and 2.
     jerk_std : float
-        Force random-walk intensity expressed as a jerk [m/s³]: ``Q_F = (m j)² T``.
+        Force random-walk intensity expressed as a jerk [m/s³]: ``Q_F = (m j T)²``.
     mu_rate_std : float
         Friction random-walk intensity [1/sqrt(s)] (eq. 11).
     mu_prior : float
@@ -273,6 +299,17 @@ class CascadeConfig:
         A sample is excited for an axle when one second of samples carrying the
         same information would determine ``mu`` to this standard deviation [-]
         (the single-sample observation variance times the sample rate).
+    slip_bias_std : float
+        Size of a slip-angle bias [rad] (velocity-estimation and model error) that,
+        unlike noise, does not average out over samples.
+    max_slip_bias_effect : float
+        A sample counts as excited only if a slip-angle error of ``slip_bias_std``
+        would move its ``mu`` observation by at most this much [-]: close to the
+        linear range of the tire, ``mu`` follows from the small curvature of the
+        force and any slip bias maps into a large friction error.
+    ay_straight : float
+        Below this lateral acceleration [m/s²] stage 1 adds the straight-driving
+        pseudo-measurement of ``vy`` (module docstring); 0 disables it.
     v_min : float
         No friction update below this speed [m/s].
     v_eps : float
@@ -296,6 +333,9 @@ class CascadeConfig:
     mu_bounds: tuple[float, float] = (0.05, 2.0)
     model_error: float = 0.02
     excitation_std: float = 0.5
+    slip_bias_std: float = 0.01
+    max_slip_bias_effect: float = 0.1
+    ay_straight: float = 1.0
     v_min: float = 1.0
     v_eps: float = 0.1
     speed_source: str = "auto"
@@ -348,6 +388,9 @@ class CascadeState(NamedTuple):
         Stage 2 (:class:`ForceState`).
     friction_mean, friction_cov : ndarray, (2,), (2, 2)
         Stage 3 (:class:`FrictionState`).
+    inputs : ndarray, (3,)
+        ``ax, ay, yaw_rate`` of the last sample (stage 1 integrates the mean of
+        the inputs at both ends of a step).
     """
 
     t: float
@@ -357,6 +400,7 @@ class CascadeState(NamedTuple):
     force_cov: NDArray[np.float64]
     friction_mean: NDArray[np.float64]
     friction_cov: NDArray[np.float64]
+    inputs: NDArray[np.float64]
 
 
 class CascadeSample(NamedTuple):
@@ -406,7 +450,11 @@ class CascadeEstimate(NamedTuple):
 
 @njit(cache=True)
 def force_transition(X, steer, dt, mass, iz, lf, lr):  # pragma: no cover - compiled
-    """Stage-2 process model, eq. 9, for every row of ``X`` (N, 6) -> (N, 6)."""
+    """Stage-2 process model, eq. 9, for every row of ``X`` (N, 6) -> (N, 6).
+
+    The velocity update uses :func:`_rotate_integrate` (exact rotation) instead
+    of the Euler step; the yaw rate and the forces follow eq. 9.
+    """
     c = np.cos(steer)
     s = np.sin(steer)
     out = X.copy()
@@ -417,10 +465,32 @@ def force_transition(X, steer, dt, mass, iz, lf, lr):  # pragma: no cover - comp
         fxf = X[i, 3]
         fyf = X[i, 4]
         fyr = X[i, 5]
-        out[i, 0] = vx + dt * (r * vy + (fxf * c - fyf * s) / mass)
+        ax = (fxf * c - fyf * s) / mass
+        ay = (fxf * s + fyf * c + fyr) / mass
+        vx_n, vy_n = _rotate_integrate(vx, vy, r, ax, ay, dt)
+        out[i, 0] = vx_n
         out[i, 1] = r + dt * (lf * (fxf * s + fyf * c) - lr * fyr) / iz
-        out[i, 2] = vy + dt * (-r * vx + (fxf * s + fyf * c + fyr) / mass)
+        out[i, 2] = vy_n
     return out
+
+
+@njit(cache=True)
+def _rotate_integrate(vx, vy, r, ax, ay, dt):  # pragma: no cover - compiled
+    """Body-frame velocity after ``dt`` at constant yaw rate ``r`` and acceleration ``(ax, ay)``.
+
+    ``v' = Rot(-r dt) v + dt Rot(-r dt / 2) a``: the exact rotation of the velocity
+    vector plus the midpoint-rotated acceleration. The Euler step of eq. 3 and
+    eq. 9 (``vx' = vx + dt (ax + vy r)``) misses the second-order term
+    ``-vx (r dt)² / 2``, which acts like an accelerometer bias of ``vx r² dt / 2``
+    (0.07 m/s² at 3 m/s, 1.5 rad/s and 50 Hz) and appears as a bias in ``vy``.
+    """
+    th = r * dt
+    c = np.cos(th)
+    s = np.sin(th)
+    ch = np.cos(0.5 * th)
+    sh = np.sin(0.5 * th)
+    return (c * vx + s * vy + dt * (ch * ax + sh * ay),
+            -s * vx + c * vy + dt * (-sh * ax + ch * ay))
 
 
 @njit(cache=True)
@@ -464,6 +534,27 @@ def _brush_slope(alpha, fz, mu, k):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _slip_sensitivity(alpha, fz, mu, k):  # pragma: no cover - compiled
+    """``|dmu/dalpha|`` at constant force: ``|dF/dalpha| / |dF/dmu|`` of the brush model [1/rad].
+
+    Infinite at zero slip and in the linear range (the force does not depend
+    on ``mu`` there), zero in full sliding (the force does not depend on slip).
+    """
+    a = min(max(alpha, -1.5), 1.5)
+    z = abs(np.tan(a))
+    if z == 0.0:
+        return np.inf
+    u = k * z / mu
+    if u >= 3.0:
+        return 0.0
+    dfdmu = fz * (k * k * z * z / (3.0 * mu * mu)) * (1.0 - 2.0 * u / 9.0)
+    dfda = fz * k * (1.0 - u / 3.0) ** 2 * (1.0 + z * z)
+    if dfdmu <= 0.0:
+        return np.inf
+    return dfda / dfdmu
+
+
+@njit(cache=True)
 def friction_measurement(M, alpha_f, alpha_r, fzf, fzr, kf, kr, mu_min, mu_max):  # pragma: no cover
     """Stage-3 measurement model, eq. 11: brush forces of each row ``[mu_f, mu_r]`` (N, 2) -> (N, 2)."""
     out = np.empty((M.shape[0], 2))
@@ -479,7 +570,7 @@ def friction_measurement(M, alpha_f, alpha_r, fzf, fzr, kf, kr, mu_min, mu_max):
 
 
 @njit(cache=True)
-def _step(xe, Pe, xu, Pu, xm, Pm, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, g6, w2m, w2c, g2, out):  # pragma: no cover
+def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, g6, w2m, w2c, g2, out):  # pragma: no cover
     """One sample through the three stages; updates the state arrays in place, fills ``out``."""
     m = p[_P.MASS]
     repairs = 0
@@ -488,17 +579,42 @@ def _step(xe, Pe, xu, Pu, xm, Pm, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, g6, 
     if dt > 0.0:
         vx = xe[0]
         vy = xe[1]
-        F = np.array([[1.0, dt * r], [-dt * r, 1.0]])
-        xe[0] = vx + dt * (ax + vy * r)
-        xe[1] = vy + dt * (ay - vx * r)
-        Q = np.array([[var_acc + p[_P.VAR_GYRO] * vy * vy, -p[_P.VAR_GYRO] * vy * vx],
-                      [-p[_P.VAR_GYRO] * vy * vx, var_acc + p[_P.VAR_GYRO] * vx * vx]]) * dt * dt
+        # inputs over the step: mean of the samples at both ends (trapezoid rule)
+        ra = 0.5 * (r + up[2])
+        c = np.cos(ra * dt)
+        s = np.sin(ra * dt)
+        F = np.array([[c, s], [-s, c]])
+        vxn, vyn = _rotate_integrate(vx, vy, ra, 0.5 * (ax + up[0]), 0.5 * (ay + up[1]), dt)
+        xe[0] = vxn
+        xe[1] = vyn
+        vg = p[_P.VAR_GYRO]
+        Q = np.array([[var_acc + vg * vyn * vyn, -vg * vyn * vxn],
+                      [-vg * vyn * vxn, var_acc + vg * vxn * vxn]]) * dt * dt
         Pe[:, :] = F @ Pe @ F.T + Q
-    H = np.array([[1.0, 0.0]])
-    resid = np.array([vmeas - xe[0]])
+    up[0] = ax
+    up[1] = ay
+    up[2] = r
+    # measured speed: mean wheel-frame speed of the wheels used (eq. 5); the front
+    # wheels, steered by d, see vx cos d + (vy + lf r) sin d, the rear wheels vx
+    fs = p[_P.FRONT_SHARE]
+    cd = np.cos(steer)
+    sd = np.sin(steer)
+    H = np.array([[1.0 - fs + fs * cd, fs * sd]])
+    resid = np.array([vmeas - (H[0, 0] * xe[0] + H[0, 1] * xe[1] + fs * sd * p[_P.LF] * r)])
     xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), resid, H, np.array([[p[_P.VAR_SPEED]]]))
     xe[:] = xn
     Pe[:, :] = Pn
+    # near-straight driving: linear-tire pseudo-measurement of vy (bounds its drift)
+    if abs(ay) < p[_P.AY_STRAIGHT] and abs(xe[0]) >= p[_P.V_MIN]:
+        wb = p[_P.LF] + p[_P.LR]
+        a_lin = m * ay * p[_P.LF] / (wb * p[_P.CR])
+        vy_lin = p[_P.LR] * r - xe[0] * a_lin
+        sd = abs(xe[0]) * (p[_P.SLIP_BIAS] + abs(a_lin))
+        H2 = np.array([[0.0, 1.0]])
+        xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), np.array([vy_lin - xe[1]]), H2,
+                                  np.array([[sd * sd]]))
+        xe[:] = xn
+        Pe[:, :] = Pn
     # ---- stage 2: UKF1 (eq. 6-10) ----
     if dt > 0.0:
         L, Pu_used, rep = psd_sqrt(Pu)
@@ -510,7 +626,7 @@ def _step(xe, Pe, xu, Pu, xm, Pm, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, g6, 
         Qu[0, 0] = qv
         Qu[2, 2] = qv
         Qu[1, 1] = p[_P.Q_YAW] * dt * dt
-        qf = p[_P.Q_FORCE] * dt
+        qf = p[_P.Q_FORCE] * dt * dt
         Qu[3, 3] = qf
         Qu[4, 4] = qf
         Qu[5, 5] = qf
@@ -570,6 +686,10 @@ def _step(xe, Pe, xu, Pu, xm, Pm, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, g6, 
     prior_v1 = Pm[1, 1]
     exc_f = 0.0
     exc_r = 0.0
+    r3f = np.inf
+    r3r = np.inf
+    bias_f = np.nan
+    bias_r = np.nan
     obs_f = np.nan
     obs_r = np.nan
     obs_vf = np.inf
@@ -583,6 +703,8 @@ def _step(xe, Pe, xu, Pu, xm, Pm, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, g6, 
         R3 = np.zeros((2, 2))
         R3[0, 0] = Pu[4, 4] + sf * sf * var_af + (me * fzf) ** 2
         R3[1, 1] = Pu[5, 5] + sr * sr * var_ar + (me * fzr) ** 2
+        r3f = R3[0, 0]
+        r3r = R3[1, 1]
         L, Pm_used, rep = psd_sqrt(Pm)
         repairs += rep
         X = sigma_points(xm, L, g2)
@@ -595,11 +717,14 @@ def _step(xe, Pe, xu, Pu, xm, Pm, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, g6, 
         # information gained per axle -> single-sample observation
         lam_f = 1.0 / Pm[0, 0] - 1.0 / prior_v0
         lam_r = 1.0 / Pm[1, 1] - 1.0 / prior_v1
-        if lam_f >= p[_P.EXC_PREC] * dt and dt > 0.0:
+        # robustness to a slip-angle bias, which does not average out over samples
+        bias_f = p[_P.SLIP_BIAS] * _slip_sensitivity(alpha_f, fzf, xm[0], kf)
+        bias_r = p[_P.SLIP_BIAS] * _slip_sensitivity(alpha_r, fzr, xm[1], kr)
+        if lam_f >= p[_P.EXC_PREC] * dt and dt > 0.0 and bias_f <= p[_P.MAX_BIAS]:
             exc_f = 1.0
             obs_f = (xm[0] / Pm[0, 0] - prior_m0 / prior_v0) / lam_f
             obs_vf = 1.0 / lam_f
-        if lam_r >= p[_P.EXC_PREC] * dt and dt > 0.0:
+        if lam_r >= p[_P.EXC_PREC] * dt and dt > 0.0 and bias_r <= p[_P.MAX_BIAS]:
             exc_r = 1.0
             obs_r = (xm[1] / Pm[1, 1] - prior_m1 / prior_v1) / lam_r
             obs_vr = 1.0 / lam_r
@@ -630,17 +755,25 @@ def _step(xe, Pe, xu, Pu, xm, Pm, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, g6, 
     out[_O.VY_EKF] = xe[1]
     pd_ok = cholesky_lower(Pe)[1] and cholesky_lower(Pu)[1] and cholesky_lower(Pm)[1]
     out[_O.PD_OK] = 1.0 if pd_ok else 0.0
+    out[_O.FYF_VAR] = Pu[4, 4]
+    out[_O.FYR_VAR] = Pu[5, 5]
+    out[_O.ALPHA_F_VAR] = var_af
+    out[_O.ALPHA_R_VAR] = var_ar
+    out[_O.R3_F] = r3f
+    out[_O.R3_R] = r3r
+    out[_O.SYS_F] = bias_f if exc_f > 0.5 else np.nan
+    out[_O.SYS_R] = bias_r if exc_r > 0.5 else np.nan
 
 
 @njit(cache=True)
-def _run(t, ax, ay, r, steer, speed, xe, Pe, xu, Pu, xm, Pm, t_prev, p, w6m, w6c, g6, w2m, w2c, g2):  # pragma: no cover
+def _run(t, ax, ay, r, steer, speed, xe, Pe, xu, Pu, xm, Pm, up, t_prev, p, w6m, w6c, g6, w2m, w2c, g2):  # pragma: no cover
     """Compiled loop over samples; the state arrays are updated in place."""
     n = t.shape[0]
     out = np.empty((n, _O.SIZE))
     tp = t_prev
     for k in range(n):
         dt = t[k] - tp if tp == tp else 0.0  # no predict before the first sample
-        _step(xe, Pe, xu, Pu, xm, Pm, dt, ax[k], ay[k], r[k], steer[k], speed[k], p,
+        _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax[k], ay[k], r[k], steer[k], speed[k], p,
               w6m, w6c, g6, w2m, w2c, g2, out[k])
         tp = t[k]
     return out
@@ -682,14 +815,17 @@ def noise_from_drive(drive: Drive, speed: NDArray[np.float64] | None = None) -> 
     return {k: max(v, _NOISE_FLOORS[k]) for k, v in out.items()}
 
 
-def measured_speed(drive: Drive, source: str = "auto") -> tuple[NDArray[np.float64], str]:
-    """The stage-1 speed measurement (eq. 5) [m/s] and a description of its source.
+def measured_speed(drive: Drive, source: str = "auto") -> tuple[NDArray[np.float64], str, float]:
+    """The stage-1 speed measurement (eq. 5) [m/s], a description, the share of front wheels.
 
     ``'wheels'``: mean of ``omega R`` over the undriven axle (front wheels for
     rear drive, rear wheels for front drive) or all four wheels for four-wheel
     drive. ``'motor_rpm'``: motor speed [rev/min] through the gear ratio,
     ``rpm 2 pi R / (60 i)``. ``'vx_motor'`` and ``'vx'``: those columns.
-    ``'auto'`` takes the first available of wheels, vx, vx_motor, motor_rpm.
+    ``'auto'`` takes the first available of wheels, vx, vx_motor, motor_rpm, but
+    prefers ``vx`` to wheel speeds on a four-wheel-driven car (all wheels slip).
+    The third value is the fraction of steered (front) wheels in the mean, which
+    stage 1 uses to model their speed, ``vx cos d + (vy + lf r) sin d``.
 
     Raises
     ------
@@ -697,26 +833,34 @@ def measured_speed(drive: Drive, source: str = "auto") -> tuple[NDArray[np.float
         When the requested (or any, for ``'auto'``) source is missing.
     """
     veh = drive.vehicle
-    order = ("wheels", "vx", "vx_motor", "motor_rpm") if source == "auto" else (source,)
+    if source == "auto":
+        # undriven wheels measure the ground speed; on a four-wheel-driven car every
+        # wheel slips under drive, so a measured vx (odometry, GNSS) comes first there
+        order = ("vx", "wheels", "vx_motor", "motor_rpm") if veh.drive == "awd" else (
+            "wheels", "vx", "vx_motor", "motor_rpm")
+    else:
+        order = (source,)
     for src in order:
         if src == "wheels" and drive.has_wheel_speeds:
             cols = {"fwd": ("omega_rl", "omega_rr"), "rwd": ("omega_fl", "omega_fr")}.get(
                 veh.drive, ("omega_fl", "omega_fr", "omega_rl", "omega_rr")
             )
             w = np.mean([drive.col(c) for c in cols], axis=0)
-            return w * veh.wheel_radius, f"wheel speeds {'+'.join(cols)} x R"
+            share = sum(c.startswith("omega_f") for c in cols) / len(cols)
+            return w * veh.wheel_radius, f"wheel speeds {'+'.join(cols)} x R", share
         if src in ("vx", "vx_motor") and drive.has(src):
-            return drive.col(src), f"column {src}"
+            return drive.col(src), f"column {src}", 0.0
         if src == "motor_rpm" and drive.has("motor_rpm"):
             v = drive.col("motor_rpm") * 2 * np.pi * veh.wheel_radius / (60.0 * veh.gear_ratio)
-            return v, "motor_rpm through the gear ratio (eq. 5)"
+            return v, "motor_rpm through the gear ratio (eq. 5)", 0.0
     raise DriveValidationError(
         f"drive from {drive.meta.source} has no speed measurement for the cascade "
         f"(source {source!r}; need wheel speeds omega_*, vx, vx_motor or motor_rpm)"
     )
 
 
-def _params(vehicle: VehicleParams, cfg: CascadeConfig, noise: dict[str, float]) -> NDArray[np.float64]:
+def _params(vehicle: VehicleParams, cfg: CascadeConfig, noise: dict[str, float],
+            front_share: float = 0.0) -> NDArray[np.float64]:
     p = np.zeros(_P.SIZE)
     p[_P.MASS] = vehicle.mass
     p[_P.IZ] = vehicle.yaw_inertia
@@ -731,8 +875,8 @@ def _params(vehicle: VehicleParams, cfg: CascadeConfig, noise: dict[str, float])
     p[_P.VAR_STEER] = cfg.steer_std**2
     p[_P.VAR_ACC_MODEL] = cfg.accel_model_std**2
     p[_P.Q_FORCE] = (vehicle.mass * cfg.jerk_std) ** 2
-    # yaw acceleration from the accelerometer model error acting at the longer lever arm
-    p[_P.Q_YAW] = (vehicle.mass * cfg.accel_model_std * max(vehicle.lf, vehicle.lr) / vehicle.yaw_inertia) ** 2
+    # yaw acceleration error: the accelerometer model error across the wheelbase
+    p[_P.Q_YAW] = (cfg.accel_model_std / vehicle.wheelbase) ** 2
     p[_P.Q_MU] = cfg.mu_rate_std**2
     p[_P.MU_VAR0] = cfg.mu_prior_std**2
     p[_P.MU_MIN], p[_P.MU_MAX] = cfg.mu_bounds
@@ -740,6 +884,11 @@ def _params(vehicle: VehicleParams, cfg: CascadeConfig, noise: dict[str, float])
     p[_P.EXC_PREC] = 1.0 / cfg.excitation_std**2
     p[_P.V_MIN] = cfg.v_min
     p[_P.V_EPS] = cfg.v_eps
+    p[_P.FRONT_SHARE] = front_share
+    p[_P.SLIP_BIAS] = cfg.slip_bias_std
+    p[_P.MAX_BIAS] = cfg.max_slip_bias_effect
+    p[_P.CR] = vehicle.cornering_stiffness_rear
+    p[_P.AY_STRAIGHT] = cfg.ay_straight
     return p
 
 
@@ -773,7 +922,7 @@ def init(vehicle: VehicleParams, config: CascadeConfig, vx0: float = 0.0, noise:
     Pu = np.diag([vmin**2, max(n["gyro_std"], 0.01) ** 2, 0.2**2, fw, fw, fw])
     xm = np.full(2, config.mu_prior)
     Pm = np.eye(2) * config.mu_prior_std**2
-    return CascadeState(float("nan"), xe, Pe, xu, Pu, xm, Pm)
+    return CascadeState(float("nan"), xe, Pe, xu, Pu, xm, Pm, np.zeros(3))
 
 
 class _Compiled(NamedTuple):
@@ -786,10 +935,11 @@ class _Compiled(NamedTuple):
     g2: float
 
 
-def _compile_args(vehicle: VehicleParams, config: CascadeConfig, noise: dict[str, float]) -> _Compiled:
+def _compile_args(vehicle: VehicleParams, config: CascadeConfig, noise: dict[str, float],
+                  front_share: float = 0.0) -> _Compiled:
     w6 = merwe_weights(ForceState.SIZE, config.alpha, config.beta, config.kappa)
     w2 = merwe_weights(FrictionState.SIZE, config.alpha, config.beta, config.kappa)
-    return _Compiled(_params(vehicle, config, noise), w6.wm, w6.wc, w6.gamma, w2.wm, w2.wc, w2.gamma)
+    return _Compiled(_params(vehicle, config, noise, front_share), w6.wm, w6.wc, w6.gamma, w2.wm, w2.wc, w2.gamma)
 
 
 def _estimate(row: NDArray[np.float64]) -> CascadeEstimate:
@@ -819,6 +969,7 @@ def step(
     vehicle: VehicleParams,
     config: CascadeConfig,
     noise: dict[str, float],
+    front_share: float = 0.0,
 ) -> tuple[CascadeState, CascadeEstimate]:
     """Pure single step of the cascade: returns the new state and the estimates.
 
@@ -831,11 +982,13 @@ def step(
     config : CascadeConfig
     noise : dict
         ``accel_std, gyro_std, speed_std`` (resolved, e.g. by :func:`noise_from_drive`).
+    front_share : float
+        Share of steered wheels in the speed measurement (:func:`measured_speed`).
     """
     _check_sample(sample)
     if state.t == state.t and sample.t <= state.t:
         raise ValueError(f"sample time {sample.t} does not follow the state time {state.t}")
-    c = _compile_args(vehicle, config, noise)
+    c = _compile_args(vehicle, config, noise, front_share)
     arrays = [np.array(a, dtype=float, copy=True) for a in state[1:]]
     out = _run(
         np.array([sample.t]), np.array([sample.ax]), np.array([sample.ay]),
@@ -845,15 +998,15 @@ def step(
     return CascadeState(float(sample.t), *arrays), _estimate(out[0])
 
 
-def _drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[dict[str, NDArray[np.float64]], str]:
+def _drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[dict[str, NDArray[np.float64]], str, float]:
     drive.require("t", "ax", "ay", "yaw_rate", "steer", why="the cascade needs IMU and steering")
-    speed, src = measured_speed(drive, config.speed_source)
+    speed, src, share = measured_speed(drive, config.speed_source)
     cols = {c: drive.col(c) for c in ("t", "ax", "ay", "yaw_rate", "steer")}
     cols["speed"] = np.asarray(speed, dtype=float)
     for k, v in cols.items():
         if not np.all(np.isfinite(v)):
             raise DriveValidationError(f"cascade input {k!r} holds NaN/inf")
-    return cols, src
+    return cols, src, share
 
 
 def run(drive: Drive, config: CascadeConfig | None = None) -> tuple[NDArray[np.float64], dict[str, Any]]:
@@ -867,15 +1020,15 @@ def run(drive: Drive, config: CascadeConfig | None = None) -> tuple[NDArray[np.f
         ``noise`` (resolved standard deviations), ``speed_source``, final ``state``.
     """
     config = config or CascadeConfig()
-    cols, src = _drive_inputs(drive, config)
+    cols, src, share = _drive_inputs(drive, config)
     noise = _resolve_noise(config, drive, cols["speed"])
     state = init(drive.vehicle, config, float(cols["speed"][0]), noise)
     arrays = [np.array(a, copy=True) for a in state[1:]]
-    c = _compile_args(drive.vehicle, config, noise)
+    c = _compile_args(drive.vehicle, config, noise, share)
     out = _run(cols["t"], cols["ax"], cols["ay"], cols["yaw_rate"], cols["steer"], cols["speed"],
                *arrays, float("nan"), *c)
     final = CascadeState(float(cols["t"][-1]), *arrays)
-    return out, {"noise": noise, "speed_source": src, "state": final}
+    return out, {"noise": noise, "speed_source": src, "front_share": share, "state": final}
 
 
 class Cascade:
@@ -888,6 +1041,8 @@ class Cascade:
     noise : dict, optional
         Sensor noise standard deviations; required for online use unless all
         three are set in ``config``.
+    front_share : float
+        Share of steered wheels in the speed measurement (:func:`measured_speed`).
 
     Attributes
     ----------
@@ -896,8 +1051,9 @@ class Cascade:
     """
 
     def __init__(self, vehicle: VehicleParams, config: CascadeConfig | None = None,
-                 noise: dict[str, float] | None = None) -> None:
+                 noise: dict[str, float] | None = None, front_share: float = 0.0) -> None:
         self.vehicle = vehicle
+        self.front_share = float(front_share)
         self.config = config or CascadeConfig()
         self.noise = noise
         self.state_: CascadeState | None = None
@@ -908,7 +1064,8 @@ class Cascade:
             self.noise = _resolve_noise(self.config, None, None)
         if self.state_ is None:
             self.state_ = init(self.vehicle, self.config, sample.speed, self.noise)
-        self.state_, est = step(self.state_, sample, self.vehicle, self.config, self.noise)
+        self.state_, est = step(self.state_, sample, self.vehicle, self.config, self.noise,
+                                self.front_share)
         return est
 
     def run(self, drive: Drive) -> EstimateResult:
@@ -918,7 +1075,7 @@ class Cascade:
 
 def samples(drive: Drive, config: CascadeConfig | None = None) -> list[CascadeSample]:
     """The drive as a list of :class:`CascadeSample` (for online replay)."""
-    cols, _ = _drive_inputs(drive, config or CascadeConfig())
+    cols, _, _ = _drive_inputs(drive, config or CascadeConfig())
     return [CascadeSample(*v) for v in zip(cols["t"], cols["ax"], cols["ay"], cols["yaw_rate"],
                                            cols["steer"], cols["speed"], strict=True)]
 
@@ -1010,8 +1167,14 @@ def result_table(drive: Drive, out: NDArray[np.float64]) -> pd.DataFrame:
         "Fxf": out[:, o.FXF],
         "Fyf": out[:, o.FYF],
         "Fyr": out[:, o.FYR],
+        "Fyf_std": np.sqrt(out[:, o.FYF_VAR]),
+        "Fyr_std": np.sqrt(out[:, o.FYR_VAR]),
         "alpha_f": out[:, o.ALPHA_F],
         "alpha_r": out[:, o.ALPHA_R],
+        "alpha_f_std": np.sqrt(out[:, o.ALPHA_F_VAR]),
+        "alpha_r_std": np.sqrt(out[:, o.ALPHA_R_VAR]),
+        "force_noise_front": np.sqrt(out[:, o.R3_F]),
+        "force_noise_rear": np.sqrt(out[:, o.R3_R]),
         "Fzf": out[:, o.FZF],
         "Fzr": out[:, o.FZR],
         "mu_front_std": std_f,
@@ -1022,6 +1185,8 @@ def result_table(drive: Drive, out: NDArray[np.float64]) -> pd.DataFrame:
         "mu_front_obs_std": np.sqrt(out[:, o.OBS_VAR_F]),
         "mu_rear_obs": out[:, o.OBS_R],
         "mu_rear_obs_std": np.sqrt(out[:, o.OBS_VAR_R]),
+        "mu_front_obs_sys": out[:, o.SYS_F],
+        "mu_rear_obs_sys": out[:, o.SYS_R],
         "vx_ekf": out[:, o.VX_EKF],
         "vy_ekf": out[:, o.VY_EKF],
     }

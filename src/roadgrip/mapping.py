@@ -1,0 +1,628 @@
+r"""Friction grid: fuse position-stamped friction observations into 2-D cells.
+
+Each observation is a friction value ``mu_i`` with variance ``v_i`` at a
+position ``(x_i, y_i)``. A cell accumulates, with weights ``w_i = 1 / v_i``
+(times an optional forgetting factor),
+
+``S0 = sum w``,  ``S1 = sum w mu``,  ``S2 = sum w mu²``,  ``SB = sum w b``,  ``n = sum 1``
+
+(``b_i >= 0`` is an optional systematic error of each observation: a part of its
+error that is shared with its neighbours in time and does not average out)
+
+so fusion is a sum: grids from several drives merge by adding their sums
+(associative and commutative, no observation lost), and ``np.bincount`` over
+flat cell indices does the accumulation. The cell posterior combines a
+Gaussian prior ``N(prior_mean, prior_std²)`` with the data:
+
+``precision = 1 / prior_std² + S0 / b``,
+``mean = (prior_mean / prior_std² + S1 / b) / precision``,  ``var = 1 / precision``
+
+plus the systematic part ``(SB / b / precision)²`` added to ``var``, and
+where ``b >= 1`` is the Birge ratio ``chi² / (n - 1)`` with
+``chi² = S2 - S1² / S0`` (the scatter of the observations about their mean in
+units of their claimed variances), applied when ``overdispersion=True``: if the
+observations in a cell disagree more than their variances allow (correlated
+errors, model mismatch), the cell's uncertainty is inflated accordingly
+instead of shrinking as ``1 / sqrt(n)``. Cells without observations report the
+prior: a wide band, never a confident number.
+
+Forgetting (optional, for changing conditions): with a time constant ``tau``
+[s], an observation at time ``t`` enters with weight ``exp(-(t_ref - t) / tau)``
+relative to the grid's reference time ``t_ref`` (the latest observation);
+moving ``t_ref`` forward scales all sums by the same factor, so merging stays
+associative.
+
+Only excited observations count: :func:`observations_from_estimates` keeps the
+samples flagged ``excited`` (per axle where the estimator reports axles
+separately) and places front- and rear-axle observations at the axle positions
+(``x_front, y_front``, ``x_rear, y_rear``) where the estimates carry them.
+
+Cells are aligned to multiples of the cell size (cell ``(i, j)`` covers
+``[i c, (i+1) c) x [j c, (j+1) c)``), so grids of the same cell size always
+share cell boundaries.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+import pandas as pd
+from numba import njit
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "FrictionGrid",
+    "GridSummary",
+    "Observations",
+    "compare_grids",
+    "empty_grid",
+    "fuse",
+    "grid_from_estimates",
+    "map_cli",
+    "merge",
+    "observations_from_estimates",
+    "show_cli",
+]
+
+Z95 = 1.959963984540054
+
+
+class Observations(NamedTuple):
+    """Position-stamped friction observations, all shape (n,).
+
+    Attributes
+    ----------
+    x, y : ndarray
+        Position [m] in the map frame.
+    mu : ndarray
+        Friction [-].
+    var : ndarray
+        Variance of ``mu`` [-], > 0.
+    t : ndarray
+        Time [s] (used by forgetting).
+    sys : ndarray
+        Systematic error [-] (0 where the estimator does not report one).
+    """
+
+    x: NDArray[np.float64]
+    y: NDArray[np.float64]
+    mu: NDArray[np.float64]
+    var: NDArray[np.float64]
+    t: NDArray[np.float64]
+    sys: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class FrictionGrid:
+    """A friction grid (immutable; :func:`fuse` and :func:`merge` return new grids).
+
+    Attributes
+    ----------
+    cell : float
+        Cell size [m].
+    ix0, iy0 : int
+        Global index of the first column / row (cell ``(i, j)`` covers
+        ``[i cell, (i+1) cell) x [j cell, (j+1) cell)``).
+    s0, s1, s2, sb : ndarray, shape (ny, nx)
+        Sums of ``w``, ``w mu``, ``w mu²``, ``w b`` (``b`` systematic error).
+    n_obs : ndarray of int64, shape (ny, nx)
+        Number of observations fused into each cell.
+    prior_mean, prior_std : float
+        Prior friction of an unvisited cell [-].
+    tau : float
+        Forgetting time constant [s] (``inf``: no forgetting).
+    t_ref : float
+        Reference time of the sums [s] (latest observation; ``-inf`` when empty).
+    overdispersion : bool
+        Inflate cell variances by the Birge ratio (module docstring).
+    path : ndarray, shape (k, 2)
+        Decimated driven path for plots (rows of NaN separate drives).
+    """
+
+    cell: float
+    ix0: int
+    iy0: int
+    s0: NDArray[np.float64]
+    s1: NDArray[np.float64]
+    s2: NDArray[np.float64]
+    sb: NDArray[np.float64]
+    n_obs: NDArray[np.int64]
+    prior_mean: float = 0.7
+    prior_std: float = 0.4
+    tau: float = float("inf")
+    t_ref: float = float("-inf")
+    overdispersion: bool = True
+    path: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.cell) and self.cell > 0):
+            raise ValueError(f"cell size must be positive and finite, got {self.cell!r}")
+        if not (np.isfinite(self.prior_std) and self.prior_std > 0 and np.isfinite(self.prior_mean)):
+            raise ValueError("prior_mean must be finite and prior_std positive")
+        if not self.tau > 0:
+            raise ValueError(f"forgetting time constant tau must be positive (inf: none), got {self.tau!r}")
+        shapes = {a.shape for a in (self.s0, self.s1, self.s2, self.sb, self.n_obs)}
+        if len(shapes) != 1 or len(next(iter(shapes))) != 2:
+            raise ValueError(f"grid arrays must share one 2-D shape, got {shapes}")
+
+    # -- geometry --------------------------------------------------------------------
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(ny, nx)``."""
+        return self.s0.shape  # type: ignore[return-value]
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """``(xmin, xmax, ymin, ymax)`` of the grid [m]."""
+        ny, nx = self.shape
+        c = self.cell
+        return (self.ix0 * c, (self.ix0 + nx) * c, self.iy0 * c, (self.iy0 + ny) * c)
+
+    def centres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Cell-centre coordinates ``X, Y`` [m], each shape ``(ny, nx)``."""
+        ny, nx = self.shape
+        xs = (self.ix0 + np.arange(nx) + 0.5) * self.cell
+        ys = (self.iy0 + np.arange(ny) + 0.5) * self.cell
+        return np.meshgrid(xs, ys)
+
+    # -- posterior -------------------------------------------------------------------
+    def birge_ratio(self) -> NDArray[np.float64]:
+        """Per-cell ``max(1, chi² / (n - 1))`` (1 where fewer than two observations)."""
+        out = np.ones(self.shape)
+        ok = (self.n_obs >= 2) & (self.s0 > 0)
+        if ok.any():
+            s0, s1, s2 = self.s0[ok], self.s1[ok], self.s2[ok]
+            chi2 = np.maximum(s2 - s1 * s1 / s0, 0.0)
+            out[ok] = np.maximum(chi2 / (self.n_obs[ok] - 1), 1.0)
+        return out
+
+    def posterior(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Per-cell posterior mean and standard deviation [-], shape ``(ny, nx)``."""
+        b = self.birge_ratio() if self.overdispersion else np.ones(self.shape)
+        p0 = 1.0 / self.prior_std**2
+        prec = p0 + self.s0 / b
+        mean = (self.prior_mean * p0 + self.s1 / b) / prec
+        sys = self.sb / b / prec
+        return mean, np.sqrt(1.0 / prec + sys * sys)
+
+    def query(self, x: ArrayLike, y: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Friction mean and standard deviation [-] at positions ``(x, y)`` [m].
+
+        Positions outside the grid or in cells without observations return the
+        prior (``prior_mean``, ``prior_std``).
+
+        Examples
+        --------
+        >>> g = fuse(empty_grid(1.0), [0.5, 0.5], [0.5, 0.5], [0.6, 0.6], [0.01, 0.01])
+        >>> m, s = g.query([0.2, 10.0], [0.7, 10.0])
+        >>> [round(float(v), 3) for v in m], round(float(s[1]), 3)
+        ([0.601, 0.7], 0.4)
+        """
+        x = np.asarray(x, dtype=float)
+        y = np.asarray(y, dtype=float)
+        mean, std = self.posterior()
+        out_m = np.full(np.broadcast(x, y).shape, self.prior_mean)
+        out_s = np.full(out_m.shape, self.prior_std)
+        x, y = np.broadcast_arrays(x, y)
+        ix = np.floor(x / self.cell).astype(np.int64) - self.ix0
+        iy = np.floor(y / self.cell).astype(np.int64) - self.iy0
+        ny, nx = self.shape
+        inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny) & np.isfinite(x) & np.isfinite(y)
+        out_m[inside] = mean[iy[inside], ix[inside]]
+        out_s[inside] = std[iy[inside], ix[inside]]
+        return out_m, out_s
+
+    # -- files -----------------------------------------------------------------------
+    def cells_frame(self, min_obs: int = 1) -> pd.DataFrame:
+        """Cells with at least ``min_obs`` observations: ``x, y, mu_mean, mu_std, n_obs``."""
+        X, Y = self.centres()
+        mean, std = self.posterior()
+        sel = self.n_obs >= max(min_obs, 1)
+        return pd.DataFrame({"x": X[sel], "y": Y[sel], "mu_mean": mean[sel], "mu_std": std[sel],
+                             "n_obs": self.n_obs[sel]})
+
+    def to_csv(self, path: str | Path) -> None:
+        """Visited cells as CSV with columns ``x, y`` (cell centre, m), ``mu_mean, mu_std, n_obs``."""
+        self.cells_frame().to_csv(path, index=False, float_format="%.6g")
+
+    def to_npz(self, path: str | Path) -> None:
+        """Lossless NPZ (sums, counts, geometry, prior, forgetting, path)."""
+        np.savez_compressed(
+            path, cell=self.cell, ix0=self.ix0, iy0=self.iy0, s0=self.s0, s1=self.s1, s2=self.s2, sb=self.sb,
+            n_obs=self.n_obs, prior_mean=self.prior_mean, prior_std=self.prior_std, tau=self.tau,
+            t_ref=self.t_ref, overdispersion=self.overdispersion, path=self.path,
+            format="roadgrip-friction-grid-1",
+        )
+
+    @classmethod
+    def from_npz(cls, path: str | Path) -> FrictionGrid:
+        """Read :meth:`to_npz` output; a clear error for other files."""
+        try:
+            with np.load(path) as z:
+                if "format" not in z or str(z["format"]) != "roadgrip-friction-grid-1":
+                    raise ValueError(f"{path} is not a roadgrip friction grid (.npz from `roadgrip map`)")
+                return cls(
+                    float(z["cell"]), int(z["ix0"]), int(z["iy0"]), z["s0"], z["s1"], z["s2"], z["sb"],
+                    z["n_obs"].astype(np.int64), float(z["prior_mean"]), float(z["prior_std"]),
+                    float(z["tau"]), float(z["t_ref"]), bool(z["overdispersion"]), z["path"],
+                )
+        except FileNotFoundError:
+            raise ValueError(f"map file not found: {path}") from None
+
+
+def empty_grid(
+    cell: float = 0.5,
+    prior_mean: float = 0.7,
+    prior_std: float = 0.4,
+    tau: float = float("inf"),
+    overdispersion: bool = True,
+) -> FrictionGrid:
+    """A grid with no cells yet.
+
+    Parameters
+    ----------
+    cell : float
+        Cell size [m].
+    prior_mean, prior_std : float
+        Friction prior of unvisited cells [-].
+    tau : float
+        Forgetting time constant [s]; ``inf`` keeps every observation at full weight.
+    overdispersion : bool
+        Inflate cell variances by the Birge ratio.
+    """
+    z = np.zeros((0, 0))
+    return FrictionGrid(float(cell), 0, 0, z, z.copy(), z.copy(), z.copy(), np.zeros((0, 0), np.int64),
+                        float(prior_mean), float(prior_std), float(tau), float("-inf"), bool(overdispersion))
+
+
+def _embed(g: FrictionGrid, ix0: int, iy0: int, nx: int, ny: int) -> tuple[NDArray, ...]:
+    """The grid's arrays placed into a larger window starting at ``(ix0, iy0)``."""
+    out = [np.zeros((ny, nx)) for _ in range(4)] + [np.zeros((ny, nx), np.int64)]
+    gy, gx = g.shape
+    if gy and gx:
+        ox, oy = g.ix0 - ix0, g.iy0 - iy0
+        for o, a in zip(out, (g.s0, g.s1, g.s2, g.sb, g.n_obs), strict=True):
+            o[oy:oy + gy, ox:ox + gx] = a
+    return tuple(out)
+
+
+def _union(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+    """Union of index windows ``(ix0, iy0, nx, ny)``; empty windows are ignored."""
+    if a[2] == 0 or a[3] == 0:
+        return b
+    if b[2] == 0 or b[3] == 0:
+        return a
+    x0, y0 = min(a[0], b[0]), min(a[1], b[1])
+    x1, y1 = max(a[0] + a[2], b[0] + b[2]), max(a[1] + a[3], b[1] + b[3])
+    return x0, y0, x1 - x0, y1 - y0
+
+
+def _decay(g: FrictionGrid, t_new: float) -> FrictionGrid:
+    """Move the reference time to ``t_new``, scaling the sums when the grid forgets."""
+    if not t_new > g.t_ref:
+        return g
+    if np.isfinite(g.tau) and np.isfinite(g.t_ref):
+        f = np.exp(-(t_new - g.t_ref) / g.tau)
+        return dataclasses.replace(g, s0=g.s0 * f, s1=g.s1 * f, s2=g.s2 * f, sb=g.sb * f, t_ref=t_new)
+    return dataclasses.replace(g, t_ref=t_new)
+
+
+def fuse(
+    grid: FrictionGrid,
+    x: ArrayLike,
+    y: ArrayLike,
+    mu: ArrayLike,
+    var: ArrayLike,
+    t: ArrayLike | None = None,
+    path: ArrayLike | None = None,
+    sys: ArrayLike | None = None,
+) -> FrictionGrid:
+    """Fuse observations into a grid (returns a new grid).
+
+    Parameters
+    ----------
+    grid : FrictionGrid
+    x, y : array_like, shape (n,)
+        Positions [m].
+    mu : array_like, shape (n,)
+        Friction observations [-].
+    var : array_like, shape (n,)
+        Their variances [-], positive.
+    t : array_like, shape (n,), optional
+        Observation times [s]; required when the grid forgets (finite ``tau``).
+    path : array_like, shape (k, 2), optional
+        Driven path to keep for plots.
+    sys : array_like, shape (n,), optional
+        Systematic error of each observation [-] (>= 0; default 0).
+
+    Raises
+    ------
+    ValueError
+        Non-finite values, non-positive variances, mismatched lengths.
+
+    Notes
+    -----
+    The accumulation is a compiled single pass over the observations (the
+    ``np.bincount`` pattern without temporaries).
+    """
+    x, y, mu, var = (np.ascontiguousarray(np.asarray(a, dtype=float).ravel()) for a in (x, y, mu, var))
+    n = x.size
+    if not (y.size == mu.size == var.size == n):
+        raise ValueError(f"x, y, mu, var must have one length, got {x.size}, {y.size}, {mu.size}, {var.size}")
+    g = grid
+    if t is not None:
+        t = np.ascontiguousarray(np.asarray(t, dtype=float).ravel())
+        if t.size != n or not np.all(np.isfinite(t)):
+            raise ValueError("observation times t must be finite and as many as the observations")
+    if np.isfinite(grid.tau) and t is None:
+        raise ValueError("a forgetting grid needs observation times t")
+    new_path = g.path
+    if path is not None:
+        p = np.asarray(path, dtype=float).reshape(-1, 2)
+        new_path = p if g.path.size == 0 else np.vstack([g.path, [[np.nan, np.nan]], p])
+    if n == 0:
+        return dataclasses.replace(g, path=new_path)
+    b = np.zeros(n) if sys is None else np.ascontiguousarray(np.asarray(sys, dtype=float).ravel())
+    if b.size != n or not np.all(np.isfinite(b)) or np.any(b < 0):
+        raise ValueError("systematic errors sys must be finite, >= 0 and as many as the observations")
+    bad, bx0, by0, bx1, by1 = _bounds(x, y, mu, var, g.cell)
+    if bad >= 0:
+        raise ValueError(f"observation {bad} is not usable: positions, mu and var must be finite, var > 0")
+    decay = np.empty(0)
+    if t is not None:
+        g = _decay(grid, float(t.max()))
+        if np.isfinite(g.tau):
+            decay = np.exp(-(g.t_ref - t) / g.tau)
+    x0, y0, nx, ny = _union((g.ix0, g.iy0, g.shape[1], g.shape[0]), (bx0, by0, bx1 - bx0 + 1, by1 - by0 + 1))
+    s0, s1, s2, sb, cnt = _embed(g, x0, y0, nx, ny)
+    _accumulate(x, y, mu, var, b, decay, g.cell, x0, y0, s0, s1, s2, sb, cnt)
+    return dataclasses.replace(g, ix0=x0, iy0=y0, s0=s0, s1=s1, s2=s2, sb=sb, n_obs=cnt, path=new_path)
+
+
+@njit(cache=True)
+def _bounds(x, y, mu, var, cell):  # pragma: no cover - compiled
+    """First bad observation (-1 if none) and the cell-index bounds of the data."""
+    ix0 = iy0 = np.iinfo(np.int64).max
+    ix1 = iy1 = np.iinfo(np.int64).min
+    for i in range(x.shape[0]):
+        if not (np.isfinite(x[i]) and np.isfinite(y[i]) and np.isfinite(mu[i]) and var[i] > 0.0
+                and np.isfinite(var[i])):
+            return i, 0, 0, 0, 0
+        ix = np.int64(np.floor(x[i] / cell))
+        iy = np.int64(np.floor(y[i] / cell))
+        ix0 = min(ix0, ix)
+        ix1 = max(ix1, ix)
+        iy0 = min(iy0, iy)
+        iy1 = max(iy1, iy)
+    return -1, ix0, iy0, ix1, iy1
+
+
+@njit(cache=True)
+def _accumulate(x, y, mu, var, b, decay, cell, x0, y0, s0, s1, s2, sb, cnt):  # pragma: no cover - compiled
+    """Add precision, precision * mu, precision * mu² and counts into the cell arrays."""
+    use_decay = decay.shape[0] > 0
+    for i in range(x.shape[0]):
+        ix = np.int64(np.floor(x[i] / cell)) - x0
+        iy = np.int64(np.floor(y[i] / cell)) - y0
+        w = 1.0 / var[i]
+        if use_decay:
+            w *= decay[i]
+        wm = w * mu[i]
+        s0[iy, ix] += w
+        s1[iy, ix] += wm
+        s2[iy, ix] += wm * mu[i]
+        sb[iy, ix] += w * b[i]
+        cnt[iy, ix] += 1
+
+
+def merge(*grids: FrictionGrid) -> FrictionGrid:
+    """Merge grids of several drives: sums add, nothing is lost.
+
+    All grids must share cell size, prior, forgetting constant and the
+    overdispersion setting. With forgetting, every grid is first brought to the
+    latest reference time. ``merge(merge(a, b), c) == merge(a, merge(b, c))``
+    up to floating-point rounding, and the counts add exactly.
+    """
+    if not grids:
+        raise ValueError("merge needs at least one grid")
+    first = grids[0]
+    for g in grids[1:]:
+        for attr in ("cell", "prior_mean", "prior_std", "tau", "overdispersion"):
+            if getattr(g, attr) != getattr(first, attr):
+                raise ValueError(f"cannot merge grids with different {attr}: "
+                                 f"{getattr(first, attr)!r} and {getattr(g, attr)!r}")
+    t_ref = max(g.t_ref for g in grids)
+    grids = tuple(_decay(g, t_ref) for g in grids)
+    win = (0, 0, 0, 0)
+    for g in grids:
+        win = _union(win, (g.ix0, g.iy0, g.shape[1], g.shape[0]))
+    x0, y0, nx, ny = win
+    acc = [np.zeros((ny, nx)) for _ in range(4)] + [np.zeros((ny, nx), np.int64)]
+    paths = []
+    for g in grids:
+        for a, b in zip(acc, _embed(g, x0, y0, nx, ny), strict=True):
+            a += b
+        if g.path.size:
+            paths.append(g.path)
+    path = np.zeros((0, 2))
+    for p in paths:
+        path = p if path.size == 0 else np.vstack([path, [[np.nan, np.nan]], p])
+    return dataclasses.replace(first, ix0=x0, iy0=y0, s0=acc[0], s1=acc[1], s2=acc[2],
+                               sb=acc[3], n_obs=acc[4], t_ref=t_ref, path=path)
+
+
+# -- from estimates --------------------------------------------------------------------
+
+
+def observations_from_estimates(table: pd.DataFrame) -> Observations:
+    """Excited friction observations of an estimates table, at the axle positions.
+
+    Uses, per axle, the single-sample observation ``mu_<axle>_obs`` with
+    ``mu_<axle>_obs_std``, ``mu_<axle>_obs_sys`` and ``excited_<axle>`` where the
+    estimator provides them (the cascade does; the map then collects likelihoods, not filter states
+    that remember earlier cells), else the posterior ``mu_<axle>`` with the
+    standard deviation implied by its 95 % band and the shared ``excited`` flag.
+    Positions are ``x_<axle>, y_<axle>`` when present, else ``x, y``.
+
+    Raises
+    ------
+    ValueError
+        When the table has no position columns ``x, y``.
+    """
+    if not {"x", "y"} <= set(table.columns):
+        raise ValueError("estimates have no position (columns x, y): the drive had no pose to map with")
+    parts = []
+    t_all = table["t"].to_numpy(float) if "t" in table.columns else np.zeros(len(table))
+    for axle in ("front", "rear"):
+        if f"mu_{axle}_obs" in table.columns:
+            mu = table[f"mu_{axle}_obs"].to_numpy(float)
+            sd = table[f"mu_{axle}_obs_std"].to_numpy(float)
+            exc = table[f"excited_{axle}"].to_numpy(bool)
+            sysc = f"mu_{axle}_obs_sys"
+            b = table[sysc].to_numpy(float) if sysc in table.columns else np.zeros(len(table))
+        elif f"mu_{axle}" in table.columns:
+            mu = table[f"mu_{axle}"].to_numpy(float)
+            sd = (table[f"mu_{axle}_upper"].to_numpy(float) - table[f"mu_{axle}_lower"].to_numpy(float)) / (2 * Z95)
+            exc = table["excited"].to_numpy(bool) if "excited" in table.columns else np.ones(len(table), bool)
+            b = np.zeros(len(table))
+        else:
+            continue
+        xc, yc = (f"x_{axle}", f"y_{axle}") if f"x_{axle}" in table.columns else ("x", "y")
+        x, y = table[xc].to_numpy(float), table[yc].to_numpy(float)
+        b = np.where(np.isfinite(b), np.abs(b), 0.0)
+        ok = exc & np.isfinite(mu) & np.isfinite(sd) & (sd > 0) & np.isfinite(x) & np.isfinite(y)
+        parts.append((x[ok], y[ok], mu[ok], sd[ok] ** 2, t_all[ok], b[ok]))
+    if not parts:
+        raise ValueError("estimates have no friction columns (mu_front / mu_rear)")
+    return Observations(*(np.concatenate([p[i] for p in parts]) for i in range(6)))
+
+
+def grid_from_estimates(table: pd.DataFrame, cell: float = 0.5, **grid_options: Any) -> FrictionGrid:
+    """Grid of one estimates table (see :func:`observations_from_estimates`).
+
+    ``grid_options`` go to :func:`empty_grid` (prior, forgetting, overdispersion).
+    """
+    obs = observations_from_estimates(table)
+    xy = table[["x", "y"]].to_numpy(float)
+    step = max(1, len(xy) // 5000)
+    g = empty_grid(cell, **grid_options)
+    return fuse(g, obs.x, obs.y, obs.mu, obs.var, t=obs.t, path=xy[::step], sys=obs.sys)
+
+
+class GridSummary(NamedTuple):
+    """Agreement of several grids on their common cells.
+
+    Attributes
+    ----------
+    cells : DataFrame
+        One row per common cell: ``x, y`` and ``mu_<i>`` per grid.
+    spread_std : float
+        Mean over common cells of the standard deviation across grids [-].
+    max_abs_diff : float
+        Largest difference between two grids in any common cell [-].
+    """
+
+    cells: pd.DataFrame
+    spread_std: float
+    max_abs_diff: float
+
+
+def compare_grids(grids: list[FrictionGrid], min_obs: int = 10) -> GridSummary:
+    """Compare grids on the cells where every grid has at least ``min_obs`` observations."""
+    if len(grids) < 2:
+        raise ValueError("compare needs at least two grids")
+    frames = []
+    for i, g in enumerate(grids):
+        f = g.cells_frame(min_obs)[["x", "y", "mu_mean"]].rename(columns={"mu_mean": f"mu_{i}"})
+        frames.append(f.round({"x": 9, "y": 9}))
+    common = frames[0]
+    for f in frames[1:]:
+        common = common.merge(f, on=["x", "y"], how="inner")
+    if common.empty:
+        return GridSummary(common, float("nan"), float("nan"))
+    vals = common[[f"mu_{i}" for i in range(len(grids))]].to_numpy()
+    return GridSummary(common, float(vals.std(axis=1, ddof=1).mean()),
+                       float((vals.max(axis=1) - vals.min(axis=1)).max()))
+
+
+# -- command line ----------------------------------------------------------------------
+
+
+def _estimates_table(path: str, vehicle: str | None, fmt: str | None, console: Any) -> tuple[pd.DataFrame, str]:
+    from roadgrip.estimators.base import EstimateResult
+
+    p = Path(path)
+    if p.is_file() and p.suffix.lower() in (".parquet", ".pq"):
+        import pyarrow.parquet as pq
+
+        md = pq.read_schema(str(p)).metadata or {}
+        if b"roadgrip_estimate" in md:
+            res = EstimateResult.read_parquet(p)
+            return res.table, f"estimates ({res.method})"
+    from roadgrip.estimators import EstimateRequest
+    from roadgrip.estimators.cascade import run_cli
+    from roadgrip.io import read_drive
+
+    drive = read_drive(path, format=fmt, vehicle=vehicle)
+    res = run_cli(drive, EstimateRequest(progress=False))
+    return res.table, "drive (cascade run)"
+
+
+def map_cli(
+    inputs: list[str],
+    output: str | Path,
+    *,
+    cell: float = 0.5,
+    csv: str | Path | None = None,
+    png: str | Path | None = None,
+    vehicle: str | None = None,
+    fmt: str | None = None,
+    console: Any = None,
+) -> FrictionGrid:
+    """``roadgrip map``: grids of estimates files or drives (cascade), merged, written.
+
+    Each input is an estimates Parquet file (any method, with ``x, y``) or a
+    drive (canonical file or data set), on which the cascade is run.
+    """
+    if not inputs:
+        raise ValueError("roadgrip map needs at least one estimates file or drive")
+    if not (np.isfinite(cell) and cell > 0):
+        raise ValueError(f"--cell must be a positive size in m, got {cell}")
+    grids = []
+    for path in inputs:
+        table, kind = _estimates_table(path, vehicle, fmt, console)
+        g = grid_from_estimates(table, cell)
+        grids.append(g)
+        if console is not None:
+            console.print(f"{path}: {kind}, {int(g.n_obs.sum())} excited observations in "
+                          f"{int((g.n_obs > 0).sum())} cells")
+    grid = merge(*grids)
+    grid.to_npz(output)
+    if csv:
+        grid.to_csv(csv)
+    if png:
+        from roadgrip.plots.maps import plot_grid
+
+        plot_grid(grid, png)
+    if console is not None:
+        visited = grid.n_obs > 0
+        mean, std = grid.posterior()
+        if visited.any():
+            console.print(f"map: {int(visited.sum())} cells of {grid.cell} m, mu {mean[visited].min():.2f}"
+                          f"..{mean[visited].max():.2f}, median std {np.median(std[visited]):.3f}")
+        console.print(f"wrote {output}" + (f", {csv}" if csv else "") + (f", {png}" if png else ""))
+    return grid
+
+
+def show_cli(map_path: str | Path, output: str | Path, *, console: Any = None) -> None:
+    """``roadgrip map show MAP.npz -o MAP.png``."""
+    from roadgrip.plots.maps import plot_grid
+
+    grid = FrictionGrid.from_npz(map_path)
+    plot_grid(grid, output)
+    if console is not None:
+        console.print(f"wrote {output}")
