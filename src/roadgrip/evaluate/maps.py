@@ -11,12 +11,12 @@ from roadgrip.evaluate.metrics import cell_truth
 __all__ = ["cells_from_result", "true_cell_friction"]
 
 
-def cells_from_result(result, drive, cell: float = 0.5) -> tuple[pd.DataFrame, float]:
+def cells_from_result(result, drive, cell: float = 0.5) -> tuple[pd.DataFrame, float, object]:
     """Fuse a run's excited estimates into a :class:`roadgrip.mapping.FrictionGrid`.
 
     Returns every cell of the grid's extent (visited or not) as a frame with
-    ``x, y`` (centre, m), ``mu_mean``, ``mu_std``, ``n_obs``, and the cell size
-    [m]; ``frame.attrs['cell_size']`` carries the size too. Estimates without a
+    ``x, y`` (centre, m), ``mu_mean``, ``mu_std``, ``n_obs``, the cell size
+    [m] and the grid itself; ``frame.attrs['cell_size']`` carries the size too. Estimates without a
     position take it from the drive's ``x, y``.
     """
     from roadgrip.mapping import grid_from_estimates
@@ -32,7 +32,7 @@ def cells_from_result(result, drive, cell: float = 0.5) -> tuple[pd.DataFrame, f
     cells = pd.DataFrame({"x": X.ravel(), "y": Y.ravel(), "mu_mean": mean.ravel(),
                           "mu_std": std.ravel(), "n_obs": grid.n_obs.ravel()})
     cells.attrs["cell_size"] = float(grid.cell)
-    return cells, float(grid.cell)
+    return cells, float(grid.cell), grid
 
 
 def true_cell_friction(drive, cells: pd.DataFrame, cell: float, sub: int = 5) -> NDArray[np.float64]:
