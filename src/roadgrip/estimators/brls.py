@@ -175,6 +175,10 @@ class BRLSConfig:
         inertial sensor leaves at the sample level.
     lateral_regressor : {'axles', 'rear'}
         ``alpha_f cos(delta) + alpha_r`` (eq. 4) or ``2 alpha_r`` (see :func:`regressors`).
+    error_clip : float
+        Bound on the prediction error ``|eps|`` of eq. 6 [m/s²] (a Huber-type
+        robust RLS: a burst of outliers moves the estimate by a bounded amount);
+        ``inf`` = the paper's update.
     """
 
     long: ChannelCalibration
@@ -190,12 +194,15 @@ class BRLSConfig:
     min_speed: float = 0.5
     prefilter_tau_s: float = 0.0
     lateral_regressor: str = "axles"
+    error_clip: float = math.inf
 
     def __post_init__(self) -> None:
         if self.lateral_regressor not in ("axles", "rear"):
             raise ValueError(
                 f"lateral_regressor must be 'axles' or 'rear', got {self.lateral_regressor!r}"
             )
+        if not self.error_clip > 0:
+            raise ValueError(f"error_clip must be positive (inf = off), got {self.error_clip!r}")
         if not (math.isfinite(self.prefilter_tau_s) and self.prefilter_tau_s >= 0):
             raise ValueError(f"prefilter_tau_s must be >= 0, got {self.prefilter_tau_s!r}")
         if not (math.isfinite(self.min_speed) and self.min_speed >= 0):
@@ -305,8 +312,8 @@ class _P:
     """Index layout of the flat parameter vector handed to the compiled kernel."""
 
     REF_H, REF_L, THR, GAMMA, ON = 0, 1, 2, 3, 4  # + 5 * channel (0 long, 1 lat)
-    MEMORY, S_MAX, TAU_E, E_MIN, PREFILTER = 10, 11, 12, 13, 14
-    SIZE = 15
+    MEMORY, S_MAX, TAU_E, E_MIN, PREFILTER, ERROR_CLIP = 10, 11, 12, 13, 14, 15
+    SIZE = 16
 
 
 class _S:
@@ -326,6 +333,7 @@ def _param_vector(cfg: BRLSConfig) -> NDArray[np.float64]:
     p[_P.MEMORY], p[_P.S_MAX] = cfg.memory_s, cfg.s_max
     p[_P.TAU_E], p[_P.E_MIN] = cfg.excitation_tau_s, cfg.excitation_min
     p[_P.PREFILTER] = cfg.prefilter_tau_s
+    p[_P.ERROR_CLIP] = cfg.error_clip
     return p
 
 
@@ -366,6 +374,10 @@ def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - 
         w = 1.0 if g == 0.0 else 1.0 - np.exp(-abs(ph) / g)
         ref = p[o + 0] if high else p[o + 1]
         eps = st[9 + 2 * c] - ph * th
+        if eps > p[15]:
+            eps = p[15]
+        elif eps < -p[15]:
+            eps = -p[15]
         eps_ref = w * eps + (1.0 - w) * ph * (ref - th)
         sp = s * ph
         eta = mu + ph * sp
@@ -838,6 +850,7 @@ def calibrate(
     memories: Sequence[float] = (1.0, 2.0, 4.0, 8.0),
     prefilters: Sequence[float] = (0.0, 0.5, 1.0),
     lateral_regressors: Sequence[str] = ("axles", "rear"),
+    error_clips: Sequence[float] = (math.inf, 1.0),
 ) -> Calibration:
     """Learn the bRLS references, thresholds, gammas and memory, and the slip-map curves.
 
@@ -856,7 +869,7 @@ def calibrate(
     Both steps run on the prefiltered signals, for each prefilter time constant
     in ``prefilters`` [s] and each lateral regressor in ``lateral_regressors``.
     Every combination (lateral regressor; prefilter; memory; longitudinal
-    candidate or off; lateral candidate or off) is then run as the full classifier over each labelled drive,
+    candidate or off; lateral candidate or off; error clip) is then run as the full classifier over each labelled drive,
     starting in the *other* state (so that it must detect the labelled class),
     and scored by the mean fraction of time spent in the labelled class minus
     ``SWITCH_PENALTY`` per class switch beyond the first (a labelled drive has
@@ -874,6 +887,8 @@ def calibrate(
         Candidate grids (see above).
     lateral_regressors : sequence of {'axles', 'rear'}
         Lateral regressors tried (:func:`regressors`).
+    error_clips : sequence of float
+        Prediction-error bounds tried [m/s²] (``BRLSConfig.error_clip``).
 
     Returns
     -------
@@ -909,12 +924,14 @@ def calibrate(
                     for ca in [off["lat"], *cands["lat"]]:
                         if not (cl.enabled or ca.enabled):
                             continue
-                        cfg = replace(base, long=cl, lat=ca, memory_s=mem,
-                                      prefilter_tau_s=float(tau), lateral_regressor=lateral)
-                        acc, sw = _score(cfg, data)
-                        key = acc - SWITCH_PENALTY * sw
-                        if best is None or key > best[0]:
-                            best = (key, cfg, acc, sw)
+                        for clip in error_clips:
+                            cfg = replace(base, long=cl, lat=ca, memory_s=mem,
+                                          prefilter_tau_s=float(tau), lateral_regressor=lateral,
+                                          error_clip=float(clip))
+                            acc, sw = _score(cfg, data)
+                            key = acc - SWITCH_PENALTY * sw
+                            if best is None or key > best[0] + 1e-9:
+                                best = (key, cfg, acc, sw)
     if best is None:
         raise ValueError(
             "calibration failed: no channel gives ordered high/low stiffness references; "
@@ -929,6 +946,7 @@ def calibrate(
         "lateral_regressor": cfg.lateral_regressor,
         "prefilter_tau_s": cfg.prefilter_tau_s,
         "memory_s": cfg.memory_s,
+        "error_clip": cfg.error_clip,
     }
     sm = slipmap.calibrate_section(kins)
     veh = kins[0][0].vehicle.name
