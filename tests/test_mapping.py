@@ -1,0 +1,212 @@
+"""Friction grid: analytic fusion, merging, forgetting, files, and the simulated acceptance."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from roadgrip import mapping as M
+
+
+def _obs(rng, n, lo=-3.0, hi=3.0):
+    x = rng.uniform(lo, hi, n)
+    y = rng.uniform(lo / 2, hi / 2, n)
+    mu = rng.normal(0.6, 0.1, n)
+    var = rng.uniform(0.01, 0.2, n)
+    return x, y, mu, var
+
+
+def test_cell_posterior_is_the_precision_weighted_mean():
+    rng = np.random.default_rng(0)
+    mu = rng.normal(0.55, 0.05, 40)
+    var = rng.uniform(0.002, 0.05, 40)
+    x = np.full(40, 1.2)
+    y = np.full(40, -0.3)
+    g = M.fuse(M.empty_grid(0.5, prior_mean=0.7, prior_std=0.4, overdispersion=False), x, y, mu, var)
+    w = 1 / var
+    prec = 1 / 0.4**2 + w.sum()
+    m, s = g.query(1.1, -0.4)
+    np.testing.assert_allclose(m, (0.7 / 0.4**2 + (w * mu).sum()) / prec, rtol=1e-12)
+    np.testing.assert_allclose(s, prec**-0.5, rtol=1e-12)
+    assert int(g.n_obs.sum()) == 40 and (g.n_obs > 0).sum() == 1
+    # the cell is the one that holds (1.2, -0.3): [1.0, 1.5) x [-0.5, 0.0)
+    cells = g.cells_frame()
+    np.testing.assert_allclose(cells[["x", "y"]].to_numpy(), [[1.25, -0.25]])
+
+
+def test_unvisited_cells_report_the_prior():
+    g = M.fuse(M.empty_grid(1.0, prior_mean=0.7, prior_std=0.4), [0.5, 3.5], [0.5, 0.5], [0.3, 0.9],
+               [0.001, 0.001])
+    m, s = g.query([1.5, 2.5, 100.0, -50.0], [0.5, 0.5, 0.0, 3.0])
+    np.testing.assert_array_equal(m, 0.7)
+    np.testing.assert_array_equal(s, 0.4)
+    _, std = g.posterior()
+    assert std[g.n_obs == 0].min() == 0.4
+    assert std[g.n_obs > 0].max() < 0.04
+
+
+def test_overdispersion_and_systematic_errors_widen_the_cell():
+    rng = np.random.default_rng(1)
+    n = 200
+    consistent = rng.normal(0.6, 0.1, n)
+    g1 = M.fuse(M.empty_grid(1.0), np.zeros(n) + 0.5, np.zeros(n) + 0.5, consistent, np.full(n, 0.01))
+    assert g1.birge_ratio()[g1.n_obs > 0][0] < 1.5
+    # two populations 0.4 and 0.8 claiming std 0.01: the cell must not claim std 0.0007
+    split = np.where(np.arange(n) % 2 == 0, 0.4, 0.8) + rng.normal(0, 0.01, n)
+    g2 = M.fuse(M.empty_grid(1.0), np.zeros(n) + 0.5, np.zeros(n) + 0.5, split, np.full(n, 1e-4))
+    _, s2 = g2.query(0.5, 0.5)
+    assert s2 > 0.01
+    g3 = M.fuse(M.empty_grid(1.0, overdispersion=False), np.zeros(n) + 0.5, np.zeros(n) + 0.5, split,
+                np.full(n, 1e-4))
+    assert g3.query(0.5, 0.5)[1] < 0.001
+    # a systematic error shared by all observations stays in the cell's std
+    g4 = M.fuse(M.empty_grid(1.0), np.zeros(n) + 0.5, np.zeros(n) + 0.5, consistent, np.full(n, 0.01),
+                sys=np.full(n, 0.05))
+    np.testing.assert_allclose(g4.query(0.5, 0.5)[1], 0.05, rtol=0.02)
+
+
+def test_merge_is_associative_and_loses_nothing():
+    rng = np.random.default_rng(2)
+    parts = [_obs(rng, 500, -3, 3), _obs(rng, 300, 1, 8), _obs(rng, 200, -9, -2)]
+    grids = [M.fuse(M.empty_grid(0.5), *p) for p in parts]
+    a, b, c = grids
+    left = M.merge(M.merge(a, b), c)
+    right = M.merge(a, M.merge(b, c))
+    whole = M.fuse(M.empty_grid(0.5), *(np.concatenate(z) for z in zip(*parts, strict=True)))
+    for g in (right, whole):
+        assert (g.ix0, g.iy0, g.shape) == (left.ix0, left.iy0, left.shape)
+        np.testing.assert_array_equal(g.n_obs, left.n_obs)
+        for attr in ("s0", "s1", "s2", "sb"):
+            np.testing.assert_allclose(getattr(g, attr), getattr(left, attr), rtol=1e-12, atol=1e-12)
+    assert int(left.n_obs.sum()) == 1000
+    # merging in any order and fusing one grid after another give the same map
+    seq = M.fuse(M.fuse(M.fuse(M.empty_grid(0.5), *parts[2]), *parts[0]), *parts[1])
+    np.testing.assert_allclose(seq.posterior()[0], left.posterior()[0], rtol=1e-12)
+    with pytest.raises(ValueError, match="different cell"):
+        M.merge(a, M.fuse(M.empty_grid(1.0), *parts[0]))
+
+
+def test_forgetting_down_weights_old_observations():
+    tau = 10.0
+    g = M.empty_grid(1.0, tau=tau, overdispersion=False)
+    g = M.fuse(g, [0.5], [0.5], [0.3], [0.01], t=[0.0])
+    g = M.fuse(g, [0.5], [0.5], [0.8], [0.01], t=[tau])
+    w_old, w_new = np.exp(-1.0) / 0.01, 1 / 0.01
+    p0 = 1 / 0.4**2
+    expect = (0.7 * p0 + 0.3 * w_old + 0.8 * w_new) / (p0 + w_old + w_new)
+    np.testing.assert_allclose(g.query(0.5, 0.5)[0], expect, rtol=1e-12)
+    # merge of forgetting grids: the same as fusing in one grid, in either order
+    a = M.fuse(M.empty_grid(1.0, tau=tau), [0.5], [0.5], [0.3], [0.01], t=[0.0])
+    b = M.fuse(M.empty_grid(1.0, tau=tau), [0.5], [0.5], [0.8], [0.01], t=[tau])
+    np.testing.assert_allclose(M.merge(a, b).s0, M.merge(b, a).s0, rtol=1e-14)
+    np.testing.assert_allclose(M.merge(a, b).s0, g.s0, rtol=1e-12)
+    with pytest.raises(ValueError, match="needs observation times"):
+        M.fuse(M.empty_grid(1.0, tau=tau), [0.5], [0.5], [0.3], [0.01])
+
+
+def test_bad_observations_are_rejected():
+    g = M.empty_grid(0.5)
+    with pytest.raises(ValueError, match="not usable"):
+        M.fuse(g, [0.0, np.nan], [0.0, 0.0], [0.5, 0.5], [0.1, 0.1])
+    with pytest.raises(ValueError, match="not usable"):
+        M.fuse(g, [0.0], [0.0], [0.5], [0.0])
+    with pytest.raises(ValueError, match="one length"):
+        M.fuse(g, [0.0, 1.0], [0.0], [0.5], [0.1])
+    with pytest.raises(ValueError, match="cell size"):
+        M.empty_grid(0.0)
+
+
+def _estimates_table():
+    n = 400
+    t = np.arange(n) * 0.02
+    x = np.linspace(0, 8, n)
+    exc = np.arange(n) % 3 == 0
+    return pd.DataFrame({
+        "t": t, "x": x, "y": np.zeros(n), "x_front": x + 0.1, "y_front": np.zeros(n) + 0.6,
+        "x_rear": x - 0.2, "y_rear": np.zeros(n) - 0.6,
+        "mu_front": 0.6, "mu_rear": 0.6, "mu_front_lower": 0.5, "mu_front_upper": 0.7,
+        "mu_rear_lower": 0.5, "mu_rear_upper": 0.7, "excited": exc,
+        "excited_front": exc, "excited_rear": np.zeros(n, bool),
+        "mu_front_obs": np.where(exc, 0.5, np.nan), "mu_front_obs_std": np.where(exc, 0.1, np.inf),
+        "mu_rear_obs": np.nan, "mu_rear_obs_std": np.inf,
+    })
+
+
+def test_observations_use_axle_positions_and_only_excited_samples():
+    tab = _estimates_table()
+    obs = M.observations_from_estimates(tab)
+    assert len(obs.x) == tab["excited_front"].sum()
+    np.testing.assert_allclose(obs.y, 0.6)  # front axle position, rear never excited
+    np.testing.assert_allclose(obs.mu, 0.5)
+    np.testing.assert_allclose(obs.var, 0.01)
+    # another estimator without per-axle observations: its bands and shared flag
+    other = tab.drop(columns=[c for c in tab.columns if "obs" in c or c.startswith("excited_")])
+    obs2 = M.observations_from_estimates(other)
+    assert len(obs2.x) == 2 * tab["excited"].sum()
+    np.testing.assert_allclose(obs2.var, (0.2 / (2 * M.Z95)) ** 2)
+    with pytest.raises(ValueError, match="no position"):
+        M.observations_from_estimates(tab.drop(columns=["x", "y"]))
+
+
+def test_files_and_command_line(tmp_path):
+    from roadgrip.estimators.base import EstimateResult
+
+    tab = _estimates_table()
+    est = tmp_path / "est.parquet"
+    EstimateResult("cascade", tab, {}).to_parquet(est)
+    out, csv, png = tmp_path / "map.npz", tmp_path / "cells.csv", tmp_path / "map.png"
+    g = M.map_cli([str(est), str(est)], out, cell=0.5, csv=csv, png=png)
+    back = M.FrictionGrid.from_npz(out)
+    for attr in ("s0", "s1", "s2", "sb", "n_obs"):
+        np.testing.assert_array_equal(getattr(back, attr), getattr(g, attr))
+    assert (back.ix0, back.iy0, back.cell) == (g.ix0, g.iy0, g.cell)
+    cells = pd.read_csv(csv)
+    assert list(cells.columns) == ["x", "y", "mu_mean", "mu_std", "n_obs"]
+    assert cells["n_obs"].sum() == 2 * tab["excited_front"].sum()  # both inputs merged
+    np.testing.assert_allclose(cells["y"], 0.75)  # centre of the cell [0.5, 1.0)
+    assert png.stat().st_size > 10_000
+    show = tmp_path / "show.png"
+    M.show_cli(out, show)
+    assert show.stat().st_size > 10_000
+    with pytest.raises(ValueError, match="not a roadgrip friction grid"):
+        np.savez(tmp_path / "other.npz", a=1)
+        M.FrictionGrid.from_npz(tmp_path / "other.npz")
+
+
+def _field_mu(ff, x, y):
+    mu = np.full(np.shape(x), ff["mu"][ff["base"]])
+    for p in ff["patches"]:
+        inside = (x >= p["x0"]) & (x < p["x1"]) & (y >= p["y0"]) & (y < p["y1"])
+        mu = np.where(inside, ff["mu"][p["surface"]], mu)
+    return mu
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3, 4, 5, 6, 7])
+def test_acceptance_f1tenth_patches_two_laps(seed):
+    """Cascade + grid on the simulated patch track after two laps (the issue's acceptance)."""
+    sim = pytest.importorskip("roadgrip.sim.scenarios")
+    from roadgrip.estimators import cascade as C
+
+    drive = sim.simulate_scenario("f1tenth-patches", seed)
+    df = drive.data
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(df["x_true"]), np.diff(df["y_true"])))])
+    n2 = int(np.searchsorted(s, 2 * drive.meta.truth["track"]["lap_length"]))
+    two_laps = drive.with_data(df.iloc[:n2])
+    res = C.run_cli(two_laps, C.EstimateRequest())
+    grid = M.grid_from_estimates(res.table, 0.5)
+    cells = grid.cells_frame(min_obs=10)
+    assert len(cells) >= 8
+    # true friction of a cell: the patch field at the observations fused into it, with
+    # their weights (a cell on a patch edge holds what was observed on its two sides)
+    ff = drive.meta.truth["friction_field"]
+    obs = M.observations_from_estimates(res.table)
+    truth_grid = M.fuse(M.empty_grid(0.5), obs.x, obs.y, _field_mu(ff, obs.x, obs.y), obs.var)
+    truth = truth_grid.s1 / np.where(truth_grid.s0 > 0, truth_grid.s0, 1.0)
+    truth = truth[truth_grid.n_obs >= 10]
+    err = np.abs(cells["mu_mean"].to_numpy() - truth)
+    assert err.max() <= 0.1, cells.assign(truth=truth)  # every cell
+    assert np.mean(err <= M.Z95 * cells["mu_std"]) >= 0.85, cells.assign(truth=truth)
+    # never-excited cells: the prior's width, not a number presented as knowledge
+    _, std = grid.posterior()
+    assert std[grid.n_obs == 0].min() == pytest.approx(grid.prior_std)
