@@ -215,9 +215,13 @@ def test_straight_cruise_never_switches():
     assert not (table["grip_class"] == "low").any()
 
 
-def test_run_equals_stepping(dgd):
+@pytest.mark.parametrize("options", [
+    {},
+    {"prefilter_tau_s": 0.3, "error_clip": 1.0, "lateral_regressor": "rear"},
+])
+def test_run_equals_stepping(dgd, options):
     short = dgd.slice_time(55.0, 75.0)
-    clf = BRLSClassifier(short.vehicle)
+    clf = BRLSClassifier(short.vehicle, replace(default_config(), **options))
     batch = clf.run(short)
     rows = [clf.step(s) for s in KinematicEstimator.samples(short)]
     np.testing.assert_array_equal(batch["grip_class"].to_numpy(), [r.grip_class for r in rows])

@@ -163,13 +163,15 @@ def test_straight_cruise_never_switches():
     assert not (table["grip_class"] == "low").any()
 
 
-def test_run_equals_stepping(dgd):
+@pytest.mark.parametrize("prefilter", [0.0, 0.5])
+def test_run_equals_stepping(dgd, prefilter):
     short = dgd.slice_time(60.0, 75.0)
-    clf = SlipMapClassifier(short.vehicle)
+    clf = SlipMapClassifier(short.vehicle, replace(default_config(), prefilter_tau_s=prefilter))
     batch = clf.run(short)
     rows = [clf.step(s) for s in KinematicEstimator.samples(short)]
     np.testing.assert_array_equal(batch["grip_class"].to_numpy(), [r.grip_class for r in rows])
     np.testing.assert_allclose(batch["grip_index"], [r.grip_index for r in rows], rtol=1e-12)
+    np.testing.assert_allclose(batch["w_y"], [r.w_y for r in rows], rtol=1e-10, atol=1e-15)
     assert (batch["grip_class"] == "low").any()
 
 

@@ -111,6 +111,10 @@ class SlipMapConfig:
         Weight at which a sample counts as excited [-].
     min_speed : float
         Below this speed [m/s] both weights are 0 (slips near standstill carry no information).
+    prefilter_tau_s : float
+        Time constant [s] of a first-order low-pass applied to the slips and
+        accelerations before the maps (0 = none): the noise of a low-rate
+        inertial sensor otherwise scatters the samples across the reference curve.
     """
 
     long_curve: MagicFormula
@@ -125,13 +129,15 @@ class SlipMapConfig:
     info_min: float = 3.0
     w_excited: float = 0.1
     min_speed: float = 0.5
+    prefilter_tau_s: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("sigma_x", "sigma_y", "lowpass_tau_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be positive, got {v!r}")
-        for name in ("slip_min_long", "slip_min_lat", "accel_min", "info_min", "min_speed"):
+        for name in ("slip_min_long", "slip_min_lat", "accel_min", "info_min", "min_speed",
+                     "prefilter_tau_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be >= 0, got {v!r}")
@@ -262,6 +268,32 @@ def evidence(
     return SlipMapEvidence(ax_ref, ay_ref, wx, wy, p_high, p_low, p_old, k_eff)
 
 
+@numba.njit(cache=True)
+def _prefilter(x, t, tau, dt0, state):  # pragma: no cover - compiled
+    """First-order low-pass of the columns of ``x`` (T, m), in place on ``state`` (m,)."""
+    n, m = x.shape
+    out = np.empty((n, m))
+    for i in range(n):
+        dt = dt0 if i == 0 else t[i] - t[i - 1]
+        k = 1.0 if tau <= 0.0 else 1.0 - np.exp(-dt / tau)
+        for j in range(m):
+            state[j] += k * (x[i, j] - state[j])
+            out[i, j] = state[j]
+    return out
+
+
+def _pack(kin: KinematicOutput, ax, ay) -> NDArray[np.float64]:
+    """Prefilter inputs as columns ``kappa_fl..rr, alpha_f, alpha_r, ax, ay``, shape (T, 8)."""
+    return np.ascontiguousarray(np.column_stack([
+        np.atleast_2d(kin.kappa), np.atleast_1d(kin.alpha_f), np.atleast_1d(kin.alpha_r),
+        np.atleast_1d(ax), np.atleast_1d(ay),
+    ]), dtype=float)
+
+
+def _unpack(kin: KinematicOutput, y: NDArray) -> tuple[KinematicOutput, NDArray, NDArray]:
+    return kin._replace(kappa=y[:, :4], alpha_f=y[:, 4], alpha_r=y[:, 5]), y[:, 6], y[:, 7]
+
+
 class SlipMapState(NamedTuple):
     """Recursion state: ``F`` (eq. 16), its low-passed value, accumulated weight, class."""
 
@@ -382,12 +414,16 @@ class SlipMapClassifier:
         self.config = config if config is not None else default_config()
         self.kinematic = KinematicEstimator(params, kinematic, aid)
         self.state_ = slipmap_init()
+        self.prefilter_ = np.zeros(8)
         self._t_prev: float | None = None
 
     def step(self, sample: KinematicInput) -> SlipMapOutput:
         kin = self.kinematic.step(sample)
-        ev = _evidence_from_kin(kin, sample.ax, sample.ay, sample.steer, self.params, self.config)
         dt = 0.01 if self._t_prev is None else float(sample.t) - self._t_prev
+        y = _prefilter(_pack(kin, sample.ax, sample.ay), np.array([float(sample.t)]),
+                       self.config.prefilter_tau_s, dt, self.prefilter_)
+        kin_f, ax_f, ay_f = _unpack(kin, y)
+        ev = _evidence_from_kin(kin_f, ax_f, ay_f, sample.steer, self.params, self.config)
         self.state_, out = slipmap_step(self.state_, dt, ev, self.config)
         self._t_prev = float(sample.t)
         return out
@@ -396,11 +432,23 @@ class SlipMapClassifier:
         return _run_table(drive, self.config, self.kinematic.config)
 
 
+def _filtered_evidence(
+    drive: Drive, kin: KinematicOutput, config: SlipMapConfig, dt0: float | None = 0.01
+) -> SlipMapEvidence:
+    """Evidence of a whole drive after the prefilter (equals the online object's)."""
+    t = drive.t
+    if dt0 is None:
+        dt0 = float(t[1] - t[0]) if drive.n > 1 else 0.01
+    y = _prefilter(_pack(kin, drive.col("ax"), drive.col("ay")), t, config.prefilter_tau_s,
+                   float(dt0), np.zeros(8))
+    kin_f, ax_f, ay_f = _unpack(kin, y)
+    return _evidence_from_kin(kin_f, ax_f, ay_f, drive.col("steer"), drive.vehicle, config)
+
+
 def _run_table(drive: Drive, config: SlipMapConfig, kin_cfg: KinematicConfig,
                dt0: float | None = 0.01) -> pd.DataFrame:
     kin = estimate_kinematics(drive, kin_cfg)
-    ev = _evidence_from_kin(kin, drive.col("ax"), drive.col("ay"), drive.col("steer"),
-                            drive.vehicle, config)
+    ev = _filtered_evidence(drive, kin, config, dt0)
     _, out = slipmap_batch(drive.t, ev, config, dt0=dt0)
     return pd.DataFrame({
         "t": drive.t,
@@ -434,8 +482,8 @@ def calibrate_section(
     accuracy on the labelled samples outside the exclusions, each sample
     weighted by its eq. 9 reliability.
 
-    Then the output low-pass time constant (0.5-4 s) and the hysteresis
-    (0.1-0.3) are chosen by running the classifier over each labelled drive
+    Then the prefilter (0, 0.5 or 1 s), the output low-pass time constant
+    (0.5-4 s) and the hysteresis (0.1-0.3) are chosen by running the classifier over each labelled drive
     and scoring the fraction of time in the labelled class minus
     ``SWITCH_PENALTY`` per class switch beyond the first.
 
@@ -477,24 +525,24 @@ def calibrate_section(
         curves[key] = best[1]
         fit[f"balanced_accuracy_{'long' if chan == 'x' else 'lat'}"] = float(best[0])
     cfg = replace(base, **curves)
-    # output dynamics: low-pass and hysteresis scored on the full recursion
-    evs = [(drive, lab, _evidence_from_kin(kin, drive.col("ax"), drive.col("ay"),
-                                            drive.col("steer"), drive.vehicle, cfg))
-           for drive, lab, kin in data]
+    # prefilter and output dynamics, scored on the full recursion
     best = None
-    for tau in (0.5, 1.0, 2.0, 4.0):
-        for hyst in (0.1, 0.2, 0.3):
-            c = replace(cfg, lowpass_tau_s=tau, hysteresis=hyst)
-            accs, extra = [], 0
-            for drive, lab, ev in evs:
-                _, out = slipmap_batch(drive.t, ev, c)
-                cls = out.grip_class
-                accs.append(float((cls == lab).mean()))
-                known = cls[cls != "unknown"]
-                extra += max(int(np.sum(known[1:] != known[:-1])) - 1, 0)
-            key = float(np.mean(accs)) - SWITCH_PENALTY * extra
-            if best is None or key > best[0]:
-                best = (key, c, float(np.mean(accs)), extra)
+    for pf in (0.0, 0.5, 1.0):
+        cpf = replace(cfg, prefilter_tau_s=pf)
+        evs = [(drive, lab, _filtered_evidence(drive, kin, cpf)) for drive, lab, kin in data]
+        for tau in (0.5, 1.0, 2.0, 4.0):
+            for hyst in (0.1, 0.2, 0.3):
+                c = replace(cpf, lowpass_tau_s=tau, hysteresis=hyst)
+                accs, extra = [], 0
+                for drive, lab, ev in evs:
+                    _, out = slipmap_batch(drive.t, ev, c, dt0=0.01)
+                    cls = out.grip_class
+                    accs.append(float((cls == lab).mean()))
+                    known = cls[cls != "unknown"]
+                    extra += max(int(np.sum(known[1:] != known[:-1])) - 1, 0)
+                key = float(np.mean(accs)) - SWITCH_PENALTY * extra
+                if best is None or key > best[0] + 1e-9:
+                    best = (key, c, float(np.mean(accs)), extra)
     cfg = best[1]
     fit["fraction_in_labelled_class"] = best[2]
     fit["extra_switches"] = best[3]
