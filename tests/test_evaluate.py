@@ -239,7 +239,8 @@ def _stand_in(method, drive, request):
         return EstimateResult(method, conform(pd.DataFrame({"t": t, "grip_class": cls})), {})
     mu = true_peak_series(drive) + rng.normal(0.0, 0.02, drive.n)
     tab = pd.DataFrame({"t": t, "mu_front": mu, "mu_rear": mu, "mu_front_lower": mu - 0.1,
-                        "mu_front_upper": mu + 0.1, "mu_rear_lower": mu - 0.1, "mu_rear_upper": mu + 0.1})
+                        "mu_front_upper": mu + 0.1, "mu_rear_lower": mu - 0.1, "mu_rear_upper": mu + 0.1,
+                        "peak_observed_front": True, "peak_observed_rear": method != "gpssm-lb"})
     return EstimateResult(method, conform(tab), {})
 
 
@@ -266,6 +267,14 @@ def test_suite_runs_scores_and_isolates_failures(stand_ins):
     assert b["class_acc"] == pytest.approx(1 - 20 / 800)  # 1 s late at 20 Hz
     assert b["max_delay_s"] == pytest.approx(1.0)
     assert b["switches"] == 1
+
+
+def test_unobserved_peak_is_judged_as_a_lower_bound(stand_ins):
+    suite = stand_ins
+    rec = suite.run_suite([suite.Case("hand", "gpssm-lb", "gpssm-lb")], suite.QUICK,
+                          drives={"hand": _hand_drive()})[0]
+    assert "peak_err_f" in rec.metrics and "peak_err_r" not in rec.metrics
+    assert any("rear: peak not observed" in d and "bound holds" in d for d in rec.details)
 
 
 def test_bench_is_reproducible_by_seed_and_writes_markdown_and_csv(stand_ins, tmp_path):

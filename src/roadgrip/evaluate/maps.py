@@ -47,6 +47,8 @@ def true_cell_friction(drive, cells: pd.DataFrame, cell: float, sub: int = 5) ->
     field = (drive.meta.truth or {}).get("friction_field")
     x = cells["x"].to_numpy(float)
     y = cells["y"].to_numpy(float)
+    if len(x) == 0:
+        return np.zeros(0)
     if field is not None:
         try:
             from roadgrip.sim.friction import mu_at
