@@ -150,6 +150,7 @@ class TensorBasis:
     s_f: float = 500.0
     ell: float = math.radians(2.0)
     kernel: str = "se"
+    odd: bool = False
 
     def __post_init__(self) -> None:
         _check(self.n, self.L, self.s_f, self.ell, self.kernel)
@@ -159,27 +160,38 @@ class TensorBasis:
     outputs = 2
 
     @property
+    def _keep(self) -> NDArray[np.bool_]:
+        # odd=True keeps products with j1 + j2 odd: mu(-a_f, -a_r) = -mu(a_f, a_r)
+        j = np.arange(1, self.n + 1)
+        keep = np.ones((self.n, self.n), dtype=bool)
+        if self.odd:
+            keep = (j[:, None] + j[None, :]) % 2 == 1
+        return keep.ravel()
+
+    @property
     def m(self) -> int:
-        """Features per group (``n²``)."""
-        return self.n * self.n
+        """Features per group (``n²``, about half of it with ``odd``)."""
+        return int(self._keep.sum())
 
     @property
     def sqrt_s(self) -> NDArray[np.float64]:
         """``sqrt(S(sqrt(lambda_j)))`` in feature order (front index major), shape (m,)."""
         lam = eigenvalues_1d(self.n, self.L)
-        lam2 = lam[:, None] + lam[None, :]
-        return np.sqrt(spectral_density(np.sqrt(lam2), self.kernel, self.s_f, self.ell, 2)).ravel()
+        lam2 = (lam[:, None] + lam[None, :]).ravel()[self._keep]
+        return np.sqrt(spectral_density(np.sqrt(lam2), self.kernel, self.s_f, self.ell, 2))
 
     def features(self, alpha_f: ArrayLike, alpha_r: ArrayLike) -> NDArray[np.float64]:
         """Whitened features, shape ``broadcast(alpha_f, alpha_r).shape + (1, m)``."""
         pf = eigenfunctions_1d(alpha_f, self.n, self.L)
         pr = eigenfunctions_1d(alpha_r, self.n, self.L)
         pf, pr = np.broadcast_arrays(pf, pr)
-        phi = (pf[..., :, None] * pr[..., None, :]).reshape((*pf.shape[:-1], self.m))
+        phi = (pf[..., :, None] * pr[..., None, :]).reshape((*pf.shape[:-1], self.n * self.n))
+        if self.odd:
+            phi = phi[..., self._keep]
         return (phi * self.sqrt_s)[..., None, :]
 
     def label(self) -> str:
-        return f"tensor:{self.n}x{self.n}"
+        return f"tensor{'-odd' if self.odd else ''}:{self.n}x{self.n}"
 
 
 @dataclass(frozen=True)
@@ -195,6 +207,7 @@ class SeparableBasis:
     s_f: float = 500.0
     ell: float = math.radians(2.0)
     kernel: str = "se"
+    odd: bool = False
 
     def __post_init__(self) -> None:
         _check(self.n, self.L, self.s_f, self.ell, self.kernel)
@@ -208,19 +221,25 @@ class SeparableBasis:
         return self.n
 
     @property
+    def _j(self) -> NDArray[np.int64]:
+        # odd=True keeps the eigenfunctions with even j, which are odd in alpha
+        return np.arange(1, 2 * self.n + 1)[1::2] if self.odd else np.arange(1, self.n + 1)
+
+    @property
     def sqrt_s(self) -> NDArray[np.float64]:
-        lam = eigenvalues_1d(self.n, self.L)
+        lam = eigenvalues_1d(2 * self.n if self.odd else self.n, self.L)[self._j - 1]
         return np.sqrt(spectral_density(np.sqrt(lam), self.kernel, self.s_f, self.ell, 1))
 
     def features(self, alpha_f: ArrayLike, alpha_r: ArrayLike) -> NDArray[np.float64]:
         """Whitened features, shape ``broadcast.shape + (2, m)`` (group 0 front, 1 rear)."""
-        pf = eigenfunctions_1d(alpha_f, self.n, self.L)
-        pr = eigenfunctions_1d(alpha_r, self.n, self.L)
+        nn = 2 * self.n if self.odd else self.n
+        pf = eigenfunctions_1d(alpha_f, nn, self.L)[..., self._j - 1]
+        pr = eigenfunctions_1d(alpha_r, nn, self.L)[..., self._j - 1]
         pf, pr = np.broadcast_arrays(pf, pr)
         return np.stack([pf, pr], axis=-2) * self.sqrt_s
 
     def label(self) -> str:
-        return f"separable:{self.n}"
+        return f"separable{'-odd' if self.odd else ''}:{self.n}"
 
 
 def make_basis(
@@ -231,17 +250,26 @@ def make_basis(
     ell: float = math.radians(2.0),
     kernel: str = "se",
 ) -> TensorBasis | SeparableBasis:
-    """Parse ``'tensor:10x10'`` or ``'separable:20'`` (``None`` gives ``tensor:10x10``)."""
+    """Parse ``'tensor:10x10'``, ``'separable:20'`` or ``'separable-odd:20'``.
+
+    ``None`` gives ``tensor:10x10``. The ``-odd`` variants keep only the eigenfunctions
+    (products) that are odd in the slip angles, ``mu(-alpha) = -mu(alpha)`` and
+    ``mu(0) = 0``: a tire and vehicle symmetric left to right. With it a bias of the
+    lateral-velocity estimate (which shifts both turning directions the same way) no
+    longer fits the data, so the slip angles become identifiable.
+    """
     spec = spec or "tensor:10x10"
     kind, _, size = spec.partition(":")
     try:
-        if kind == "tensor":
+        if kind in ("tensor", "tensor-odd"):
             a, _, b = (size or "10x10").partition("x")
             if int(a) != int(b or a):
                 raise ValueError("the tensor basis needs the same count on both axes")
-            return TensorBasis(int(a), L, s_f, ell, kernel)
-        if kind == "separable":
-            return SeparableBasis(int(size or 20), L, s_f, ell, kernel)
+            return TensorBasis(int(a), L, s_f, ell, kernel, kind == "tensor-odd")
+        if kind in ("separable", "separable-odd"):
+            return SeparableBasis(int(size or 20), L, s_f, ell, kernel, kind == "separable-odd")
     except ValueError as exc:
         raise ValueError(f"bad basis {spec!r}: {exc}") from None
-    raise ValueError(f"bad basis {spec!r}: expected 'tensor:NxN' or 'separable:N'")
+    raise ValueError(
+        f"bad basis {spec!r}: expected 'tensor:NxN', 'separable:N' or their '-odd' variants"
+    )

@@ -109,6 +109,7 @@ __all__ = [
     "drive_inputs",
     "init",
     "posterior_curves",
+    "resample",
     "run_cli",
     "step",
 ]
@@ -168,6 +169,15 @@ class GPSSMConfig:
         friction sample is drawn conditioned on the lateral acceleration, which is linear
         in it (the locally optimal proposal for that part of ``y``, eq. 20-21); see
         :func:`_conditional_sample`.
+    slip_sigma : float
+        Slip-angle uncertainty of the state estimate added to the curve band [rad]
+        (:func:`posterior_curves`); about the error of the lateral-velocity estimate over
+        the speed (0.05 m/s at 12 m/s is 0.24 deg on the simulated snow drive).
+    curve_sigma_floor : float
+        Standard deviation [-] added in quadrature to every particle's function posterior
+        in the curve band: the error of representing a tire curve with a truncated basis,
+        which the posterior of the basis weights does not contain (a few thousandths for
+        the Magic Formula with 20 functions per axle).
     """
 
     vehicle: VehicleParams
@@ -189,6 +199,8 @@ class GPSSMConfig:
     peak_visits: int = 10
     excitation_slip: float = math.radians(1.0)
     proposal: str = "conditional"
+    slip_sigma: float = math.radians(0.25)
+    curve_sigma_floor: float = 0.005
 
     def __post_init__(self) -> None:
         if not isinstance(self.vehicle, VehicleParams):
@@ -201,7 +213,7 @@ class GPSSMConfig:
         if not self.nu0 > d + 1:
             raise ValueError(f"nu0 must exceed d + 1 = {d + 1}, got {self.nu0!r}")
         for name in ("sigma_w0", "sigma_ay", "sigma_yaw_rate", "sigma_vy0", "peak_range",
-                     "bin_width"):
+                     "bin_width", "slip_sigma", "curve_sigma_floor"):
             v = getattr(self, name)
             if not np.isfinite(v) or v <= 0:
                 raise ValueError(f"{name} must be positive and finite, got {v!r}")
@@ -557,23 +569,16 @@ def step(
     peak = _peak_estimates(config, ratio, MT, Lam_post, nu, w, vpk, visits, where)
 
     resampled = ess <= config.ess_threshold * N
-    mu_state = mu
-    if resampled:
-        idx = _systematic(rng, w)
-        x, mu_state = x[idx], mu[idx]
-        lin = la.take(lin, idx)
-        Psi, Phi = Psi[idx], Phi[idx]
-        logw = np.full(N, -math.log(N))
-    else:
-        logw = np.log(np.maximum(w, 1e-300))
-
+    idx = _systematic(rng, w) if resampled else None
     new = GPSSMState(
         k=state.k + 1,
-        t=float(sample.t), u=u, x=x, mu=mu_state, logw=logw, lin=lin, Psi=Psi, Phi=Phi,
-        nu=float(nu), visits=visits, slip_moments=moments,
+        t=float(sample.t), u=u, x=x, mu=mu, logw=np.log(np.maximum(w, 1e-300)), lin=lin,
+        Psi=Psi, Phi=Phi, nu=float(nu), visits=visits, slip_moments=moments,
         peak_alpha=np.array([peak["alpha"][0], peak["alpha"][1]]),
         rng=rng.bit_generator.state,
     )
+    if idx is not None:
+        new = resample(new, idx)
     est = GPSSMEstimate(
         t=float(sample.t),
         vy=float(xm[LateralState.VY]), vy_std=float(xs[LateralState.VY]),
@@ -689,6 +694,22 @@ def _peak_estimates(
     return out
 
 
+def resample(state: GPSSMState, idx: NDArray) -> GPSSMState:
+    """Particles ``idx`` with equal weights; every particle keeps its own statistics.
+
+    The state ``x``, friction sample ``mu``, information matrix, ``Psi`` and ``Phi`` of
+    new particle ``i`` are those of old particle ``idx[i]`` (Algorithm 1, line 9).
+    """
+    idx = np.asarray(idx)
+    n = len(state.logw)
+    if idx.shape != (n,) or idx.min() < 0 or idx.max() >= n:
+        raise ValueError(f"resampling indices must be {n} integers in [0, {n})")
+    return state._replace(
+        x=state.x[idx], mu=state.mu[idx], lin=la.take(state.lin, idx), Psi=state.Psi[idx],
+        Phi=state.Phi[idx], logw=np.full(n, -math.log(n)),
+    )
+
+
 def copy_state(state: GPSSMState) -> GPSSMState:
     """A deep copy (``step`` reuses the arrays of its input state)."""
     return state._replace(
@@ -705,11 +726,17 @@ def posterior_curves(
     """Posterior front and rear friction curves on ``alpha`` [rad] (any signs).
 
     The mean is the weighted particle mixture of ``mu_prior + M phi`` (Algorithm 1, line
-    12); the band is the central ``level`` interval of the mixture of the particles'
+    12). The band is the central ``level`` interval of the mixture of the particles'
     Student-t function posteriors (eq. 25: ``A phi | data`` is t with ``nu - d + 1``
-    degrees of freedom and scale ``Lambda_nn phi^T (Sigma + I)^{-1} phi / (nu - d + 1)``).
+    degrees of freedom and scale ``Lambda_nn phi^T (Sigma + I)^{-1} phi / (nu - d + 1)``),
+    each also spread over the slip-angle uncertainty: the curve is learned against the
+    *estimated* slip, so the component means are taken at ``alpha + o`` with three-point
+    Gauss-Hermite offsets ``o`` for ``N(0, sigma_alpha²)``, ``sigma_alpha² = (particle
+    spread of alpha)² + slip_sigma²`` (``GPSSMConfig.slip_sigma``; after resampling the
+    particle cloud under-represents the slip error), and each component's scale includes
+    ``GPSSMConfig.curve_sigma_floor`` (basis truncation error).
     """
-    from scipy.special import stdtr
+    from scipy.special import ndtr, stdtr
 
     alpha = np.asarray(alpha, dtype=float)
     b = config.basis
@@ -726,11 +753,22 @@ def posterior_curves(
     else:
         rhs = np.concatenate([np.swapaxes(state.Psi, -1, -2),
                               np.broadcast_to(feats.transpose(0, 2, 1)[None], (N, 2, b.m, n))], axis=-1)
-    X, _ = la.solve(state.lin, np.ascontiguousarray(rhs))
+    X, _ = la.solve(state.lin, np.ascontiguousarray(rhs), n_exact=d)
     MT = X[..., :d]
     Lam = _sym_pd(config.Lambda0 + state.Phi - np.einsum("ngdm,ngme->ngde", state.Psi, MT), 1e-12)
     dof = state.nu - d + 1.0
+
+    def cdf_fn(z: NDArray) -> NDArray:
+        # Student-t CDF; its normal limit once the t is within 1e-3 of it (dof > 500)
+        return ndtr(z) if dof > 500.0 else stdtr(dof, z)
+
     prior = config.prior_tire.mu(alpha)
+    # slip-angle spread of the particle cloud, per axle
+    af, ar = slip_angles(state.u[1], state.x[:, LateralState.VY], state.x[:, LateralState.YAW_RATE],
+                         state.u[0], config.vehicle)
+    sig_a = [math.sqrt(float(w @ (a_ - w @ a_) ** 2) + config.slip_sigma**2) for a_ in (af, ar)]
+    gh_o = np.array([-math.sqrt(3.0), 0.0, math.sqrt(3.0)])
+    gh_w = np.array([1.0, 4.0, 1.0]) / 6.0
     mean = np.empty((2, n))
     lo = np.empty((2, n))
     hi = np.empty((2, n))
@@ -741,18 +779,30 @@ def posterior_curves(
             Pf = X[:, 0, :, d + ax * n: d + (ax + 1) * n]
         else:
             Pf = X[:, g, :, d:]
-        loc = MT[:, g, :, r] @ feats[ax].T + prior  # (N, n)
+        M_ax = MT[:, g, :, r]
+        loc = M_ax @ feats[ax].T + prior  # (N, n)
         quad = np.maximum(np.einsum("nm,kmn->kn", feats[ax], Pf), 1e-300)
-        sc = np.sqrt(Lam[:, g, r, r][:, None] * quad / dof)
+        sc = np.sqrt(Lam[:, g, r, r][:, None] * quad / dof + config.curve_sigma_floor**2)
         mean[ax] = w @ loc
-        # mixture quantiles by bisection on the mixture CDF
-        a_lo = (loc - 40 * sc).min(axis=0)
-        a_hi = (loc + 40 * sc).max(axis=0)
+        locs, wts = [], []
+        for o, wo in zip(gh_o, gh_w, strict=True):
+            if o == 0.0:
+                locs.append(loc)
+            else:
+                aj = alpha + o * sig_a[ax]
+                fj, _ = _axle_features(config, ratio, aj)
+                locs.append(M_ax @ fj[ax].T + config.prior_tire.mu(aj))
+            wts.append(w * wo)
+        L_ = np.concatenate(locs)            # (3N, n)
+        S_ = np.concatenate([sc, sc, sc])    # (3N, n)
+        W_ = np.concatenate(wts)             # (3N,)
+        a_lo = (L_ - 40 * S_).min(axis=0)
+        a_hi = (L_ + 40 * S_).max(axis=0)
         for target, outarr in ((tail, lo), (1.0 - tail, hi)):
             left, right = a_lo.copy(), a_hi.copy()
-            for _ in range(50):
+            for _ in range(32):
                 mid = 0.5 * (left + right)
-                cdf = w @ stdtr(dof, (mid[None, :] - loc) / sc)
+                cdf = W_ @ cdf_fn((mid[None, :] - L_) / S_)
                 below = cdf < target
                 left = np.where(below, mid, left)
                 right = np.where(below, right, mid)

@@ -1,0 +1,115 @@
+"""Speed and memory of the GP-SSM filter (roadgrip.estimators.gpssm).
+
+Prints:
+
+1. paper settings (N = 200, 10 x 10 tensor basis m = 100, snow-slalom 250 s at 25 Hz):
+   exact and fast mode over the whole drive (wall time, steps/s, real-time factor, peak
+   memory), the largest difference between their posterior mean curves over the visited
+   slip range, and the straightforward per-particle solve ('direct') on a prefix, with the
+   speed-up measured in the same run;
+2. N = 200 with m = 20 basis functions (separable:10);
+3. time per step against N (m = 20) and against m (N = 200).
+
+Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_gpssm.py [--quick]`` (one core).
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse
+import resource
+import time
+import tracemalloc
+
+import numpy as np
+
+from roadgrip.estimators.basis import make_basis
+from roadgrip.estimators.gpssm import GPSSM, GPSSMConfig, curve_accuracy
+from roadgrip.sim.scenarios import simulate_scenario
+
+
+def timed_run(drive, basis: str, n: int, mode: str, steps: int | None = None, curves=()):
+    d = drive if steps is None else drive.slice_time(drive.t[0], drive.t[0] + steps / 25.0 - 1e-9)
+    cfg = GPSSMConfig(d.vehicle, basis=make_basis(basis), particles=n, linalg=mode)
+    f = GPSSM(cfg, seed=0)
+    # warm up the compiled kernels outside the timing
+    GPSSM(cfg, seed=0).run(d.slice_time(d.t[0], d.t[0] + 0.2))
+    t0 = time.perf_counter()
+    table, cv = f.run(d, curve_times=curves, curve_alpha=np.radians(np.linspace(-20, 20, 161)))
+    wall = time.perf_counter() - t0
+    return d, table, cv, wall
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--quick", action="store_true", help="shorter drives and fewer points")
+    args = ap.parse_args()
+    drive = simulate_scenario("snow-slalom", seed=0)
+    print(f"snow-slalom: {drive.n} steps, {drive.duration:.0f} s at {drive.meta.sample_rate:.0f} Hz")
+
+    print("\n== paper settings: N = 200, tensor:10x10 (m = 100) ==")
+    steps = 1000 if args.quick else None
+    res = {}
+    for mode in ("exact", "fast"):
+        tracemalloc.start()
+        d, table, cv, wall = timed_run(drive, "tensor:10x10", 200, mode, steps, curves=(1e9,))
+        _, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        res[mode] = (d, table, cv, wall)
+        print(f"{mode:6s}: {d.n} steps in {wall:6.1f} s = {d.n / wall:6.0f} steps/s, "
+              f"{d.duration / wall:5.1f}x real time, peak traced memory {peak / 2**20:.0f} MiB")
+    print(f"process max RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB")
+    d = res["exact"][0]
+    ce = next(iter(res["exact"][2].values()))
+    cf = next(iter(res["fast"][2].values()))
+    acc = curve_accuracy(ce, d)
+    diff = []
+    for ax, axle in enumerate(("front", "rear")):
+        sel = (ce.alpha >= acc[axle]["alpha_min"]) & (ce.alpha <= acc[axle]["alpha_max"])
+        diff.append(np.abs(ce.mean[ax, sel] - cf.mean[ax, sel]).max())
+    print(f"fast vs exact: largest |posterior mean difference| over the visited range: "
+          f"front {diff[0]:.4f}, rear {diff[1]:.4f}")
+    n_direct = 150 if args.quick else 400
+    _, _, _, w_dir = timed_run(drive, "tensor:10x10", 200, "direct", n_direct)
+    _, _, _, w_ex = timed_run(drive, "tensor:10x10", 200, "exact", n_direct)
+    _, _, _, w_fa = timed_run(drive, "tensor:10x10", 200, "fast", n_direct)
+    print(f"side by side on {n_direct} steps: direct per-particle solve {n_direct / w_dir:.0f} steps/s, "
+          f"exact {n_direct / w_ex:.0f} steps/s (x{w_dir / w_ex:.1f}), "
+          f"fast {n_direct / w_fa:.0f} steps/s (x{w_dir / w_fa:.1f})")
+
+    print("\n== N = 200, m = 20 (separable:10) ==")
+    for mode in ("exact", "fast"):
+        d, _, _, wall = timed_run(drive, "separable:10", 200, mode, 600 if args.quick else 2000)
+        print(f"{mode:6s}: {d.n / wall:.0f} steps/s")
+
+    print("\n== time per step [ms] against N (separable:10, m = 20) ==")
+    ns = (50, 200, 1000) if args.quick else (50, 100, 200, 500, 1000, 2000)
+    print("   N   exact    fast")
+    for n in ns:
+        row = []
+        for mode in ("exact", "fast"):
+            k = max(60, int(20000 / n))
+            d, _, _, wall = timed_run(drive, "separable:10", n, mode, k)
+            row.append(1e3 * wall / d.n)
+        print(f"{n:4d} {row[0]:7.2f} {row[1]:7.2f}")
+
+    print("\n== time per step [ms] against m (N = 200) ==")
+    bases = (("separable:10", 20), ("tensor:10x10", 100), ("separable:100", 200)) if args.quick else (
+        ("separable:10", 20), ("separable:25", 50), ("tensor:10x10", 100), ("separable:50", 100),
+        ("separable:100", 200), ("tensor:20x20", 400), ("separable:200", 400))
+    print("   m  basis             exact    fast")
+    for basis, m in bases:
+        row = []
+        for mode in ("exact", "fast"):
+            k = 60 if m >= 200 else 150
+            d, _, _, wall = timed_run(drive, basis, 200, mode, k)
+            row.append(1e3 * wall / d.n)
+        print(f"{m:4d}  {basis:15s} {row[0]:7.2f} {row[1]:7.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,213 @@
+"""GP-SSM particle filter (roadgrip.estimators.gpssm)."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from roadgrip.drive import Drive
+from roadgrip.estimators import gpssm_linalg as la
+from roadgrip.estimators.base import EstimateRequest
+from roadgrip.estimators.basis import make_basis
+from roadgrip.estimators.gpssm import (
+    GPSSM,
+    GPSSMConfig,
+    Sample,
+    copy_state,
+    curve_accuracy,
+    drive_inputs,
+    resample,
+    run_cli,
+    step,
+)
+from roadgrip.sim.scenarios import simulate_scenario
+from roadgrip.vehicle import PRESETS
+
+
+@pytest.fixture(scope="module")
+def snow20():
+    return simulate_scenario("snow-slalom", seed=3, duration=20.0)
+
+
+@pytest.fixture(scope="module")
+def snow60():
+    return simulate_scenario("snow-slalom", seed=0, duration=60.0)
+
+
+def _cfg(drive, basis="separable:8", n=24, **kw):
+    return GPSSMConfig(drive.vehicle, basis=make_basis(basis), particles=n, **kw)
+
+
+def _samples(drive):
+    return [Sample(*row) for row in drive_inputs(drive)]
+
+
+def test_run_equals_stepping_sample_by_sample(snow20):
+    d = snow20.slice_time(0.0, 6.0)
+    cfg = _cfg(d, "tensor:4x4")
+    table, _ = GPSSM(cfg, seed=5).run(d)
+    state, rows = None, []
+    for s in _samples(d):
+        state, est = step(state, s, cfg, seed=5)
+        rows.append(est)
+    stepped = pd.DataFrame(rows)
+    pd.testing.assert_frame_equal(table, stepped, check_exact=True)
+
+
+def test_same_seed_same_result_other_seed_differs(snow20):
+    d = snow20.slice_time(0.0, 4.0)
+    cfg = _cfg(d)
+    a, _ = GPSSM(cfg, seed=11).run(d)
+    b, _ = GPSSM(cfg, seed=11).run(d)
+    c, _ = GPSSM(cfg, seed=12).run(d)
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+    assert not np.allclose(a["vy"], c["vy"])
+
+
+@pytest.mark.parametrize(("mode", "lam"), [("exact", 0.97), ("fast", 0.998)])
+def test_linalg_backends_agree_with_direct_inverse(mode, lam):
+    # exact: to rounding for any forgetting; fast: first-order in (1 - lam^7) plus float32
+    rng = np.random.default_rng(0)
+    N, G, m = 6, 2, 12
+    ref, st = la.init("direct", N, G, m), la.init(mode, N, G, m)
+    for k in range(120):
+        if k:
+            ref = la.forget(ref, lam, 7)
+            st = la.forget(st, lam, 7)
+        R = rng.standard_normal((N, G, m, 3))
+        phi = R[..., 0]
+        x_ref, _ = la.solve(ref, R)
+        x, pb = la.solve(st, R)
+        tol = 1e-9 if mode == "exact" else 2e-3
+        np.testing.assert_allclose(x, x_ref, rtol=tol, atol=tol * np.abs(x_ref).max())
+        ref = la.update(ref, phi, None)
+        st = la.update(st, phi, pb)
+        if k % 17 == 16:
+            idx = rng.integers(0, N, N)
+            ref, st = la.take(ref, idx), la.take(st, idx)
+    np.testing.assert_allclose(la.information(st), la.information(ref), rtol=1e-4 if mode == "fast" else 1e-10)
+
+
+def test_resampling_keeps_statistics_attached_to_particles(snow20):
+    d = snow20.slice_time(0.0, 3.0)
+    cfg = _cfg(d, n=10, linalg="direct")
+    f = GPSSM(cfg, seed=2)
+    f.run(d)
+    old = copy_state(f.state_)
+    idx = np.array([3, 3, 0, 9, 1, 1, 1, 7, 2, 5])
+    new = resample(copy_state(old), idx)
+    np.testing.assert_array_equal(new.x, old.x[idx])
+    np.testing.assert_array_equal(new.mu, old.mu[idx])
+    np.testing.assert_array_equal(new.Psi, old.Psi[idx])
+    np.testing.assert_array_equal(new.Phi, old.Phi[idx])
+    np.testing.assert_array_equal(new.lin.sigma, old.lin.sigma[idx])
+    np.testing.assert_allclose(np.exp(new.logw), 0.1)
+    # each particle's posterior mean function travels with it
+    H_old = la.information(old.lin)
+    M_old = np.linalg.solve(H_old, np.swapaxes(old.Psi, -1, -2))
+    H_new = la.information(new.lin)
+    M_new = np.linalg.solve(H_new, np.swapaxes(new.Psi, -1, -2))
+    np.testing.assert_allclose(M_new, M_old[idx], rtol=1e-12)
+    with pytest.raises(ValueError, match="resampling indices"):
+        resample(old, np.array([0, 1]))
+
+
+def test_covariances_stay_spd_and_finite_over_a_long_run(snow60):
+    cfg = _cfg(snow60, "tensor:5x5", n=16, forgetting=0.99, refactor_every=9)
+    f = GPSSM(cfg, seed=4)
+    table, curves = f.run(snow60, curve_times=(30.0, 60.0))
+    assert np.isfinite(table.select_dtypes("number").to_numpy()).all()
+    st = f.state_
+    H = la.information(st.lin)
+    np.testing.assert_allclose(H, np.swapaxes(H, -1, -2), atol=1e-9)
+    assert np.linalg.eigvalsh(H).min() > 1.0 - 1e-9  # Sigma + I >= I
+    # exact mode's inverse still inverts H after thousands of rank-1 updates
+    P = st.lin.pinv * st.lin.p_scale
+    Hb = H - (1.0 - st.lin.c) * np.eye(H.shape[-1])
+    np.testing.assert_allclose(P @ Hb, np.broadcast_to(np.eye(H.shape[-1]), H.shape), atol=1e-8)
+    Lam = cfg.Lambda0 + st.Phi - st.Psi @ np.linalg.solve(H, np.swapaxes(st.Psi, -1, -2))
+    assert np.linalg.eigvalsh(Lam).min() > 0
+    for c in curves.values():
+        assert np.isfinite(c.mean).all() and (c.lower <= c.mean + 1e-12).all()
+        assert (c.mean <= c.upper + 1e-12).all()
+
+
+def _straight_drive(n=400, seed=0):
+    # straight ahead at constant speed: steer 0, the IMU reads noise only
+    rng = np.random.default_rng(seed)
+    df = pd.DataFrame({
+        "t": np.arange(n) * 0.04, "ay": 0.05 * rng.standard_normal(n),
+        "yaw_rate": 0.002 * rng.standard_normal(n), "steer": np.zeros(n), "vx": np.full(n, 20.0),
+    })
+    return Drive.from_frame(df, PRESETS["sedan"], source="straight")
+
+
+def test_straight_drive_leaves_the_prior_and_says_so():
+    d = _straight_drive()
+    res = run_cli(d, EstimateRequest(seed=0, particles=30, progress=False))
+    t = res.table
+    assert not t["excited"].any()
+    assert not t["peak_observed_front"].any() and not t["peak_observed_rear"].any()
+    assert "no excitation" in res.meta["diagnostics"]["information"]
+    # the peak is reported as a lower bound only: nothing beyond zero slip was demonstrated
+    assert t["mu_front"].iloc[-1] < 0.05 and t["mu_front_upper"].iloc[-1] > 0.15
+    cfg = GPSSMConfig(d.vehicle, particles=30)
+    f = GPSSM(cfg, seed=0)
+    f.run(d)
+    alpha = np.radians(np.r_[-12.0:-5.0:1.0, 6.0:13.0:1.0])
+    c = f.curves(alpha)
+    np.testing.assert_allclose(c.mean, c.prior, atol=0.05)
+    assert (c.upper - c.lower).min() > 0.4  # as wide as the prior band
+
+
+def test_learns_the_snow_curve_where_the_data_went(snow60):
+    cfg = _cfg(snow60, "separable-odd:14", n=80)
+    table, curves = GPSSM(cfg, seed=1).run(snow60, curve_times=(60.0,),
+                                            curve_alpha=np.radians(np.linspace(-15, 15, 121)))
+    acc = curve_accuracy(curves[60.0], snow60, min_visits=20)
+    for axle in ("front", "rear"):
+        assert acc[axle]["bins"] >= 5
+        assert acc[axle]["mae"] < 0.04, acc
+        assert acc[axle]["coverage"] >= 0.7, acc
+    # the prior (peak 0.05) was left far behind; the peak estimate sits near the truth 0.3
+    assert abs(table["mu_front"].iloc[-1] - 0.3) < 0.06
+
+
+def test_bad_inputs_raise_clear_errors(snow20):
+    cfg = _cfg(snow20)
+    s0 = Sample(0.0, 0.0, 0.0, 0.0, 10.0)
+    with pytest.raises(ValueError, match="non-finite"):
+        step(None, s0._replace(ay=math.nan), cfg)
+    st, _ = step(None, s0, cfg)
+    with pytest.raises(ValueError, match="increasing time"):
+        step(st, s0, cfg)
+    with pytest.raises(ValueError, match="forgetting"):
+        GPSSMConfig(PRESETS["suv"], forgetting=1.5)
+    with pytest.raises(ValueError, match="nu0"):
+        GPSSMConfig(PRESETS["suv"], nu0=2.0)
+    with pytest.raises(ValueError, match="calibration"):
+        run_cli(snow20, EstimateRequest(calibration="x.yaml", progress=False))
+
+
+def test_cli_writes_estimates_curves_and_plot(snow20, tmp_path):
+    from roadgrip.estimators.base import EstimateResult
+
+    req = EstimateRequest(seed=0, particles=20, basis="separable:8", curves_path=str(tmp_path / "c.parquet"),
+                          curve_times=(4.0, 10.0), plot_path=str(tmp_path / "f.png"), progress=False)
+    res = run_cli(snow20, req)
+    res.to_parquet(tmp_path / "e.parquet")
+    back = EstimateResult.read_parquet(tmp_path / "e.parquet")
+    for col in ("t", "mu_front", "mu_rear", "mu_front_lower", "mu_front_upper", "mu_rear_lower",
+                "mu_rear_upper", "peak_observed_front", "peak_observed_rear", "vy", "vy_std", "ess",
+                "excited"):
+        assert col in back.table.columns
+    assert len(back.table) == snow20.n
+    assert back.meta["diagnostics"]["ess_min"] > 0
+    c = pd.read_parquet(tmp_path / "c.parquet")
+    assert set(c["axle"]) == {"front", "rear"} and sorted(set(c["t"])) == [4.0, 10.0]
+    for col in ("alpha", "mu_mean", "mu_lower", "mu_upper", "mu_true"):
+        assert c[col].notna().all()
+    true = snow20.true_tire("front").mu(c.loc[c.axle == "front", "alpha"])
+    np.testing.assert_allclose(c.loc[c.axle == "front", "mu_true"], true)
+    assert (tmp_path / "f.png").stat().st_size > 10000
