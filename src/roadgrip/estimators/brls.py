@@ -100,6 +100,9 @@ __all__ = [
 
 CALIBRATION_VERSION = 1
 
+CALIBRATION_SETTLING_S = 10.0
+"""Calibration scores judge each drive from this time after its start, while moving [s]."""
+
 SWITCH_PENALTY = 0.01
 """Score penalty per class switch in :func:`calibrate` (fraction of time)."""
 
@@ -835,7 +838,10 @@ def _score(cfg: BRLSConfig, data: list) -> tuple[float, int]:
         _, out = brls_batch(drive.t, regs["long"][0], regs["long"][1], regs["lat"][0],
                             regs["lat"][1], c)
         cls = out.grip_class
-        accs.append(float((cls == lab).mean()))
+        judged = _moving & (drive.t >= drive.t[0] + CALIBRATION_SETTLING_S)
+        if not judged.any():
+            judged = np.ones(drive.n, bool)
+        accs.append(float((cls[judged] == lab).mean()))
         known = cls[cls != "unknown"]
         switches += max(int(np.sum(known[1:] != known[:-1])) - 1, 0)
     return float(np.mean(accs)), switches
@@ -868,8 +874,9 @@ def calibrate(
 
     Both steps run on the prefiltered signals, for each prefilter time constant
     in ``prefilters`` [s] and each lateral regressor in ``lateral_regressors``.
-    Every combination (lateral regressor; prefilter; memory; longitudinal
-    candidate or off; lateral candidate or off; error clip) is then run as the full classifier over each labelled drive,
+    For every lateral regressor, prefilter, memory and error clip, each
+    channel's candidates are run alone, and the best two of each channel
+    together, as the full classifier over each labelled drive,
     starting in the *other* state (so that it must detect the labelled class),
     and scored by the mean fraction of time spent in the labelled class minus
     ``SWITCH_PENALTY`` per class switch beyond the first (a labelled drive has
@@ -920,18 +927,26 @@ def calibrate(
                 mem = base.memory_s * float(mfac)
                 cands = {name: _channel_candidates(name, fdata, base, quantiles, mem)
                          for name in ("long", "lat")}
-                for cl in [off["long"], *cands["long"]]:
-                    for ca in [off["lat"], *cands["lat"]]:
-                        if not (cl.enabled or ca.enabled):
-                            continue
-                        for clip in error_clips:
-                            cfg = replace(base, long=cl, lat=ca, memory_s=mem,
-                                          prefilter_tau_s=float(tau), lateral_regressor=lateral,
-                                          error_clip=float(clip))
-                            acc, sw = _score(cfg, data)
-                            key = acc - SWITCH_PENALTY * sw
-                            if best is None or key > best[0] + 1e-9:
-                                best = (key, cfg, acc, sw)
+                for clip in error_clips:
+                    common = {"memory_s": mem, "prefilter_tau_s": float(tau),
+                              "lateral_regressor": lateral, "error_clip": float(clip)}
+
+                    def run(cl, ca, common=common, data=data):
+                        cfg = replace(base, long=cl, lat=ca, **common)
+                        acc, sw = _score(cfg, data)
+                        return acc - SWITCH_PENALTY * sw, cfg, acc, sw
+
+                    # each channel alone, then the best two of each together
+                    alone_l = sorted((run(cl, off["lat"]) for cl in cands["long"]),
+                                     key=lambda r: -r[0])
+                    alone_a = sorted((run(off["long"], ca) for ca in cands["lat"]),
+                                     key=lambda r: -r[0])
+                    results = alone_l + alone_a + [
+                        run(rl[1].long, ra[1].lat) for rl in alone_l[:2] for ra in alone_a[:2]
+                    ]
+                    for r in results:
+                        if best is None or r[0] > best[0] + 1e-9:
+                            best = r
     if best is None:
         raise ValueError(
             "calibration failed: no channel gives ordered high/low stiffness references; "
