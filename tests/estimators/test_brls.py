@@ -395,3 +395,16 @@ def test_cli_calibrate_and_estimate(dgd, tmp_path):
         assert count_switches(res.table["grip_class"]) >= 2  # both changes seen
     r = runner.invoke(app, ["calibrate", f"{hi}:dry", "-o", str(cal)])
     assert r.exit_code != 0
+
+
+@pytest.mark.realdata
+def test_dart_run_equals_stepping_with_pose_aid():
+    cal_set, _ = dart_split()
+    drive = cal_set[0][0]
+    cfg = replace(default_config(), prefilter_tau_s=0.5, lateral_regressor="rear")
+    clf = BRLSClassifier.for_drive(drive, cfg)
+    assert clf.kinematic.aid == "pose"  # rear wheel speeds only: the pose gives the speed
+    batch = clf.run(drive)
+    rows = [clf.step(s) for s in KinematicEstimator.samples(drive)]
+    np.testing.assert_allclose(batch["theta_lat"], [r.theta_lat for r in rows], rtol=1e-10)
+    np.testing.assert_array_equal(batch["grip_class"].to_numpy(), [r.grip_class for r in rows])

@@ -647,6 +647,16 @@ class BRLSClassifier:
         self.state_ = brls_init(self.config)
         self._t_prev: float | None = None
 
+    @classmethod
+    def for_drive(
+        cls, drive: Drive, config: BRLSConfig | None = None,
+        kinematic: KinematicConfig = KinematicConfig(),
+    ) -> BRLSClassifier:
+        """A classifier for ``drive``'s vehicle with the velocity aid its signals allow."""
+        from roadgrip.estimators.kinematic import resolve_aid
+
+        return cls(drive.vehicle, config, kinematic, resolve_aid(drive, kinematic))
+
     def step(self, sample: KinematicInput) -> BRLSOutput:
         """Process one sample; returns the classification after it."""
         kin = self.kinematic.step(sample)

@@ -417,6 +417,16 @@ class SlipMapClassifier:
         self.prefilter_ = np.zeros(8)
         self._t_prev: float | None = None
 
+    @classmethod
+    def for_drive(
+        cls, drive: Drive, config: SlipMapConfig | None = None,
+        kinematic: KinematicConfig = KinematicConfig(),
+    ) -> SlipMapClassifier:
+        """A classifier for ``drive``'s vehicle with the velocity aid its signals allow."""
+        from roadgrip.estimators.kinematic import resolve_aid
+
+        return cls(drive.vehicle, config, kinematic, resolve_aid(drive, kinematic))
+
     def step(self, sample: KinematicInput) -> SlipMapOutput:
         kin = self.kinematic.step(sample)
         dt = 0.01 if self._t_prev is None else float(sample.t) - self._t_prev
