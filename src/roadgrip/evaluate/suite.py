@@ -127,7 +127,8 @@ QUICK = BenchSettings(
 )
 DEMO = BenchSettings(
     "demo",
-    durations={"straight-cruise": 30.0},
+    durations={"snow-slalom": 100.0},
+    particles=100,
     scenarios=("snow-slalom", "dry-gravel-dry", "f1tenth-patches"),
     real_data=False,
     gpssm_variants=("gpssm-fast",),

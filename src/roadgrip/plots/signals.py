@@ -134,8 +134,9 @@ def plot_friction_trace(table: pd.DataFrame, truth: dict[str, np.ndarray] | None
         if obs_col in table:
             unobs = ~table[obs_col].to_numpy(bool)
             if unobs.any():
-                ax.plot(t[unobs], mu[unobs], ".", ms=1.5, color="#868e96",
-                        label="peak not observed (lower bound)")
+                ax.fill_between(t, 0, 0.03, where=unobs, color="#868e96", lw=0,
+                                transform=ax.get_xaxis_transform(),
+                                label="peak not observed: μ is a lower bound")
         if truth is not None and axle in truth:
             ax.plot(t, truth[axle], "k--", lw=1.0, label="true peak")
         ax.set_ylabel(f"μ {axle} [-]")
