@@ -493,9 +493,11 @@ def calibrate_section(
     weighted by its eq. 9 reliability.
 
     Then the prefilter (0, 0.5 or 1 s), the output low-pass time constant
-    (0.5-4 s) and the hysteresis (0.1-0.3) are chosen by running the classifier over each labelled drive
-    and scoring the fraction of time in the labelled class minus
-    ``SWITCH_PENALTY`` per class switch beyond the first.
+    (0.5-4 s) and the hysteresis (0.1-0.3) are chosen by running the
+    classifier over each labelled drive and scoring the fraction of its moving
+    time after the settling period
+    (:data:`roadgrip.estimators.brls.CALIBRATION_SETTLING_S`) spent in the
+    labelled class, minus ``SWITCH_PENALTY`` per class switch beyond the first.
 
     Returns
     -------
@@ -535,7 +537,14 @@ def calibrate_section(
         curves[key] = best[1]
         fit[f"balanced_accuracy_{'long' if chan == 'x' else 'lat'}"] = float(best[0])
     cfg = replace(base, **curves)
-    # prefilter and output dynamics, scored on the full recursion
+    # prefilter and output dynamics, scored on the full recursion over the settled
+    # moving samples (as the bRLS calibration)
+    from roadgrip.estimators.brls import CALIBRATION_SETTLING_S
+
+    masks = []
+    for drive, _lab, kin in data:
+        m = (np.abs(kin.vx) >= cfg.min_speed) & (drive.t >= drive.t[0] + CALIBRATION_SETTLING_S)
+        masks.append(m if m.any() else np.ones(drive.n, bool))
     best = None
     for pf in (0.0, 0.5, 1.0):
         cpf = replace(cfg, prefilter_tau_s=pf)
@@ -544,10 +553,10 @@ def calibrate_section(
             for hyst in (0.1, 0.2, 0.3):
                 c = replace(cpf, lowpass_tau_s=tau, hysteresis=hyst)
                 accs, extra = [], 0
-                for drive, lab, ev in evs:
+                for (drive, lab, ev), judged in zip(evs, masks, strict=True):
                     _, out = slipmap_batch(drive.t, ev, c, dt0=0.01)
                     cls = out.grip_class
-                    accs.append(float((cls == lab).mean()))
+                    accs.append(float((cls[judged] == lab).mean()))
                     known = cls[cls != "unknown"]
                     extra += max(int(np.sum(known[1:] != known[:-1])) - 1, 0)
                 key = float(np.mean(accs)) - SWITCH_PENALTY * extra
