@@ -37,7 +37,13 @@ Implementation choices the paper leaves open, written down here:
   acceleration noise: ``gamma ln 2 = 2 sigma_a / (theta_high - theta_low)``.
   A sample is **sufficiently excited** for a channel when its measurement
   weight is at least 1/2, i.e. ``|phi| >= gamma ln 2``; the output ``excited``
-  flags such samples.
+  flags such samples (:func:`sufficiently_excited` adds a minimum duration).
+* Options, off by default (the paper's algorithm): a first-order prefilter
+  applied alike to regressor and output (``prefilter_tau_s``), a bound on the
+  prediction error (``error_clip``, Huber-type robust RLS), and the rear-axle
+  lateral regressor ``2 alpha_r`` (``lateral_regressor='rear'``, independent of
+  the steering angle; see :func:`regressors`). Regressors are zeroed below
+  ``min_speed``.
 
 Outputs per sample: ``grip_class`` ('unknown' until some channel has been
 informed, then the state), ``grip_index`` in [0, 1] (each channel's estimate
@@ -46,8 +52,9 @@ information ``e``; the state itself when no channel is informed), ``excited``,
 ``theta_long``, ``theta_lat``.
 
 Calibration (:func:`calibrate`, ``roadgrip calibrate``) learns per-channel
-references, thresholds, gamma and the on/off switch of each channel from drives
-labelled 'high' / 'low', and the slip-map classifier's reference curves
+references, thresholds, gamma, the on/off switch of each channel and the
+options above from drives labelled 'high' / 'low', and the slip-map
+classifier's reference curves
 (:mod:`roadgrip.estimators.slipmap`); :func:`save_calibration` /
 :func:`load_calibration` write and read the YAML file.
 """
