@@ -77,7 +77,8 @@ before any data). For each axle the update's information is the precision gain
 ``Lambda = 1/P_post - 1/P_prior``; a sample is *excited* for that axle when
 ``Lambda / T >= 1 / excitation_std²``, i.e. when one second of such samples
 would determine ``mu`` to ``excitation_std`` (a threshold independent of the
-sample rate), and when a slip-angle bias of ``slip_bias_std`` would move the
+sample rate), and when a slip-angle bias of ``slip_bias_std`` (or
+``vy_bias_std / |vx|``, whichever is larger) would move the
 observation by at most ``max_slip_bias_effect``: near the linear range the
 force depends on ``mu`` only through its curvature, and a slip-angle bias (which
 does not average out like noise) would be read as a friction change. The equivalent single-sample observation
@@ -88,7 +89,9 @@ the systematic part ``mu_front_obs_sys``: the shift a slip-angle bias of
 what :mod:`roadgrip.mapping` fuses, so that a map cell collects the likelihood
 of the data taken in it rather than a filter state that remembers earlier cells.
 Below ``v_min`` the slip angles are not defined well enough and stage 3 makes
-no update.
+no update. An update whose mean leaves the physical range ``mu_bounds`` is
+projected back onto it and does not count as excited (the data then say only
+that ``mu`` lies at or beyond the bound, which no Gaussian observation states).
 
 Sensor noise
 ------------
@@ -154,11 +157,13 @@ Z95 = 1.959963984540054
 
 
 class VelocityState:
-    """Stage-1 EKF state (eq. 4)."""
+    """Stage-1 EKF state: eq. 4 plus the accelerometer biases."""
 
     VX = 0
     VY = 1
-    SIZE = 2
+    BIAS_AX = 2
+    BIAS_AY = 3
+    SIZE = 4
 
 
 class ForceState:
@@ -222,7 +227,10 @@ class _P(IntEnum):
     MAX_BIAS = 24
     CR = 25
     AY_STRAIGHT = 26
-    SIZE = 27
+    Q_BIAS = 27
+    STEER_BIAS = 28
+    VY_BIAS = 29
+    SIZE = 30
 
 
 class _O(IntEnum):
@@ -279,9 +287,20 @@ class CascadeConfig:
         (:func:`noise_from_drive`).
     steer_std : float
         Steering-angle noise [rad].
+    steer_bias_std : float
+        Systematic steering-angle error [rad], added to ``slip_bias_std`` for the
+        front axle (e.g. 0.05 when ``steer`` is a command rather than a measured
+        road-wheel angle, as in the F1/10 data of paper 003).
     accel_model_std : float
         Accelerometer model error [m/s²] (bias, grade, mounting offset), added to
         the accelerometer noise in stages 1 and 2.
+    accel_bias_std : float or None
+        Initial standard deviation of the accelerometer biases [m/s²] (a tilt of
+        the sensor by 2 degrees gives 0.34 m/s²); 0 switches the bias states off.
+        ``None``: 0.3 when the drive contains a standstill of at least 1 s, which
+        makes the biases observable (zero-velocity update), else off.
+    accel_bias_rate_std : float
+        Random-walk intensity of the biases [m/s²/sqrt(s)] (when they are on).
     jerk_std : float
         Force random-walk intensity expressed as a jerk [m/s³]: ``Q_F = (m j T)²``.
     mu_rate_std : float
@@ -302,6 +321,10 @@ class CascadeConfig:
     slip_bias_std : float
         Size of a slip-angle bias [rad] (velocity-estimation and model error) that,
         unlike noise, does not average out over samples.
+    vy_bias_std : float
+        Size of a lateral-velocity bias [m/s]; the slip-angle bias used is the
+        larger of ``slip_bias_std`` and ``vy_bias_std / |vx|`` (slow driving
+        turns a small velocity error into a large slip-angle error).
     max_slip_bias_effect : float
         A sample counts as excited only if a slip-angle error of ``slip_bias_std``
         would move its ``mu`` observation by at most this much [-]: close to the
@@ -325,7 +348,10 @@ class CascadeConfig:
     gyro_std: float | None = None
     speed_std: float | None = None
     steer_std: float = 0.005
+    steer_bias_std: float = 0.0
     accel_model_std: float = 0.1
+    accel_bias_std: float | None = None
+    accel_bias_rate_std: float = 0.002
     jerk_std: float = 30.0
     mu_rate_std: float = 0.1
     mu_prior: float = 0.7
@@ -334,6 +360,7 @@ class CascadeConfig:
     model_error: float = 0.02
     excitation_std: float = 0.5
     slip_bias_std: float = 0.01
+    vy_bias_std: float = 0.03
     max_slip_bias_effect: float = 0.1
     ay_straight: float = 1.0
     v_min: float = 1.0
@@ -382,7 +409,7 @@ class CascadeState(NamedTuple):
     ----------
     t : float
         Time of the last sample [s] (NaN before the first).
-    velocity_mean, velocity_cov : ndarray, (2,), (2, 2)
+    velocity_mean, velocity_cov : ndarray, (4,), (4, 4)
         Stage 1 (:class:`VelocityState`).
     force_mean, force_cov : ndarray, (6,), (6, 6)
         Stage 2 (:class:`ForceState`).
@@ -575,7 +602,7 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
     m = p[_P.MASS]
     repairs = 0
     var_acc = p[_P.VAR_ACC] + p[_P.VAR_ACC_MODEL]
-    # ---- stage 1: EKF (eq. 3-4) ----
+    # ---- stage 1: EKF (eq. 3-4, with accelerometer bias states) ----
     if dt > 0.0:
         vx = xe[0]
         vy = xe[1]
@@ -583,13 +610,30 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
         ra = 0.5 * (r + up[2])
         c = np.cos(ra * dt)
         s = np.sin(ra * dt)
-        F = np.array([[c, s], [-s, c]])
-        vxn, vyn = _rotate_integrate(vx, vy, ra, 0.5 * (ax + up[0]), 0.5 * (ay + up[1]), dt)
+        ch = np.cos(0.5 * ra * dt)
+        sh = np.sin(0.5 * ra * dt)
+        F = np.eye(4)
+        F[0, 0] = c
+        F[0, 1] = s
+        F[1, 0] = -s
+        F[1, 1] = c
+        F[0, 2] = -dt * ch
+        F[0, 3] = -dt * sh
+        F[1, 2] = dt * sh
+        F[1, 3] = -dt * ch
+        axc = 0.5 * (ax + up[0]) - xe[2]
+        ayc = 0.5 * (ay + up[1]) - xe[3]
+        vxn, vyn = _rotate_integrate(vx, vy, ra, axc, ayc, dt)
         xe[0] = vxn
         xe[1] = vyn
         vg = p[_P.VAR_GYRO]
-        Q = np.array([[var_acc + vg * vyn * vyn, -vg * vyn * vxn],
-                      [-vg * vyn * vxn, var_acc + vg * vxn * vxn]]) * dt * dt
+        Q = np.zeros((4, 4))
+        Q[0, 0] = (var_acc + vg * vyn * vyn) * dt * dt
+        Q[0, 1] = -vg * vyn * vxn * dt * dt
+        Q[1, 0] = Q[0, 1]
+        Q[1, 1] = (var_acc + vg * vxn * vxn) * dt * dt
+        Q[2, 2] = p[_P.Q_BIAS] * dt
+        Q[3, 3] = p[_P.Q_BIAS] * dt
         Pe[:, :] = F @ Pe @ F.T + Q
     up[0] = ax
     up[1] = ay
@@ -599,18 +643,31 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
     fs = p[_P.FRONT_SHARE]
     cd = np.cos(steer)
     sd = np.sin(steer)
-    H = np.array([[1.0 - fs + fs * cd, fs * sd]])
+    H = np.array([[1.0 - fs + fs * cd, fs * sd, 0.0, 0.0]])
     resid = np.array([vmeas - (H[0, 0] * xe[0] + H[0, 1] * xe[1] + fs * sd * p[_P.LF] * r)])
     xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), resid, H, np.array([[p[_P.VAR_SPEED]]]))
     xe[:] = xn
     Pe[:, :] = Pn
+    # standstill (zero-velocity update): vx = vy = 0 and the accelerometers read their biases
+    if abs(vmeas) < 0.05 and abs(r) < 0.05:
+        Hz = np.zeros((4, 4))
+        Hz[0, 0] = 1.0
+        Hz[1, 1] = 1.0
+        Hz[2, 2] = 1.0
+        Hz[3, 3] = 1.0
+        Rz = np.diag(np.array([1e-4, 1e-4, var_acc, var_acc]))
+        xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), np.array([-xe[0], -xe[1], ax - xe[2], ay - xe[3]]),
+                                  Hz, Rz)
+        xe[:] = xn
+        Pe[:, :] = Pn
     # near-straight driving: linear-tire pseudo-measurement of vy (bounds its drift)
-    if abs(ay) < p[_P.AY_STRAIGHT] and abs(xe[0]) >= p[_P.V_MIN]:
+    ayc = ay - xe[3]
+    if abs(ayc) < p[_P.AY_STRAIGHT]:
         wb = p[_P.LF] + p[_P.LR]
-        a_lin = m * ay * p[_P.LF] / (wb * p[_P.CR])
+        a_lin = m * ayc * p[_P.LF] / (wb * p[_P.CR])
         vy_lin = p[_P.LR] * r - xe[0] * a_lin
-        sd = abs(xe[0]) * (p[_P.SLIP_BIAS] + abs(a_lin))
-        H2 = np.array([[0.0, 1.0]])
+        sd = abs(xe[0]) * (p[_P.SLIP_BIAS] + abs(a_lin)) + 0.01  # floor 1 cm/s at standstill
+        H2 = np.array([[0.0, 1.0, 0.0, 0.0]])
         xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), np.array([vy_lin - xe[1]]), H2,
                                   np.array([[sd * sd]]))
         xe[:] = xn
@@ -637,15 +694,15 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
     repairs += rep
     X = sigma_points(xu, L, g6)
     Z = force_measurement(X, steer, m)
-    z = np.array([xe[0], r, xe[1], ax, ay])
+    z = np.array([xe[0], r, xe[1], ax - xe[2], ay - xe[3]])
     R = np.zeros((5, 5))
     R[0, 0] = Pe[0, 0]
     R[0, 2] = Pe[0, 1]
     R[2, 0] = Pe[1, 0]
     R[2, 2] = Pe[1, 1]
     R[1, 1] = p[_P.VAR_GYRO]
-    R[3, 3] = var_acc
-    R[4, 4] = var_acc
+    R[3, 3] = var_acc + Pe[2, 2]
+    R[4, 4] = var_acc + Pe[3, 3]
     xn, Pn, res2, S2 = ukf_correct(xu.copy(), Pu_used, X, Z, w6m, w6c, z, R)
     xu[:] = xn
     Pu[:, :] = Pn
@@ -711,6 +768,8 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
         Z = friction_measurement(X, alpha_f, alpha_r, fzf, fzr, kf, kr, mu_min, mu_max)
         z = np.array([xu[4], xu[5]])
         xn, Pn, _, _ = ukf_correct(xm.copy(), Pm_used, X, Z, w2m, w2c, z, R3)
+        clipped_f = not (mu_min < xn[0] < mu_max)
+        clipped_r = not (mu_min < xn[1] < mu_max)
         xm[0] = min(max(xn[0], mu_min), mu_max)
         xm[1] = min(max(xn[1], mu_min), mu_max)
         Pm[:, :] = Pn
@@ -718,16 +777,24 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
         lam_f = 1.0 / Pm[0, 0] - 1.0 / prior_v0
         lam_r = 1.0 / Pm[1, 1] - 1.0 / prior_v1
         # robustness to a slip-angle bias, which does not average out over samples
-        bias_f = p[_P.SLIP_BIAS] * _slip_sensitivity(alpha_f, fzf, xm[0], kf)
-        bias_r = p[_P.SLIP_BIAS] * _slip_sensitivity(alpha_r, fzr, xm[1], kr)
-        if lam_f >= p[_P.EXC_PREC] * dt and dt > 0.0 and bias_f <= p[_P.MAX_BIAS]:
-            exc_f = 1.0
+        # a lateral-velocity bias of vy_bias_std is a slip-angle bias of vy_bias_std / |vx|
+        sb = max(p[_P.SLIP_BIAS], p[_P.VY_BIAS] / abs(vx))
+        bias_f = np.sqrt(sb * sb + p[_P.STEER_BIAS] ** 2) * _slip_sensitivity(alpha_f, fzf, xm[0], kf)
+        bias_r = sb * _slip_sensitivity(alpha_r, fzr, xm[1], kr)
+        if lam_f >= p[_P.EXC_PREC] * dt and dt > 0.0 and bias_f <= p[_P.MAX_BIAS] and not clipped_f:
             obs_f = (xm[0] / Pm[0, 0] - prior_m0 / prior_v0) / lam_f
-            obs_vf = 1.0 / lam_f
-        if lam_r >= p[_P.EXC_PREC] * dt and dt > 0.0 and bias_r <= p[_P.MAX_BIAS]:
-            exc_r = 1.0
+            if mu_min <= obs_f <= mu_max:
+                exc_f = 1.0
+                obs_vf = 1.0 / lam_f
+            else:
+                obs_f = np.nan
+        if lam_r >= p[_P.EXC_PREC] * dt and dt > 0.0 and bias_r <= p[_P.MAX_BIAS] and not clipped_r:
             obs_r = (xm[1] / Pm[1, 1] - prior_m1 / prior_v1) / lam_r
-            obs_vr = 1.0 / lam_r
+            if mu_min <= obs_r <= mu_max:
+                exc_r = 1.0
+                obs_vr = 1.0 / lam_r
+            else:
+                obs_r = np.nan
     nis = res2 @ np.linalg.solve(S2, res2)
     out[_O.VX] = xu[0]
     out[_O.YAW_RATE] = xu[1]
@@ -753,7 +820,9 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
     out[_O.REPAIRS] = repairs
     out[_O.VX_EKF] = xe[0]
     out[_O.VY_EKF] = xe[1]
-    pd_ok = cholesky_lower(Pe)[1] and cholesky_lower(Pu)[1] and cholesky_lower(Pm)[1]
+    # stage 1 without bias states (zero bias variance): check its velocity block
+    pe_ok = cholesky_lower(Pe)[1] if Pe[2, 2] > 0.0 else cholesky_lower(np.ascontiguousarray(Pe[:2, :2]))[1]
+    pd_ok = pe_ok and cholesky_lower(Pu)[1] and cholesky_lower(Pm)[1]
     out[_O.PD_OK] = 1.0 if pd_ok else 0.0
     out[_O.FYF_VAR] = Pu[4, 4]
     out[_O.FYR_VAR] = Pu[5, 5]
@@ -889,6 +958,9 @@ def _params(vehicle: VehicleParams, cfg: CascadeConfig, noise: dict[str, float],
     p[_P.MAX_BIAS] = cfg.max_slip_bias_effect
     p[_P.CR] = vehicle.cornering_stiffness_rear
     p[_P.AY_STRAIGHT] = cfg.ay_straight
+    p[_P.Q_BIAS] = cfg.accel_bias_rate_std**2 if cfg.accel_bias_std else 0.0
+    p[_P.STEER_BIAS] = cfg.steer_bias_std
+    p[_P.VY_BIAS] = cfg.vy_bias_std
     return p
 
 
@@ -915,8 +987,9 @@ def init(vehicle: VehicleParams, config: CascadeConfig, vx0: float = 0.0, noise:
     """
     n = noise or {k: getattr(config, k) or _NOISE_FLOORS[k] for k in _NOISE_FLOORS}
     vmin = max(n["speed_std"], 0.05)
-    xe = np.array([vx0, 0.0])
-    Pe = np.diag([vmin**2, 0.2**2])
+    xe = np.array([vx0, 0.0, 0.0, 0.0])
+    b0 = config.accel_bias_std or 0.0
+    Pe = np.diag([vmin**2, 0.2**2, b0**2, b0**2])
     xu = np.array([vx0, 0.0, 0.0, 0.0, 0.0, 0.0])
     fw = (vehicle.mass * GRAVITY) ** 2
     Pu = np.diag([vmin**2, max(n["gyro_std"], 0.01) ** 2, 0.2**2, fw, fw, fw])
@@ -1009,6 +1082,17 @@ def _drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[dict[str, NDArra
     return cols, src, share
 
 
+def _has_standstill(cols: dict[str, NDArray[np.float64]], min_duration: float = 1.0) -> bool:
+    """True when the speed stays below 0.05 m/s for ``min_duration`` [s] somewhere."""
+    still = (np.abs(cols["speed"]) < 0.05) & (np.abs(cols["yaw_rate"]) < 0.05)
+    if not still.any():
+        return False
+    t = cols["t"]
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], still.astype(np.int8), [0]])))
+    starts, ends = edges[::2], edges[1::2] - 1
+    return bool(np.any(t[ends] - t[starts] >= min_duration))
+
+
 def run(drive: Drive, config: CascadeConfig | None = None) -> tuple[NDArray[np.float64], dict[str, Any]]:
     """Run the compiled cascade over a whole drive.
 
@@ -1021,6 +1105,8 @@ def run(drive: Drive, config: CascadeConfig | None = None) -> tuple[NDArray[np.f
     """
     config = config or CascadeConfig()
     cols, src, share = _drive_inputs(drive, config)
+    if config.accel_bias_std is None:
+        config = dataclasses.replace(config, accel_bias_std=0.3 if _has_standstill(cols) else 0.0)
     noise = _resolve_noise(config, drive, cols["speed"])
     state = init(drive.vehicle, config, float(cols["speed"][0]), noise)
     arrays = [np.array(a, copy=True) for a in state[1:]]
@@ -1028,7 +1114,8 @@ def run(drive: Drive, config: CascadeConfig | None = None) -> tuple[NDArray[np.f
     out = _run(cols["t"], cols["ax"], cols["ay"], cols["yaw_rate"], cols["steer"], cols["speed"],
                *arrays, float("nan"), *c)
     final = CascadeState(float(cols["t"][-1]), *arrays)
-    return out, {"noise": noise, "speed_source": src, "front_share": share, "state": final}
+    return out, {"noise": noise, "speed_source": src, "front_share": share, "state": final,
+                 "config": config}
 
 
 class Cascade:
@@ -1223,7 +1310,7 @@ def _result(drive: Drive, config: CascadeConfig) -> EstimateResult:
         "covariance repairs": int(out[:, _O.REPAIRS].sum()),
         "samples with all covariances positive definite [%]": float(100 * out[:, _O.PD_OK].mean()),
     }
-    meta["config"] = dataclasses.asdict(config)
+    meta["config"] = dataclasses.asdict(info["config"])
     return EstimateResult("cascade", conform(pd.DataFrame(table)), meta)
 
 
