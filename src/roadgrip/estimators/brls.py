@@ -61,6 +61,7 @@ classifier's reference curves
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field, replace
@@ -334,7 +335,9 @@ class _S:
     SIZE = 12
 
 
+@functools.lru_cache(maxsize=64)
 def _param_vector(cfg: BRLSConfig) -> NDArray[np.float64]:
+    """The flat parameter vector of the kernel (cached per configuration; read-only)."""
     p = np.zeros(_P.SIZE)
     for c, ch in enumerate((cfg.long, cfg.lat)):
         o = 5 * c
@@ -344,6 +347,7 @@ def _param_vector(cfg: BRLSConfig) -> NDArray[np.float64]:
     p[_P.TAU_E], p[_P.E_MIN] = cfg.excitation_tau_s, cfg.excitation_min
     p[_P.PREFILTER] = cfg.prefilter_tau_s
     p[_P.ERROR_CLIP] = cfg.error_clip
+    p.setflags(write=False)
     return p
 
 
