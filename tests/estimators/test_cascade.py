@@ -187,3 +187,77 @@ def test_speed_sources():
     assert share == 0.5  # f1tenth is four-wheel driven: all four wheels
     assert "wheel" in src3
     np.testing.assert_allclose(got3, v, rtol=1e-12)
+
+
+def test_command_line_estimate_map_and_show(drive06, tmp_path):
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+
+    src = tmp_path / "drive.parquet"
+    drive06.to_parquet(src)
+    est, png = tmp_path / "est.parquet", tmp_path / "casc.png"
+    runner = CliRunner()
+    r = runner.invoke(app, ["estimate", str(src), "--method", "cascade", "-o", str(est), "--plot", str(png)])
+    assert r.exit_code == 0, r.output
+    tab = pd.read_parquet(est)
+    for col in ("t", "mu_front", "mu_rear", "mu_front_lower", "mu_front_upper", "mu_rear_lower",
+                "mu_rear_upper", "excited", "vx", "vy", "Fyf", "Fyr", "x", "y"):
+        assert col in tab.columns
+    assert png.stat().st_size > 20_000
+    out, csv, mpng = tmp_path / "map.npz", tmp_path / "cells.csv", tmp_path / "map.png"
+    r = runner.invoke(app, ["map", str(est), str(src), "-o", str(out), "--cell", "0.5", "--csv", str(csv),
+                            "--png", str(mpng)])
+    assert r.exit_code == 0, r.output
+    cells = pd.read_csv(csv)
+    # the estimates file and the drive (run through the cascade) give the same observations
+    assert cells["n_obs"].sum() == 2 * (tab["excited_front"].sum() + tab["excited_rear"].sum())
+    r = runner.invoke(app, ["map", "show", str(out), "-o", str(tmp_path / "show.png")])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "show.png").stat().st_size > 10_000
+    r = runner.invoke(app, ["estimate", str(src), "--method", "cascade", "-o", str(est), "--particles", "5"])
+    assert r.exit_code != 0
+
+
+@pytest.mark.slow
+def test_covariances_stay_positive_definite_over_one_hour():
+    sim = pytest.importorskip("roadgrip.sim.scenarios")
+    drive = sim.simulate_scenario("f1tenth-patches", 11, duration=3600.0)
+    out, info = C.run(drive)
+    assert drive.duration >= 3599.0
+    assert out[:, C._O.PD_OK].all()
+    assert out[:, C._O.REPAIRS].sum() == 0
+    for col in (C._O.VAR_F, C._O.VAR_R, C._O.FYF_VAR, C._O.FYR_VAR):
+        assert np.all(out[:, col] > 0) and np.all(np.isfinite(out[:, col]))
+    assert np.all(np.isfinite(out[:, [C._O.MU_F, C._O.MU_R, C._O.VX, C._O.VY]]))
+    # the final state is still positive definite in every stage
+    st = info["state"]
+    for P in (st.velocity_cov[:2, :2], st.force_cov, st.friction_cov):
+        assert np.linalg.eigvalsh(P).min() > 0
+
+
+DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
+
+
+@pytest.mark.realdata
+def test_frictionmaps_run_gives_finite_estimates_and_a_map():
+    path = DATA / "frictionmaps" / "DS3"
+    if not path.is_dir():
+        pytest.skip(f"real data not found at {path}")
+    from roadgrip import mapping as M
+    from roadgrip.io import read_drive
+
+    drive = read_drive(str(path), format="frictionmaps")
+    res = C.run_cli(drive, EstimateRequest())
+    tab = res.table
+    for col in ("mu_front", "mu_rear", "mu_front_lower", "mu_rear_upper", "vx", "vy", "Fyf", "Fyr"):
+        assert np.isfinite(tab[col]).all(), col
+    assert res.meta["diagnostics"]["covariance repairs"] == 0
+    # standstills in the run switch the accelerometer bias states on
+    assert res.meta["config"]["accel_bias_std"] > 0
+    grid = M.grid_from_estimates(tab, 0.5)
+    mean, std = grid.posterior()
+    seen = grid.n_obs > 0
+    assert seen.sum() > 20
+    assert np.all((mean[seen] > 0) & (mean[seen] < 2.0))
+    assert np.all(std[~seen] == grid.prior_std)

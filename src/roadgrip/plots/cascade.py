@@ -1,0 +1,77 @@
+"""Figures of the Kalman cascade: velocities, axle forces, slip angles and axle friction."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from roadgrip.drive import Drive
+from roadgrip.estimators.base import EstimateResult
+
+__all__ = ["plot_cascade"]
+
+
+def plot_cascade(result: EstimateResult, drive: Drive, path: str | Path) -> None:
+    """Write a PNG with the three stages' estimates over time (truth where simulated).
+
+    Panels: ``vx, vy`` [m/s]; axle lateral forces ``Fyf, Fyr`` [N]; slip angles
+    [deg]; friction ``mu_front, mu_rear`` [-] in absolute units with their 95 %
+    bands, the excited samples marked, and ``mu_true`` when the drive has it.
+    """
+    tab = result.table
+    df = drive.data
+    t = tab["t"].to_numpy()
+    fig, axes = plt.subplots(4, 1, figsize=(12, 11), sharex=True, constrained_layout=True)
+
+    ax = axes[0]
+    ax.plot(t, tab["vx"], label="vx (stage 2)", color="C0")
+    ax.plot(t, tab["vy"], label="vy (stage 2)", color="C1")
+    for col, c in (("vx_true", "C0"), ("vy_true", "C1")):
+        if col in df.columns:
+            ax.plot(t, df[col], color=c, ls="--", lw=0.8, label=col)
+    ax.set_ylabel("velocity [m/s]")
+    ax.legend(loc="upper right", ncol=4, fontsize=8)
+
+    ax = axes[1]
+    for col, c in (("Fyf", "C2"), ("Fyr", "C3")):
+        ax.plot(t, tab[col], color=c, label=f"{col} (stage 2)")
+        if f"{col}_std" in tab.columns:
+            s = tab[f"{col}_std"].to_numpy()
+            ax.fill_between(t, tab[col] - 1.96 * s, tab[col] + 1.96 * s, color=c, alpha=0.15, lw=0)
+        if f"{col}_true" in df.columns:
+            ax.plot(t, df[f"{col}_true"], color=c, ls="--", lw=0.8, label=f"{col}_true")
+    f = tab[["Fyf", "Fyr"]].to_numpy()
+    lo, hi = np.nanpercentile(f, [0.5, 99.5])
+    pad = 0.2 * (hi - lo) + 1.0
+    ax.set_ylim(lo - pad, hi + pad)
+    ax.set_ylabel("axle lateral force [N]")
+    ax.legend(loc="upper right", ncol=4, fontsize=8)
+
+    ax = axes[2]
+    for col, c in (("alpha_f", "C2"), ("alpha_r", "C3")):
+        ax.plot(t, np.degrees(tab[col]), color=c, label=col)
+        if f"{col}_true" in df.columns:
+            ax.plot(t, np.degrees(df[f"{col}_true"]), color=c, ls="--", lw=0.8, label=f"{col}_true")
+    ax.set_ylabel("slip angle [deg]")
+    ax.legend(loc="upper right", ncol=4, fontsize=8)
+
+    ax = axes[3]
+    for axle, c in (("front", "C2"), ("rear", "C3")):
+        ax.plot(t, tab[f"mu_{axle}"], color=c, label=f"mu_{axle}")
+        ax.fill_between(t, tab[f"mu_{axle}_lower"], tab[f"mu_{axle}_upper"], color=c, alpha=0.15, lw=0)
+        exc = tab.get(f"excited_{axle}")
+        if exc is not None and exc.any():
+            sel = exc.to_numpy(bool)
+            ax.plot(t[sel], tab[f"mu_{axle}_obs"].to_numpy()[sel], ".", ms=2, color=c, alpha=0.4,
+                    label=f"single-sample observations ({axle})")
+    if "mu_true" in df.columns:
+        ax.plot(t, df["mu_true"], color="k", ls="--", lw=1.0, label="mu_true")
+    ax.set_ylabel("friction coefficient mu [-]")
+    ax.set_xlabel("time [s]")
+    ax.set_ylim(0.0, max(1.3, float(np.nanmax(tab[["mu_front", "mu_rear"]].to_numpy())) + 0.1))
+    ax.legend(loc="upper right", ncol=3, fontsize=8)
+    fig.suptitle(f"Kalman cascade (paper 003): {drive.meta.source}")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
