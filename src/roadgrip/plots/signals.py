@@ -256,29 +256,36 @@ def plot_map(cells: pd.DataFrame, cell_size: float, path: tuple[np.ndarray, np.n
     path : (x, y), optional
         Driven path [m], drawn as a thin line.
     min_obs : int
-        Cells with fewer observations are drawn as unobserved (hatched grey).
+        Cells with fewer observations are drawn as unobserved (grey).
     """
-    from matplotlib.patches import Rectangle
-
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.8))
     x = cells["x"].to_numpy(float)
     y = cells["y"].to_numpy(float)
     obs = cells["n_obs"].to_numpy(float) >= min_obs
+    # Cells onto a raster (cell centres sit on a lattice of pitch cell_size).
+    if len(x):
+        ix = np.round((x - x.min()) / cell_size).astype(int)
+        iy = np.round((y - y.min()) / cell_size).astype(int)
+        shape = (iy.max() + 1, ix.max() + 1)
+        extent = (x.min() - cell_size / 2, x.min() + (shape[1] - 0.5) * cell_size,
+                  y.min() - cell_size / 2, y.min() + (shape[0] - 0.5) * cell_size)
     for ax, col, label, cmap, hi in ((axes[0], "mu_mean", "μ [-] (absolute)", "RdYlGn", vmax),
                                      (axes[1], "mu_std", "μ std [-]", "magma_r", 0.3)):
-        v = cells[col].to_numpy(float)
         norm = matplotlib.colors.Normalize(0.0, hi)
-        cm = plt.get_cmap(cmap)
-        for xi, yi, vi, oi in zip(x, y, v, obs, strict=True):
-            face = cm(norm(vi)) if oi and np.isfinite(vi) else "#dee2e6"
-            ax.add_patch(Rectangle((xi - cell_size / 2, yi - cell_size / 2), cell_size, cell_size,
-                                   facecolor=face, edgecolor="none"))
+        cm = plt.get_cmap(cmap).copy()
+        cm.set_bad("#dee2e6")
+        if len(x):
+            img = np.full(shape, np.nan)
+            v = cells[col].to_numpy(float)
+            img[iy[obs], ix[obs]] = v[obs]
+            ax.imshow(np.ma.masked_invalid(img), origin="lower", extent=extent, cmap=cm, norm=norm,
+                      interpolation="nearest")
+            ax.set_facecolor("#dee2e6")
         if path is not None:
             ax.plot(path[0], path[1], color="k", lw=0.4, alpha=0.5)
         if len(x):
-            pad = cell_size
-            ax.set_xlim(x.min() - pad, x.max() + pad)
-            ax.set_ylim(y.min() - pad, y.max() + pad)
+            ax.set_xlim(extent[0], extent[1])
+            ax.set_ylim(extent[2], extent[3])
         ax.set_aspect("equal")
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
