@@ -145,6 +145,18 @@ def test_config_validation():
         BRLSConfig.from_dict({**default_config().to_dict(), "forgeting": 0.9})
 
 
+def test_summary_maps_the_class_to_its_friction_reference():
+    fr = {"high": 0.9, "low": 0.3}
+    t = pd.DataFrame({"grip_class": ["unknown", "high"], "grip_index": [0.5, 0.9]})
+    s = brls.summary_meta(t, fr)
+    assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.9, 0.6, 0.9)
+    s = brls.summary_meta(t.assign(grip_class=["high", "low"]), fr)
+    assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.3, 0.3, 0.6)
+    s = brls.summary_meta(t.assign(grip_class=["high", "unknown"]), fr)
+    assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.6, 0.3, 0.9)
+    assert s["FractionHigh"] == 0.5
+
+
 def test_calibration_file_roundtrip_and_errors(tmp_path):
     cal = brls.Calibration(default_config(), {"config": {}}, "sedan", ({"label": "high"},), {"x": 1.0})
     p = tmp_path / "cal.yaml"
@@ -152,6 +164,7 @@ def test_calibration_file_roundtrip_and_errors(tmp_path):
     back = load_calibration(p)
     assert back.brls == cal.brls
     assert back.vehicle == "sedan"
+    assert back.friction == cal.friction
     bad = tmp_path / "bad.yaml"
     bad.write_text("a: 1\n")
     with pytest.raises(ValueError, match="not a roadgrip calibration"):
@@ -241,6 +254,9 @@ def test_calibrate_on_one_seed_classify_another(dgd, tmp_path):
     # learned references bracket the physics-based defaults' ordering
     for ch in (lat, lon):
         assert ch.ref_high > ch.threshold > ch.ref_low
+    # friction references from the simulator truth of the labelled drives
+    assert cal.friction["high"] == pytest.approx(1.0, abs=0.02)
+    assert cal.friction["low"] == pytest.approx(0.6, abs=0.02)
     path = tmp_path / "cal.yaml"
     save_calibration(cal, path)
     result = brls.run_cli(dgd, EstimateRequest(calibration=str(path), progress=False))
@@ -260,7 +276,9 @@ def test_run_cli_output_contract_and_options(dgd, tmp_path):
     assert np.isfinite(res.table["theta_lat"]).all()
     assert set(res.table["grip_class"]) <= {"high", "low", "unknown"}
     assert res.meta["timing"]["samples"] == short.n
-    assert res.meta["summary"]["GripClass"] in ("high", "low", "unknown")
+    summ = res.meta["summary"]
+    assert summ["GripClass"] in ("high", "low", "unknown")
+    assert summ["LowerBound"] <= summ["MostProbable"] <= summ["UpperBound"]
     assert png.stat().st_size > 10_000
     out = tmp_path / "est.parquet"
     res.to_parquet(out)
@@ -332,13 +350,16 @@ def excited_accuracy(table, label):
 @pytest.mark.realdata
 def test_dart_calibrate_first_halves_classify_second_halves(tmp_path):
     cal_set, test_set = dart_split()
-    cal = brls.calibrate(cal_set)
+    # friction references from the data's description: rubbery floor ~0.85, tape ~0.35
+    cal = brls.calibrate(cal_set, friction={"high": 0.85, "low": 0.35})
     path = tmp_path / "dart.yaml"
     save_calibration(cal, path)
     accs = []
     for drive, label in test_set:
         table = brls.run_cli(drive, EstimateRequest(calibration=str(path), progress=False)).table
         acc = excited_accuracy(table, label)
+        summary = brls.run_cli(drive, EstimateRequest(calibration=str(path), progress=False)).meta["summary"]
+        assert summary["MostProbable"] == (0.85 if label == "high" else 0.35)
         print(f"bRLS {label:4s} {Path(drive.meta.source).name}: excited {table['excited'].mean():.2f}, "
               f"correct {acc:.3f} of excited time after {SETTLING_S:.0f} s")
         accs.append(acc)
@@ -395,6 +416,9 @@ def test_cli_calibrate_and_estimate(dgd, tmp_path):
         assert count_switches(res.table["grip_class"]) >= 2  # both changes seen
     r = runner.invoke(app, ["calibrate", f"{hi}:dry", "-o", str(cal)])
     assert r.exit_code != 0
+    r = runner.invoke(app, ["calibrate", f"{hi}:high=0.9", f"{lo}:low=0.4", "-o", str(cal)])
+    assert r.exit_code == 0, r.output
+    assert load_calibration(cal).friction == {"high": 0.9, "low": 0.4}
 
 
 @pytest.mark.realdata

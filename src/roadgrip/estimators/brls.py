@@ -111,6 +111,12 @@ CALIBRATION_VERSION = 1
 CALIBRATION_SETTLING_S = 10.0
 """Calibration scores judge each drive from this time after its start, while moving [s]."""
 
+DEFAULT_FRICTION = {
+    "high": SURFACES["dry_asphalt"].mu_peak,
+    "low": SURFACES["gravel"].mu_peak,
+}
+"""Peak-friction references of the classes without calibration: dry asphalt and gravel."""
+
 SWITCH_PENALTY = 0.01
 """Score penalty per class switch in :func:`calibrate` (fraction of time)."""
 
@@ -716,13 +722,28 @@ def _run_table(
 
 @dataclass(frozen=True)
 class Calibration:
-    """Contents of a calibration file: bRLS settings, slip-map settings, provenance."""
+    """Contents of a calibration file.
+
+    Attributes
+    ----------
+    brls : BRLSConfig
+    slipmap : dict
+        ``{'config': SlipMapConfig.to_dict(), 'fit': {...}}``.
+    vehicle : str
+    drives : tuple of dict
+        Provenance: source, label, samples.
+    diagnostics : dict
+    friction : dict
+        Peak-friction reference of each class, ``{'high': float, 'low': float}``
+        (used for ``meta['summary']``, see :func:`summary_meta`).
+    """
 
     brls: BRLSConfig
     slipmap: dict[str, Any] = field(default_factory=dict)
     vehicle: str = ""
     drives: tuple[dict[str, Any], ...] = ()
     diagnostics: dict[str, Any] = field(default_factory=dict)
+    friction: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_FRICTION))
 
 
 def save_calibration(cal: Calibration, path: str | Path) -> None:
@@ -734,6 +755,7 @@ def save_calibration(cal: Calibration, path: str | Path) -> None:
         "brls": cal.brls.to_dict(),
         "slipmap": dict(cal.slipmap),
         "diagnostics": _plain(cal.diagnostics),
+        "friction": {k: float(v) for k, v in cal.friction.items()},
     }
     Path(path).write_text(yaml.safe_dump(_plain(doc), sort_keys=False))
 
@@ -775,7 +797,18 @@ def load_calibration(path: str | Path) -> Calibration:
         vehicle=str(doc.get("vehicle", "")),
         drives=tuple(doc.get("drives") or ()),
         diagnostics=dict(doc.get("diagnostics") or {}),
+        friction=_friction_refs(doc.get("friction") or DEFAULT_FRICTION, str(p)),
     )
+
+
+def _friction_refs(d: dict[str, Any], where: str) -> dict[str, float]:
+    try:
+        hi, lo = float(d["high"]), float(d["low"])
+    except (KeyError, TypeError, ValueError):
+        raise ValueError(f"{where}: 'friction' must give numbers for 'high' and 'low'") from None
+    if not (0.0 < lo < hi):
+        raise ValueError(f"{where}: friction references need 0 < low < high, got {lo}, {hi}")
+    return {"high": hi, "low": lo}
 
 
 def _best_threshold(hi: NDArray, lo: NDArray) -> tuple[float, float]:
@@ -878,6 +911,7 @@ def calibrate(
     prefilters: Sequence[float] = (0.0, 0.5, 1.0),
     lateral_regressors: Sequence[str] = ("axles", "rear"),
     error_clips: Sequence[float] = (math.inf, 1.0),
+    friction: dict[str, float] | None = None,
 ) -> Calibration:
     """Learn the bRLS references, thresholds, gammas and memory, and the slip-map curves.
 
@@ -915,6 +949,10 @@ def calibrate(
         Candidate grids (see above).
     lateral_regressors : sequence of {'axles', 'rear'}
         Lateral regressors tried (:func:`regressors`).
+    friction : dict, optional
+        Peak-friction reference per class (``{'high': ..., 'low': ...}``); by
+        default the median true friction of the drives of each class where they
+        carry simulator truth (``mu_true``), else :data:`DEFAULT_FRICTION`.
     error_clips : sequence of float
         Prediction-error bounds tried [m/s²] (``BRLSConfig.error_clip``).
 
@@ -987,7 +1025,14 @@ def calibrate(
     sm = slipmap.calibrate_section(kins)
     veh = kins[0][0].vehicle.name
     prov = tuple({"source": d[0].meta.source, "label": d[1], "samples": int(d[0].n)} for d in kins)
-    return Calibration(cfg, sm, veh, prov, diag)
+    if friction is None:
+        friction = dict(DEFAULT_FRICTION)
+        for lab in ("high", "low"):
+            mus = [d.col("mu_true") for d, la, _ in kins if la == lab and d.has("mu_true")]
+            if mus:
+                friction[lab] = float(np.median(np.concatenate(mus)))
+    friction = _friction_refs(friction, "calibrate")
+    return Calibration(cfg, sm, veh, prov, diag, friction)
 
 
 def calibrate_cli(
@@ -1000,19 +1045,36 @@ def calibrate_cli(
 ) -> Calibration:
     """``roadgrip calibrate DRIVE:LABEL ... -o calibration.yaml``.
 
-    Each argument is ``path:label`` with label 'high' or 'low' (split at the last colon).
+    Each argument is ``path:label`` or ``path:label=mu`` with label 'high' or
+    'low' (split at the last colon); ``mu`` is the known peak friction of that
+    surface, the class's friction reference (give it for both classes or for
+    neither).
     """
     from roadgrip.io import read_drive
 
     if not drives:
         raise ValueError("give at least two labelled drives, e.g. dry.parquet:high gravel.parquet:low")
     pairs = []
+    given: dict[str, list[float]] = {}
     for arg in drives:
         path, sep, label = str(arg).rpartition(":")
+        label, eq, mu = label.partition("=")
         if not sep or label not in ("high", "low"):
-            raise ValueError(f"expected DRIVE:LABEL with label 'high' or 'low', got {arg!r}")
+            raise ValueError(
+                f"expected DRIVE:LABEL or DRIVE:LABEL=MU with label 'high' or 'low', got {arg!r}"
+            )
+        if eq:
+            try:
+                given.setdefault(label, []).append(float(mu))
+            except ValueError:
+                raise ValueError(f"friction after '=' must be a number, got {mu!r} in {arg!r}") from None
         pairs.append((read_drive(path, format=fmt, vehicle=vehicle), label))
-    cal = calibrate(pairs)
+    friction = None
+    if given:
+        if set(given) != {"high", "low"}:
+            raise ValueError("give the friction (LABEL=MU) for both classes or for neither")
+        friction = {k: float(np.mean(v)) for k, v in given.items()}
+    cal = calibrate(pairs, friction=friction)
     save_calibration(cal, output)
     if console is not None:
         b = cal.brls
@@ -1045,11 +1107,27 @@ def _progress(request: EstimateRequest, n: int) -> Callable[[], None]:
     return lambda: None
 
 
-def summary_meta(table: pd.DataFrame) -> dict[str, Any]:
-    """``meta['summary']`` of a classification run (final class, index, class shares)."""
+def summary_meta(table: pd.DataFrame, friction: dict[str, float] | None = None) -> dict[str, Any]:
+    """``meta['summary']`` of a classification run.
+
+    VSS-style friction (the output contract): the final class mapped to its
+    friction reference, ``MostProbable = friction[class]`` with the band
+    ``[mid, high]`` for 'high' and ``[low, mid]`` for 'low' (``mid`` halfway
+    between the references); while 'unknown', ``MostProbable = mid`` and the
+    band spans both references. Also the final class and grip index and the
+    share of time in each class.
+    """
+    fr = friction or DEFAULT_FRICTION
+    hi, lo = fr["high"], fr["low"]
+    mid = 0.5 * (hi + lo)
     last = table.iloc[-1]
     cls = table["grip_class"].astype(str).to_numpy()
+    final = str(last["grip_class"])
+    band = {"high": (hi, mid, hi), "low": (lo, lo, mid)}.get(final, (mid, lo, hi))
     return {
+        "MostProbable": float(band[0]),
+        "LowerBound": float(band[1]),
+        "UpperBound": float(band[2]),
         "GripClass": str(last["grip_class"]),
         "GripIndex": float(last["grip_index"]),
         "FractionHigh": float((cls == "high").mean()),
@@ -1065,15 +1143,16 @@ def run_cli(drive: Drive, request: EstimateRequest) -> EstimateResult:
         raise ValueError(f"option(s) {sorted(request.options)} do not apply to brls")
     if request.calibration:
         cal = load_calibration(request.calibration)
-        config, cal_note = cal.brls, str(request.calibration)
+        config, cal_note, friction = cal.brls, str(request.calibration), cal.friction
     else:
         config, cal_note = default_config(), "uncalibrated defaults (dry asphalt / gravel presets)"
+        friction = dict(DEFAULT_FRICTION)
     meta: dict[str, Any] = {}
     done = _progress(request, drive.n)
     with timed(meta, drive.n, drive.duration):
         table, _ = _run_table(drive, config, KinematicConfig())
     done()
-    meta["summary"] = summary_meta(table)
+    meta["summary"] = summary_meta(table, friction)
     n_switch = int(np.sum(table["grip_class"].to_numpy()[1:] != table["grip_class"].to_numpy()[:-1]))
     meta["diagnostics"] = {
         "calibration": cal_note,

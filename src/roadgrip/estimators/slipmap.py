@@ -577,20 +577,22 @@ def config_from_calibration(section: dict[str, Any]) -> SlipMapConfig:
 
 def run_cli(drive: Drive, request: EstimateRequest) -> EstimateResult:
     """``roadgrip estimate DRIVE --method slipmap [--calibration FILE] [--plot FILE]``."""
-    from roadgrip.estimators.brls import load_calibration, summary_meta
+    from roadgrip.estimators.brls import DEFAULT_FRICTION, load_calibration, summary_meta
 
     request.reject("slipmap", "particles", "basis", "curves_path", "curve_times")
     if request.options:
         raise ValueError(f"option(s) {sorted(request.options)} do not apply to slipmap")
+    friction = dict(DEFAULT_FRICTION)
     if request.calibration:
-        config = config_from_calibration(load_calibration(request.calibration).slipmap)
+        cal = load_calibration(request.calibration)
+        config, friction = config_from_calibration(cal.slipmap), cal.friction
         note = str(request.calibration)
     else:
         config, note = default_config(), "uncalibrated defaults (mid friction 0.8, dry-asphalt shapes)"
     meta: dict[str, Any] = {}
     with timed(meta, drive.n, drive.duration):
         table = _run_table(drive, config, KinematicConfig())
-    meta["summary"] = summary_meta(table)
+    meta["summary"] = summary_meta(table, friction)
     cls = table["grip_class"].to_numpy()
     meta["diagnostics"] = {
         "calibration": note,
