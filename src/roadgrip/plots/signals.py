@@ -272,8 +272,7 @@ def plot_map(cells: pd.DataFrame, cell_size: float, path: tuple[np.ndarray, np.n
     for ax, col, label, cmap, hi in ((axes[0], "mu_mean", "μ [-] (absolute)", "RdYlGn", vmax),
                                      (axes[1], "mu_std", "μ std [-]", "magma_r", 0.3)):
         norm = matplotlib.colors.Normalize(0.0, hi)
-        cm = plt.get_cmap(cmap).copy()
-        cm.set_bad("#dee2e6")
+        cm = plt.get_cmap(cmap).with_extremes(bad="#dee2e6")
         if len(x):
             img = np.full(shape, np.nan)
             v = cells[col].to_numpy(float)
