@@ -45,6 +45,18 @@ def test_constant_estimate_against_magic_formula_matches_quadrature():
     assert m.max_error == pytest.approx(max(c, tire.peak()[1] - c), abs=1e-4)
 
 
+def test_curve_error_at_bin_centres_interpolates_the_curves():
+    """Linear curves are interpolated exactly: the error at the covered centres is known."""
+    grid = np.linspace(-0.1, 0.1, 41)
+    visited = np.r_[np.full(25, 0.012), np.full(25, 0.031), np.full(5, 0.05)]
+    m = curve_error(grid, 2 * grid, lambda a: 2 * a + 0.01 * (a > 0.02), visited,
+                    mu_lower=2 * grid - 0.005, mu_upper=2 * grid + 0.005, bin_width=0.01,
+                    min_visits=20, at_bin_centres=True)
+    assert m.n_points == 2 and m.slip_range == pytest.approx((0.015, 0.035))
+    assert m.mae == pytest.approx(0.005)  # 0 at 0.015, 0.01 at 0.035
+    assert m.coverage == pytest.approx(0.5)
+
+
 def test_curve_error_ignores_rarely_visited_bins():
     grid = np.array([0.0025, 0.0075, 0.0125])
     visited = np.r_[np.full(20, 0.001), np.full(19, 0.006), np.full(100, 0.011)]

@@ -64,6 +64,9 @@ the separable per-axle basis."""
 CLASSIFIERS = ("brls", "slipmap")
 FRICTION_METHODS = ("gpssm", "cascade")
 
+CURVE_BIN_WIDTH = float(np.radians(0.5))
+"""Slip bin width [rad] of the covered range of curve errors (20 visits per bin)."""
+
 DART_REFERENCE = {"high": 0.8, "low": 0.35}
 """Approximate peak friction of the two DART floors (data README: lateral plateaus of about
 0.78 g and 0.35 g), used as the reference of real-data peak estimates."""
@@ -449,13 +452,11 @@ def _score_curves(rec: RunRecord) -> None:
             if c.empty or col not in drive.data.columns:
                 continue
             visited = drive.col(col)[drive.t - drive.t[0] <= t_c + 1e-9]
-            if "mu_true" in c.columns and np.isfinite(c["mu_true"].to_numpy(float)).all():
-                truth: Any = c["mu_true"].to_numpy(float)
-            else:
-                truth = drive.true_tire(axle).mu
+            truth: Any = drive.true_tire(axle).mu
             cm = M.curve_error(c["alpha"].to_numpy(float), c["mu_mean"].to_numpy(float), truth,
                                visited, mu_lower=c["mu_lower"].to_numpy(float),
-                               mu_upper=c["mu_upper"].to_numpy(float), min_visits=20)
+                               mu_upper=c["mu_upper"].to_numpy(float), min_visits=20,
+                               bin_width=CURVE_BIN_WIDTH, at_bin_centres=True)
             if cm.n_points:
                 maes.append(cm.mae)
                 covs.append(cm.coverage)
