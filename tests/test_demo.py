@@ -43,9 +43,11 @@ def test_demo_writes_report_with_all_sections(tmp_path):
     assert set(SECTIONS) <= p.ids
     assert p.imgs and all(s.startswith("data:image/png;base64,") for s in p.imgs)
     table = pd.read_csv(tmp_path / "report" / "bench.csv")
-    assert len(table) == len(default_cases(DEMO))
-    for _, row in table.iterrows():
-        if method_available(row["method"]):
+    cases = default_cases(DEMO)
+    assert len(table) == len(cases)
+    for case, (_, row) in zip(cases, table.iterrows(), strict=True):
+        assert (row["drive"], row["method"]) == (case.drive, case.label)
+        if method_available(case.method):
             assert row["status"] == "ok", f"{row['drive']} / {row['method']}: {row['status']}"
             assert row["samples_per_s"] > 0
         else:
