@@ -200,3 +200,24 @@ def test_console_error_detection_catches_a_broken_page(tmp_path):
                    "</body></html>")
     _, stderr = _render(bad, tmp_path)
     assert _console_errors(stderr), f"the broken page was not caught:\n{stderr[-2000:]}"
+
+
+def test_report_command_with_a_benchmark_folder(tmp_path):
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+    from roadgrip.evaluate.suite import QUICK, bench_table, write_outputs
+
+    drive = _drive(200)
+    drive.save(tmp_path / "drive.parquet")
+    recs = _records(drive)
+    recs[0].result.to_parquet(tmp_path / "est.parquet")
+    write_outputs(recs, tmp_path / "bench", QUICK, seed=0)
+    assert len(bench_table(recs)) == 4
+    res = CliRunner().invoke(app, ["report", str(tmp_path / "drive.parquet"), str(tmp_path / "est.parquet"),
+                                   str(tmp_path / "bench"), "-o", str(tmp_path / "out")])
+    assert res.exit_code == 0, res.output
+    text = (tmp_path / "out" / "index.html").read_text()
+    # the benchmark section shows the folder's table (4 rows, one not available)
+    assert text.count("<tr") - text.count("<tr><th") >= 4 and "not available" in text
+    assert "friction-drive-gpssm.png" in text

@@ -451,8 +451,11 @@ def _score_curves(rec: RunRecord) -> None:
             c = curves[(curves["t"] == t_c) & (curves["axle"] == axle)].sort_values("alpha")
             if c.empty or col not in drive.data.columns:
                 continue
-            visited = drive.col(col)[drive.t - drive.t[0] <= t_c + 1e-9]
-            truth: Any = drive.true_tire(axle).mu
+            upto = drive.t - drive.t[0] <= t_c + 1e-9
+            visited = drive.col(col)[upto]
+            # The true curve of the surface under the vehicle at the curve's time.
+            surface = str(drive.data["surface"][upto].iloc[-1]) if drive.has("surface") else None
+            truth: Any = drive.true_tire(axle, surface=surface).mu
             cm = M.curve_error(c["alpha"].to_numpy(float), c["mu_mean"].to_numpy(float), truth,
                                visited, mu_lower=c["mu_lower"].to_numpy(float),
                                mu_upper=c["mu_upper"].to_numpy(float), min_visits=20,
