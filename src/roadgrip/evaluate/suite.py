@@ -5,11 +5,13 @@ Which estimator runs where
 ==================  =========================================  ==============================
 drive               estimators                                 scored against
 ==================  =========================================  ==============================
-snow-slalom         gpssm (tensor 10x10), gpssm (separable)    true curves, true peak
+snow-slalom         gpssm (tensor 10x10 exact and fast,        true curves, true peak
+                    separable)
 dry-gravel-dry      brls, slipmap                              true grip class, changes
 f1tenth-patches     cascade (+ friction grid)                  true peak, true cell friction
 straight-cruise     all                                        no confident claim may be made
-DART high / low     gpssm, brls, slipmap                       floor label (high 0.8, low 0.35)
+DART high / low     gpssm, brls, slipmap (calibrated on the    floor label (high 0.8, low 0.35)
+                    first halves, tested on second halves)
 frictionmaps DSn    cascade (+ friction grid)                  DS3-DS5 map agreement
 ==================  =========================================  ==============================
 
