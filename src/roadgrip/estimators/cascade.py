@@ -88,6 +88,16 @@ the systematic part ``mu_front_obs_sys``: the shift a slip-angle bias of
 ``slip_bias_std`` would cause, which does not shrink by averaging. This is
 what :mod:`roadgrip.mapping` fuses, so that a map cell collects the likelihood
 of the data taken in it rather than a filter state that remembers earlier cells.
+The slip-angle bias assumed by this test is the larger of ``slip_bias_std``
+and ``vy_bias_std / |vx|``. The data are also checked: at moderate lateral
+acceleration (``ay_straight`` to twice that) the rear tire is close to linear,
+so ``alpha_r - Fyr / C_r`` measures the slip-angle error; when its
+root-mean-square over the last 5 s (exponential window) exceeds the assumed
+bias, the test is repeated with the exact brush inversion at that larger
+error (:func:`_slip_bias_effect`), which also catches a bias that would move
+the tire between adhesion and sliding. On logs whose slip angles are much
+worse than assumed, few samples count as excited and the map keeps its prior.
+
 Below ``v_min`` the slip angles are not defined well enough and stage 3 makes
 no update. An update whose mean leaves the physical range ``mu_bounds`` is
 projected back onto it and does not count as excited (the data then say only
@@ -230,7 +240,8 @@ class _P(IntEnum):
     Q_BIAS = 27
     STEER_BIAS = 28
     VY_BIAS = 29
-    SIZE = 30
+    CONSIST_TAU = 30
+    SIZE = 31
 
 
 class _O(IntEnum):
@@ -415,9 +426,10 @@ class CascadeState(NamedTuple):
         Stage 2 (:class:`ForceState`).
     friction_mean, friction_cov : ndarray, (2,), (2, 2)
         Stage 3 (:class:`FrictionState`).
-    inputs : ndarray, (3,)
+    inputs : ndarray, (4,)
         ``ax, ay, yaw_rate`` of the last sample (stage 1 integrates the mean of
-        the inputs at both ends of a step).
+        the inputs at both ends of a step) and the running mean square of the
+        slip-angle consistency residual [rad²] (module docstring).
     """
 
     t: float
@@ -582,6 +594,39 @@ def _slip_sensitivity(alpha, fz, mu, k):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _brush_mu(force, alpha, fz, k):  # pragma: no cover - compiled
+    """Scalar exact inversion of the brush model (see :func:`brush_mu_inverse`); inf if none."""
+    a = min(max(alpha, -1.5), 1.5)
+    z = np.tan(a)
+    lin = fz * k * abs(z)
+    if force * z <= 0.0 or lin <= 0.0 or fz <= 0.0:
+        return np.inf
+    rho = abs(force) / lin
+    if rho >= 1.0:
+        return np.inf
+    if rho <= 1.0 / 3.0:
+        return abs(force) / fz
+    u = 0.5 * (9.0 - np.sqrt(max(81.0 - 108.0 * (1.0 - rho), 0.0)))
+    return k * abs(z) / u
+
+
+@njit(cache=True)
+def _slip_bias_effect(force, alpha, fz, k, dalpha):  # pragma: no cover - compiled
+    """Largest change of the friction that explains ``force`` when the slip angle moves by ``±dalpha``.
+
+    Uses the exact brush inversion, so it also sees a bias that would move the
+    tire between the adhesion and the sliding branch; inf where any of the
+    three slip angles leaves no finite friction.
+    """
+    m0 = _brush_mu(force, alpha, fz, k)
+    m1 = _brush_mu(force, alpha + dalpha, fz, k)
+    m2 = _brush_mu(force, alpha - dalpha, fz, k)
+    if not (np.isfinite(m0) and np.isfinite(m1) and np.isfinite(m2)):
+        return np.inf
+    return max(abs(m1 - m0), abs(m2 - m0))
+
+
+@njit(cache=True)
 def friction_measurement(M, alpha_f, alpha_r, fzf, fzr, kf, kr, mu_min, mu_max):  # pragma: no cover
     """Stage-3 measurement model, eq. 11: brush forces of each row ``[mu_f, mu_r]`` (N, 2) -> (N, 2)."""
     out = np.empty((M.shape[0], 2))
@@ -731,6 +776,13 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
     dfz = m * ax_est * p[_P.H] / wb
     fzf = max(m * GRAVITY * lr / wb - dfz, 0.0)
     fzr = max(m * GRAVITY * lf / wb + dfz, 0.0)
+    # ---- slip-angle consistency: rear slip against the linear tire at moderate ay ----
+    ayb = abs(ay - xe[3])
+    if (dt > 0.0 and abs(vx) >= p[_P.V_MIN] and p[_P.AY_STRAIGHT] <= ayb <= 2.0 * p[_P.AY_STRAIGHT]
+            and fzr > 0.5 * m * GRAVITY * lf / (lf + lr)):
+        e_lin = alpha_r - xu[5] / (p[_P.KR] * max(fzr, 1e-9))
+        lam = min(dt / p[_P.CONSIST_TAU], 1.0)
+        up[3] += lam * (e_lin * e_lin - up[3])
     # ---- stage 3: UKF2 (eq. 11-12) ----
     mu_min = p[_P.MU_MIN]
     mu_max = p[_P.MU_MAX]
@@ -779,8 +831,14 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
         # robustness to a slip-angle bias, which does not average out over samples
         # a lateral-velocity bias of vy_bias_std is a slip-angle bias of vy_bias_std / |vx|
         sb = max(p[_P.SLIP_BIAS], p[_P.VY_BIAS] / abs(vx))
-        bias_f = np.sqrt(sb * sb + p[_P.STEER_BIAS] ** 2) * _slip_sensitivity(alpha_f, fzf, xm[0], kf)
+        sbf = np.sqrt(sb * sb + p[_P.STEER_BIAS] ** 2)
+        bias_f = sbf * _slip_sensitivity(alpha_f, fzf, xm[0], kf)
         bias_r = sb * _slip_sensitivity(alpha_r, fzr, xm[1], kr)
+        # slip angles measurably worse than assumed: test the whole inversion at that error
+        sc = np.sqrt(up[3])
+        if sc > sb:
+            bias_f = max(bias_f, _slip_bias_effect(xu[4], alpha_f, fzf, kf, np.sqrt(sc * sc + sbf * sbf)))
+            bias_r = max(bias_r, _slip_bias_effect(xu[5], alpha_r, fzr, kr, sc))
         if lam_f >= p[_P.EXC_PREC] * dt and dt > 0.0 and bias_f <= p[_P.MAX_BIAS] and not clipped_f:
             obs_f = (xm[0] / Pm[0, 0] - prior_m0 / prior_v0) / lam_f
             if mu_min <= obs_f <= mu_max:
@@ -961,6 +1019,7 @@ def _params(vehicle: VehicleParams, cfg: CascadeConfig, noise: dict[str, float],
     p[_P.Q_BIAS] = cfg.accel_bias_rate_std**2 if cfg.accel_bias_std else 0.0
     p[_P.STEER_BIAS] = cfg.steer_bias_std
     p[_P.VY_BIAS] = cfg.vy_bias_std
+    p[_P.CONSIST_TAU] = 5.0
     return p
 
 
@@ -995,7 +1054,7 @@ def init(vehicle: VehicleParams, config: CascadeConfig, vx0: float = 0.0, noise:
     Pu = np.diag([vmin**2, max(n["gyro_std"], 0.01) ** 2, 0.2**2, fw, fw, fw])
     xm = np.full(2, config.mu_prior)
     Pm = np.eye(2) * config.mu_prior_std**2
-    return CascadeState(float("nan"), xe, Pe, xu, Pu, xm, Pm, np.zeros(3))
+    return CascadeState(float("nan"), xe, Pe, xu, Pu, xm, Pm, np.zeros(4))
 
 
 class _Compiled(NamedTuple):
