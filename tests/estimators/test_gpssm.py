@@ -174,6 +174,19 @@ def test_learns_the_snow_curve_where_the_data_went(snow60):
     assert abs(table["mu_front"].iloc[-1] - 0.3) < 0.06
 
 
+def test_upsampling_keeps_recorded_rows_and_interpolates():
+    from roadgrip.estimators.gpssm import upsample_inputs
+
+    t = np.arange(5) * 0.1
+    data = np.column_stack([t, 2 * t, -t, np.zeros(5), np.full(5, 3.0)])
+    out, keep, k = upsample_inputs(data, 0.04)
+    assert k == 3 and len(out) == 13 and keep.sum() == 5
+    np.testing.assert_allclose(out[keep], data)
+    np.testing.assert_allclose(out[:, 1], 2 * out[:, 0])
+    same, keep1, k1 = upsample_inputs(data, 0.1)
+    assert k1 == 1 and same is data and keep1.all()
+
+
 def test_bad_inputs_raise_clear_errors(snow20):
     cfg = _cfg(snow20)
     s0 = Sample(0.0, 0.0, 0.0, 0.0, 10.0)

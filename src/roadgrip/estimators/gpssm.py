@@ -169,6 +169,9 @@ class GPSSMConfig:
         friction sample is drawn conditioned on the lateral acceleration, which is linear
         in it (the locally optimal proposal for that part of ``y``, eq. 20-21); see
         :func:`_conditional_sample`.
+    max_dt : float
+        Longest Euler step [s] of :meth:`GPSSM.run`; slower data are interpolated
+        (:func:`upsample_inputs`).
     slip_sigma : float
         Slip-angle uncertainty of the state estimate added to the curve band [rad]
         (:func:`posterior_curves`); about the error of the lateral-velocity estimate over
@@ -199,6 +202,7 @@ class GPSSMConfig:
     peak_visits: int = 10
     excitation_slip: float = math.radians(1.0)
     proposal: str = "conditional"
+    max_dt: float = 0.04
     slip_sigma: float = math.radians(0.25)
     curve_sigma_floor: float = 0.005
 
@@ -213,7 +217,7 @@ class GPSSMConfig:
         if not self.nu0 > d + 1:
             raise ValueError(f"nu0 must exceed d + 1 = {d + 1}, got {self.nu0!r}")
         for name in ("sigma_w0", "sigma_ay", "sigma_yaw_rate", "sigma_vy0", "peak_range",
-                     "bin_width", "slip_sigma", "curve_sigma_floor"):
+                     "bin_width", "slip_sigma", "curve_sigma_floor", "max_dt"):
             v = getattr(self, name)
             if not np.isfinite(v) or v <= 0:
                 raise ValueError(f"{name} must be positive and finite, got {v!r}")
@@ -839,6 +843,32 @@ def drive_inputs(drive: Any) -> NDArray[np.float64]:
                             drive.col("steer"), drive_vx(drive)])
 
 
+def upsample_inputs(data: NDArray, max_dt: float) -> tuple[NDArray, NDArray, int]:
+    """Linear interpolation of the input rows onto ``k`` sub-steps per sample interval.
+
+    The lateral model is integrated by forward Euler with the friction held over a step;
+    for small, stiff vehicles at low sample rates (the JetRacer at 10 Hz) that step is
+    unstable. With ``k = ceil(median dt / max_dt)`` the filter runs on ``k - 1``
+    interpolated rows between recorded ones (and :class:`GPSSM` widens ``R`` by
+    ``sqrt(k)`` so that the information per recorded sample is unchanged).
+
+    Returns the rows (n', 5), a mask of the recorded rows and ``k``.
+    """
+    t = data[:, 0]
+    if len(t) < 2:
+        return data, np.ones(len(t), dtype=bool), 1
+    k = max(1, math.ceil(float(np.median(np.diff(t))) / max_dt - 1e-9))
+    if k == 1:
+        return data, np.ones(len(t), dtype=bool), 1
+    frac = np.arange(k) / k
+    tf = (t[:-1, None] + np.diff(t)[:, None] * frac[None, :]).ravel()
+    tf = np.append(tf, t[-1])
+    out = np.column_stack([tf] + [np.interp(tf, t, data[:, j]) for j in range(1, data.shape[1])])
+    keep = np.zeros(len(tf), dtype=bool)
+    keep[::k] = True
+    return out, keep, k
+
+
 class GPSSM:
     """Online GP-SSM friction learner: ``step(sample)`` or ``run(drive)``.
 
@@ -888,17 +918,26 @@ class GPSSM:
             Requested time -> :class:`CurvePosterior` at the first sample at or after it
             (the last sample for times beyond the end).
         """
-        data = drive_inputs(drive)
+        data, keep, k = upsample_inputs(drive_inputs(drive), self.config.max_dt)
+        if k > 1 and self.state_ is None:
+            # each recorded sample is processed k times: spread its information over them
+            self.config = replace(self.config, sigma_ay=self.config.sigma_ay * math.sqrt(k),
+                                  sigma_yaw_rate=self.config.sigma_yaw_rate * math.sqrt(k))
         rows = []
         curves: dict[float, CurvePosterior] = {}
         pending = sorted(curve_times or ())
         if curve_alpha is None:
             curve_alpha = np.linspace(-self.config.peak_range, self.config.peak_range, 161)
+        done = 0
         for i, row in enumerate(data):
-            rows.append(self.step(Sample(*row)))
+            est = self.step(Sample(*row))
+            if not keep[i]:
+                continue
+            rows.append(est)
             while pending and (row[0] >= pending[0] or i == len(data) - 1):
                 curves[pending.pop(0)] = self.curves(curve_alpha)
-            if progress is not None and i % 50 == 49:
+            done += 1
+            if progress is not None and done % 50 == 0:
                 progress(50)
         return pd.DataFrame(rows, columns=GPSSMEstimate._fields), curves
 

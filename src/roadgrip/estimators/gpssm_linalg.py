@@ -103,7 +103,8 @@ def forget(st: LinAlgState, lam: float, refactor_every: int) -> LinAlgState:
 
 
 def refactor(st: LinAlgState) -> LinAlgState:
-    """Recompute ``P_B = (Sigma + I)^{-1}`` from ``Sigma``, ``c = 1``."""
+    """Recompute ``P_B = (Sigma + I)^{-1}`` from ``Sigma``, ``c = 1`` (one LAPACK inverse per
+    particle inside a compiled loop)."""
     if st.mode == "direct":
         return st
     _refactor(st.sigma.reshape((-1, *st.sigma.shape[-2:])),
@@ -111,51 +112,17 @@ def refactor(st: LinAlgState) -> LinAlgState:
     return st._replace(sigma_scale=1.0, p_scale=1.0, c=1.0, since_refactor=0)
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True)
 def _refactor(sigma, pinv, sigma_scale):  # pragma: no cover - compiled
-    """In place: sigma <- sym(sigma_scale sigma); pinv <- (sigma + I)^{-1} by Cholesky."""
+    """In place: sigma <- sym(sigma_scale sigma); pinv <- (sigma + I)^{-1} (LAPACK)."""
     B, m, _ = sigma.shape
-    L = np.zeros((m, m))
-    Linv = np.zeros((m, m))
+    eye = np.eye(m)
     for b in range(B):
-        S = sigma[b]
-        for i in range(m):
-            for j in range(i + 1):
-                v = 0.5 * sigma_scale * (float(S[i, j]) + float(S[j, i]))
-                S[i, j] = v
-                S[j, i] = v
-        # Cholesky of H = S + I (row-oriented)
-        for i in range(m):
-            for j in range(i + 1):
-                acc = float(S[i, j]) + (1.0 if i == j else 0.0)
-                Li = L[i]
-                Lj = L[j]
-                for k in range(j):
-                    acc -= Li[k] * Lj[k]
-                if i == j:
-                    L[i, i] = np.sqrt(max(acc, 1e-300))
-                else:
-                    L[i, j] = acc / L[j, j]
-        # inverse of the lower-triangular L, row by row: Linv L = I
-        for i in range(m):
-            for j in range(m):
-                Linv[i, j] = 0.0
-        for j in range(m):
-            Linv[j, j] = 1.0 / L[j, j]
-            for i in range(j + 1, m):
-                acc = 0.0
-                for k in range(j, i):
-                    acc -= L[i, k] * Linv[k, j]
-                Linv[i, j] = acc / L[i, i]
-        # P = Linv^T Linv
-        P = pinv[b]
-        for i in range(m):
-            for j in range(i + 1):
-                acc = 0.0
-                for k in range(i, m):
-                    acc += Linv[k, i] * Linv[k, j]
-                P[i, j] = acc
-                P[j, i] = acc
+        S = sigma[b].astype(np.float64)
+        S = 0.5 * sigma_scale * (S + S.T)
+        P = np.linalg.inv(S + eye)
+        sigma[b] = S
+        pinv[b] = 0.5 * (P + P.T)
 
 
 @numba.njit(cache=True, fastmath=True)
