@@ -19,16 +19,36 @@ This is the paper's ``vx_k = vx + T (ax + vy r)``, ``vy_k = vy + T (ay - vx r)``
 with the rotation of the velocity vector over the step made exact (see
 :func:`_rotate_integrate`) and the inputs integrated by the trapezoid rule:
 at the yaw rates of a small car the Euler form, with the inputs of one end of
-the step, biases ``vy`` by 1-2 cm/s, i.e. the slip angles by 5 mrad. The Jacobian is ``F = Rot(-r T)``.
+the step, biases ``vy`` by 1-2 cm/s, i.e. the slip angles by 5 mrad. The
+Jacobian of the velocity part is ``F = Rot(-r T)``.
+
+The state also holds the accelerometer biases ``bx, by`` (random walks,
+subtracted from ``ax, ay`` here and in stage 2), learnt at standstill by a
+zero-velocity update (the accelerometers then read their biases) and while
+driving through the speed measurement. A sensor 2 degrees off level reads
+0.34 m/s² of gravity, which stage 1 would otherwise take for ``vy r`` and turn
+into a lateral-velocity error of ``0.34 / r`` m/s; the real F1/10 runs show a
+mean ``ax`` of about -0.6 m/s² at standstill. The bias states are on when the
+drive contains a standstill of at least 1 s (``accel_bias_std=None``), which
+makes them observable, and otherwise off unless configured.
+
+On straights (yaw rate near zero) ``vy`` is not observable from ``vx`` and its
+integral drifts with the accelerometer noise. Below a lateral acceleration of
+``ay_straight`` stage 1 therefore adds a pseudo-measurement from the linear
+tire, ``vy = lr r - vx alpha_r`` with ``alpha_r = m ay lf / (l C_r)``, standard
+deviation ``|vx| (slip_bias_std + |alpha_r|) + 0.01 m/s``. It is off in
+cornering, where the tires may be nonlinear and the friction information lies.
 
 The inputs ``u = [ax, ay, r]`` are measured, so the state noise follows from the
 sensor noise: ``Q1 = T² (diag(sa², sa²) + sr² g gᵀ)`` with ``g = [vy, -vx]``
 (first-order propagation of accelerometer noise ``sa`` and gyro noise ``sr``;
 ``sa²`` includes the accelerometer model error ``accel_model_std²``, which stands
 for bias, road grade and mounting offset), ``R1 = sv²`` the speed-sensor noise.
-The measured speed (eq. 5) is the mean wheel speed of the undriven axle (all
-four wheels for four-wheel drive), the motor speed through the gear ratio
-``rpm 2 pi R / (60 i)``, or a measured ``vx`` column.
+The measured speed (eq. 5) is the mean wheel speed of the undriven axle, a
+measured ``vx`` column (preferred on four-wheel-driven cars, whose wheels all
+slip under drive; else all four wheels), or the motor speed through the gear
+ratio ``rpm 2 pi R / (60 i)`` (:func:`measured_speed`). Steered front wheels
+are modelled as turning at ``vx cos d + (vy + lf r) sin d``.
 
 *Stage 2* (eq. 9-10, with the paper's sign typo in ``h5`` corrected)::
 
