@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -159,7 +160,7 @@ class TensorBasis:
     groups = 1
     outputs = 2
 
-    @property
+    @cached_property
     def _keep(self) -> NDArray[np.bool_]:
         # odd=True keeps products with j1 + j2 odd: mu(-a_f, -a_r) = -mu(a_f, a_r)
         j = np.arange(1, self.n + 1)
@@ -173,7 +174,7 @@ class TensorBasis:
         """Features per group (``n²``, about half of it with ``odd``)."""
         return int(self._keep.sum())
 
-    @property
+    @cached_property
     def sqrt_s(self) -> NDArray[np.float64]:
         """``sqrt(S(sqrt(lambda_j)))`` in feature order (front index major), shape (m,)."""
         lam = eigenvalues_1d(self.n, self.L)
@@ -220,12 +221,12 @@ class SeparableBasis:
     def m(self) -> int:
         return self.n
 
-    @property
+    @cached_property
     def _j(self) -> NDArray[np.int64]:
         # odd=True keeps the eigenfunctions with even j, which are odd in alpha
         return np.arange(1, 2 * self.n + 1)[1::2] if self.odd else np.arange(1, self.n + 1)
 
-    @property
+    @cached_property
     def sqrt_s(self) -> NDArray[np.float64]:
         lam = eigenvalues_1d(2 * self.n if self.odd else self.n, self.L)[self._j - 1]
         return np.sqrt(spectral_density(np.sqrt(lam), self.kernel, self.s_f, self.ell, 1))

@@ -83,6 +83,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -650,15 +651,21 @@ def _zeta_mean(config: GPSSMConfig, MT: NDArray, phi: NDArray) -> NDArray:
     return _zeta_to_axles(config, z)
 
 
+@lru_cache(maxsize=64)
+def _peak_grid(config: GPSSMConfig, ratio: float) -> tuple[NDArray, NDArray, NDArray]:
+    """Slip grid on ``[0, peak_range]``, odd-part features (2, n, m) and prior curve."""
+    grid = np.linspace(0.0, config.peak_range, config.peak_grid)
+    feats, _ = _odd(config, ratio, grid)
+    return grid, feats, config.prior_tire.mu(grid)
+
+
 def _peak_estimates(
     config: GPSSMConfig, ratio: float, MT: NDArray, Lam: NDArray, nu: float, w: NDArray,
     vpk: NDArray, visits: NDArray, where: NDArray,
 ) -> dict[str, list]:
     """Peak friction per axle with band and observability (module docstring)."""
     d = config.basis.outputs
-    grid = np.linspace(0.0, config.peak_range, config.peak_grid)
-    feats, _ = _odd(config, ratio, grid)  # (2, n, m)
-    prior = config.prior_tire.mu(grid)
+    grid, feats, prior = _peak_grid(config, round(ratio, 3))
     qdof = max(nu - d - 1.0, 1.0)
     out: dict[str, list] = {"mu": [], "lo": [], "hi": [], "alpha": [], "obs": []}
     for ax in range(2):
