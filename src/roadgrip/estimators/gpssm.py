@@ -170,6 +170,9 @@ class GPSSMConfig:
         friction sample is drawn conditioned on the lateral acceleration, which is linear
         in it (the locally optimal proposal for that part of ``y``, eq. 20-21); see
         :func:`_conditional_sample`.
+    min_speed : float
+        Below this speed [m/s] the statistics are not updated (slip angles carry no
+        friction information near standstill) and the lateral velocity is set to zero.
     max_dt : float
         Longest Euler step [s] of :meth:`GPSSM.run`; slower data are interpolated
         (:func:`upsample_inputs`).
@@ -204,6 +207,7 @@ class GPSSMConfig:
     excitation_slip: float = math.radians(1.0)
     proposal: str = "conditional"
     max_dt: float = 0.04
+    min_speed: float = 0.5
     slip_sigma: float = math.radians(0.25)
     curve_sigma_floor: float = 0.005
 
@@ -218,7 +222,7 @@ class GPSSMConfig:
         if not self.nu0 > d + 1:
             raise ValueError(f"nu0 must exceed d + 1 = {d + 1}, got {self.nu0!r}")
         for name in ("sigma_w0", "sigma_ay", "sigma_yaw_rate", "sigma_vy0", "peak_range",
-                     "bin_width", "slip_sigma", "curve_sigma_floor", "max_dt"):
+                     "bin_width", "slip_sigma", "curve_sigma_floor", "max_dt", "min_speed"):
             v = getattr(self, name)
             if not np.isfinite(v) or v <= 0:
                 raise ValueError(f"{name} must be positive and finite, got {v!r}")
@@ -497,6 +501,9 @@ def step(
     rng.bit_generator.state = state.rng
 
     u = np.array([sample.steer, sample.vx], dtype=float)
+    learn = bool(sample.vx >= config.min_speed)
+    if not learn:
+        x[:, LateralState.VY] = 0.0  # (nearly) at rest: no lateral sliding
     # 2. slips and features
     alpha_f, alpha_r = slip_angles(sample.vx, x[:, LateralState.VY], x[:, LateralState.YAW_RATE],
                                    sample.steer, veh)
@@ -544,20 +551,25 @@ def step(
     w /= w.sum()
     ess = float(1.0 / np.sum(w * w))
 
-    # 5. data update (eq. 28)
-    lin = la.update(lin, phi, pb_phi)
-    e = zeta - loc
-    Psi += zeta[..., :, None] * phi[..., None, :]
-    Phi += zeta[..., :, None] * zeta[..., None, :]
-    nu = nu + 1.0
-    # posterior quantities by Sherman-Morrison on the predictive ones
-    inv1s = 1.0 / (1.0 + s)
-    MT = PPsiT + uvec[..., None] * zeta[..., None, :]
-    MT -= uvec[..., None] * ((loc + zeta * s[..., None]) * inv1s[..., None])[..., None, :]
-    Lam_post = _sym_pd(Lam_star + e[..., :, None] * e[..., None, :] * inv1s[..., None, None], 1e-12)
-    upk = np.einsum("ngm,ngmp->ngp", uvec, Ppk)
     fpk_g = rp[0]  # (G, m, np)
-    vpk = np.einsum("gmp,ngmp->ngp", fpk_g, Ppk) - upk**2 * inv1s[..., None]  # (N, G, np)
+    if learn:
+        # 5. data update (eq. 28)
+        lin = la.update(lin, phi, pb_phi)
+        e = zeta - loc
+        Psi += zeta[..., :, None] * phi[..., None, :]
+        Phi += zeta[..., :, None] * zeta[..., None, :]
+        nu = nu + 1.0
+        # posterior quantities by Sherman-Morrison on the predictive ones
+        inv1s = 1.0 / (1.0 + s)
+        MT = PPsiT + uvec[..., None] * zeta[..., None, :]
+        MT -= uvec[..., None] * ((loc + zeta * s[..., None]) * inv1s[..., None])[..., None, :]
+        Lam_post = _sym_pd(Lam_star + e[..., :, None] * e[..., None, :] * inv1s[..., None, None], 1e-12)
+        upk = np.einsum("ngm,ngmp->ngp", uvec, Ppk)
+        vpk = np.einsum("gmp,ngmp->ngp", fpk_g, Ppk) - upk**2 * inv1s[..., None]  # (N, G, np)
+    else:
+        # below min_speed the slip angles carry no friction information: no update
+        MT, Lam_post = PPsiT.copy(), Lam_star
+        vpk = np.einsum("gmp,ngmp->ngp", fpk_g, Ppk)
 
     # 6. estimates (Algorithm 1 lines 11-12) with the normalised weights
     xm = w @ x
@@ -566,10 +578,11 @@ def step(
     mu_now = w @ (mu_prior + _zeta_mean(config, MT, phi))
     visits = state.visits
     nb = visits.shape[1]
-    for ax, a_ in enumerate((af_m, ar_m)):
-        visits[ax, min(int(abs(a_) / config.bin_width), nb - 1)] += 1
-    moments = state.slip_moments + np.array([af_m * af_m, af_m * ar_m])
-    excited = bool(max(abs(af_m), abs(ar_m)) > config.excitation_slip)
+    if learn:
+        for ax, a_ in enumerate((af_m, ar_m)):
+            visits[ax, min(int(abs(a_) / config.bin_width), nb - 1)] += 1
+    moments = state.slip_moments + learn * np.array([af_m * af_m, af_m * ar_m])
+    excited = learn and bool(max(abs(af_m), abs(ar_m)) > config.excitation_slip)
 
     peak = _peak_estimates(config, ratio, MT, Lam_post, nu, w, vpk, visits, where)
 
