@@ -118,6 +118,11 @@ error (:func:`_slip_bias_effect`), which also catches a bias that would move
 the tire between adhesion and sliding. On logs whose slip angles are much
 worse than assumed, few samples count as excited and the map keeps its prior.
 
+A sample that fails the test for an axle leaves that axle's estimate where it
+was (the update is discarded), so weak and possibly biased information from
+the linear range does not move the friction estimate; its variance keeps
+growing by the random walk.
+
 Below ``v_min`` the slip angles are not defined well enough and stage 3 makes
 no update. An update whose mean leaves the physical range ``mu_bounds`` is
 projected back onto it and does not count as excited (the data then say only
@@ -384,7 +389,7 @@ class CascadeConfig:
     accel_bias_std: float | None = None
     accel_bias_rate_std: float = 0.002
     jerk_std: float = 30.0
-    mu_rate_std: float = 0.1
+    mu_rate_std: float = 0.2
     mu_prior: float = 0.7
     mu_prior_std: float = 0.4
     mu_bounds: tuple[float, float] = (0.05, 2.0)
@@ -813,6 +818,7 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
     prior_m1 = xm[1]
     prior_v0 = Pm[0, 0]
     prior_v1 = Pm[1, 1]
+    prior_P = Pm.copy()
     exc_f = 0.0
     exc_r = 0.0
     r3f = np.inf
@@ -873,6 +879,15 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
                 obs_vr = 1.0 / lam_r
             else:
                 obs_r = np.nan
+        # a sample that fails the excitation test does not move that axle's estimate
+        if exc_f < 0.5:
+            xm[0] = prior_m0
+            Pm[0, :] = prior_P[0, :]
+            Pm[:, 0] = prior_P[:, 0]
+        if exc_r < 0.5:
+            xm[1] = prior_m1
+            Pm[1, :] = prior_P[1, :]
+            Pm[:, 1] = prior_P[:, 1]
     nis = res2 @ np.linalg.solve(S2, res2)
     out[_O.VX] = xu[0]
     out[_O.YAW_RATE] = xu[1]
