@@ -100,6 +100,7 @@ from roadgrip.vehicle.slip import slip_angles
 
 __all__ = [
     "AXLES",
+    "DART_OPTIONS",
     "GPSSM",
     "CurvePosterior",
     "GPSSMConfig",
@@ -173,6 +174,8 @@ class GPSSMConfig:
     min_speed : float
         Below this speed [m/s] the statistics are not updated (slip angles carry no
         friction information near standstill) and the lateral velocity is set to zero.
+    vx_source : {'auto', 'wheels', 'column', 'pose'}
+        Where :meth:`GPSSM.run` takes the longitudinal speed from (:func:`drive_vx`).
     max_dt : float
         Longest Euler step [s] of :meth:`GPSSM.run`; slower data are interpolated
         (:func:`upsample_inputs`).
@@ -208,6 +211,7 @@ class GPSSMConfig:
     proposal: str = "conditional"
     max_dt: float = 0.04
     min_speed: float = 0.5
+    vx_source: str = "auto"
     slip_sigma: float = math.radians(0.25)
     curve_sigma_floor: float = 0.005
 
@@ -230,6 +234,8 @@ class GPSSMConfig:
             raise ValueError(f"ess_threshold must be in (0, 1], got {self.ess_threshold!r}")
         if self.linalg not in la.LINALG_MODES:
             raise ValueError(f"linalg must be one of {la.LINALG_MODES}, got {self.linalg!r}")
+        if self.vx_source not in ("auto", "wheels", "column", "pose"):
+            raise ValueError(f"vx_source must be auto, wheels, column or pose, got {self.vx_source!r}")
         if self.proposal not in ("conditional", "prior"):
             raise ValueError(f"proposal must be 'conditional' or 'prior', got {self.proposal!r}")
         if self.refactor_every < 1 or self.peak_grid < 3 or self.peak_visits < 1:
@@ -239,6 +245,25 @@ class GPSSMConfig:
     def Lambda0(self) -> NDArray[np.float64]:
         d = self.basis.outputs
         return self.sigma_w0**2 * (self.nu0 - d - 1.0) * np.eye(d)
+
+
+DART_OPTIONS: dict[str, Any] = {
+    "sigma_ay": 1.0,
+    "sigma_yaw_rate": 0.05,
+    "sigma_w0": 0.05,
+    "nu0": 50.0,
+    "max_dt": 0.02,
+    "vx_source": "pose",
+}
+"""Configuration overrides for the DART JetRacer recordings (``format='dart'``).
+
+The hobby-grade IMU is far noisier than an automotive one (``R``); the rear-driven
+encoder speed includes up to 30 % wheel spin, so ``vx`` comes from the motion-capture pose;
+the 10 Hz sensor rate is too slow for a forward-Euler step of this small, stiff car
+(``max_dt``); and a larger, firmer prior on the process noise (``sigma_w0``, ``nu0``) keeps
+the filter from collapsing ``Q`` during the long standstill at the start of each file.
+:func:`run_cli` applies them to drives read with ``format='dart'``.
+"""
 
 
 class Sample(NamedTuple):
@@ -837,30 +862,53 @@ def posterior_curves(
 # -------------------------------------------------------------------------------------
 # drive handling and the online object
 # -------------------------------------------------------------------------------------
-def drive_vx(drive: Any) -> NDArray[np.float64]:
-    """Longitudinal speed [m/s]: wheel speeds times radius, else the ``vx`` column.
+def drive_vx(drive: Any, source: str = "auto") -> NDArray[np.float64]:
+    """Longitudinal speed [m/s] for the filter's input.
 
-    With wheel speeds the mean of the non-driven axle is used (all four wheels for
-    all-wheel drive).
+    ``source``:
+
+    ``'wheels'``  mean wheel speed times radius over the non-driven axle (all four wheels
+                  for all-wheel drive); driven wheels spin and are not used;
+    ``'column'``  the drive's ``vx`` column;
+    ``'pose'``    the body-axis projection of the pose derivative,
+                  ``cos(psi) dx/dt + sin(psi) dy/dt`` (motion capture);
+    ``'auto'``    ``'wheels'`` when those wheel speeds exist, else ``'column'``, else
+                  ``'pose'``.
     """
     veh = drive.vehicle
-    if drive.has_wheel_speeds:
-        wheels = {"fwd": ("omega_rl", "omega_rr"), "rwd": ("omega_fl", "omega_fr")}.get(
-            veh.drive, ("omega_fl", "omega_fr", "omega_rl", "omega_rr"))
+    wheels = {"fwd": ("omega_rl", "omega_rr"), "rwd": ("omega_fl", "omega_fr")}.get(
+        veh.drive, ("omega_fl", "omega_fr", "omega_rl", "omega_rr"))
+    if source == "auto":
+        if drive.has(*wheels):
+            source = "wheels"
+        elif drive.has("vx"):
+            source = "column"
+        elif drive.has("x", "y", "psi"):
+            source = "pose"
+        else:
+            raise ValueError(
+                f"drive from {drive.meta.source} has no non-driven wheel speeds, no 'vx' column "
+                "and no pose: the GP-SSM filter needs the longitudinal speed"
+            )
+    if source == "wheels":
+        drive.require(*wheels, why="vx from the non-driven wheels")
         return np.mean([drive.col(c) for c in wheels], axis=0) * veh.wheel_radius
-    if drive.has("vx"):
+    if source == "column":
         return drive.col("vx")
-    raise ValueError(
-        f"drive from {drive.meta.source} has neither wheel speeds (omega_fl..omega_rr) nor a "
-        "'vx' column: the GP-SSM filter needs the longitudinal speed"
-    )
+    if source == "pose":
+        drive.require("x", "y", "psi", why="vx from the pose")
+        t = drive.t
+        psi = np.unwrap(drive.col("psi"))
+        vx = np.cos(psi) * np.gradient(drive.col("x"), t) + np.sin(psi) * np.gradient(drive.col("y"), t)
+        return np.maximum(vx, 0.0)
+    raise ValueError(f"vx source must be 'auto', 'wheels', 'column' or 'pose', got {source!r}")
 
 
-def drive_inputs(drive: Any) -> NDArray[np.float64]:
+def drive_inputs(drive: Any, vx_source: str = "auto") -> NDArray[np.float64]:
     """Columns ``t, ay, yaw_rate, steer, vx`` of a drive as an array (n, 5)."""
     drive.require("t", "ay", "yaw_rate", "steer", why="inputs of the GP-SSM filter")
     return np.column_stack([drive.col("t"), drive.col("ay"), drive.col("yaw_rate"),
-                            drive.col("steer"), drive_vx(drive)])
+                            drive.col("steer"), drive_vx(drive, vx_source)])
 
 
 def upsample_inputs(data: NDArray, max_dt: float) -> tuple[NDArray, NDArray, int]:
@@ -938,7 +986,7 @@ class GPSSM:
             Requested time -> :class:`CurvePosterior` at the first sample at or after it
             (the last sample for times beyond the end).
         """
-        data, keep, k = upsample_inputs(drive_inputs(drive), self.config.max_dt)
+        data, keep, k = upsample_inputs(drive_inputs(drive, self.config.vx_source), self.config.max_dt)
         if k > 1 and self.state_ is None:
             # each recorded sample is processed k times: spread its information over them
             self.config = replace(self.config, sigma_ay=self.config.sigma_ay * math.sqrt(k),
@@ -1034,6 +1082,8 @@ def config_from_request(drive: Any, request: EstimateRequest) -> GPSSMConfig:
     basis = make_basis(request.basis)
     cfg = GPSSMConfig(drive.vehicle, basis=basis,
                       particles=request.particles or 200)
+    if drive.meta.extra.get("format") == "dart":
+        opts = {**DART_OPTIONS, **opts}
     if opts:
         known = {f for f in GPSSMConfig.__dataclass_fields__}
         bad = sorted(set(opts) - known)
