@@ -205,10 +205,19 @@ def method_available(method: str) -> bool:
 
 
 def real_data_root() -> Path | None:
-    """``../shared/data`` beside the checkout (or ``$ROADGRIP_SHARED_DATA``), if present."""
+    """The shared real data, if present.
+
+    ``$ROADGRIP_SHARED_DATA`` when set; otherwise ``../shared/data`` beside the
+    checkout (for an editable install), then beside the working directory.
+    """
     env = os.environ.get("ROADGRIP_SHARED_DATA")
-    root = Path(env) if env else Path(__file__).resolve().parents[3] / ".." / "shared" / "data"
-    return root.resolve() if root.is_dir() else None
+    if env:
+        return Path(env).resolve() if Path(env).is_dir() else None
+    for root in (Path(__file__).resolve().parents[3] / ".." / "shared" / "data",
+                 Path.cwd() / ".." / "shared" / "data"):
+        if root.is_dir():
+            return root.resolve()
+    return None
 
 
 def default_cases(settings: BenchSettings) -> list[Case]:
