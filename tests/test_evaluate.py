@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -304,3 +306,45 @@ def test_bench_is_reproducible_by_seed_and_writes_markdown_and_csv(stand_ins, tm
     md = (tmp_path / "a" / "bench.md").read_text()
     assert "| drive | method |" in md and "samples/s" in md and "real-time" in md
     assert "change to low" in md
+
+
+def test_real_data_cases_follow_the_data_folder(monkeypatch, tmp_path):
+    from roadgrip.evaluate import suite
+
+    monkeypatch.setenv("ROADGRIP_SHARED_DATA", str(tmp_path))
+    assert all(c.path is None for c in suite.default_cases(suite.FULL))
+    (tmp_path / "dart" / "low_grip_tape_and_tiles").mkdir(parents=True)
+    (tmp_path / "dart" / "low_grip_tape_and_tiles" / "car_1_Datarecording_09_09_2024_17_58_23.csv").touch()
+    (tmp_path / "frictionmaps" / "DS3").mkdir(parents=True)
+    real = [c for c in suite.default_cases(suite.QUICK) if c.path is not None]
+    assert {(c.drive, c.method) for c in real} == {
+        ("dart:low:0909-1758", "gpssm"), ("dart:low:0909-1758", "brls"), ("dart:low:0909-1758", "slipmap"),
+        ("frictionmaps:DS3", "cascade")}
+    assert all(c.reference == "low" for c in real if c.format == "dart")
+    monkeypatch.setenv("ROADGRIP_SHARED_DATA", str(tmp_path / "absent"))
+    assert suite.real_data_root() is None
+
+
+DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
+
+
+@pytest.mark.realdata
+def test_dart_classifier_runs_on_the_second_half_with_a_first_half_calibration(monkeypatch):
+    if not (DATA / "dart").is_dir():
+        pytest.skip(f"DART data not found at {DATA} (../shared/data beside the checkout)")
+    from roadgrip.evaluate import suite
+
+    monkeypatch.setenv("ROADGRIP_SHARED_DATA", str(DATA))
+    case = next(c for c in suite.default_cases(suite.QUICK) if c.format == "dart" and c.method == "brls")
+    if not suite.method_available("brls"):
+        pytest.skip("brls not available")
+    rec = suite.run_suite([case], suite.QUICK)[0]
+    assert rec.status == "ok"
+    from roadgrip.io import read_drive
+
+    full = read_drive(case.path, format="dart")
+    tab = rec.result.table
+    assert len(tab) == pytest.approx(full.n / 2, abs=2)
+    assert tab["t"].iloc[0] >= full.t[0] + 0.5 * full.duration - 1e-9
+    assert 0.0 <= rec.metrics["class_acc_exc"] <= 1.0
+    assert any("calibrated on the first halves" in d for d in rec.details)
