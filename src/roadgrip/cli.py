@@ -85,7 +85,7 @@ def estimate(
     vehicle: VehicleOpt = None,
     fmt: FormatOpt = None,
     particles: Annotated[int | None, typer.Option(help="gpssm: number of particles.")] = None,
-    basis: Annotated[str | None, typer.Option(help="gpssm: tensor:10x10 or separable:20.")] = None,
+    basis: Annotated[str | None, typer.Option(help="gpssm: tensor:10x10 (paper), separable:20, or their -odd variants (default separable-odd:20).")] = None,
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
     calibration: Annotated[str | None, typer.Option(help="brls/slipmap: calibration YAML.")] = None,
     curves: Annotated[Path | None, typer.Option(help="gpssm: write posterior curves here.")] = None,
