@@ -247,6 +247,15 @@ class GPSSMConfig:
         return self.sigma_w0**2 * (self.nu0 - d - 1.0) * np.eye(d)
 
 
+CLI_DEFAULT_BASIS = "separable-odd:20"
+"""Basis of ``roadgrip estimate --method gpssm`` without ``--basis``.
+
+:class:`GPSSMConfig` defaults to the paper's ``tensor:10x10``; the command defaults to 20
+odd functions per axle, which on the simulated snow drive learns the curves an order of
+magnitude more accurately (the odd symmetry makes the lateral velocity identifiable) and
+runs about ten times faster.
+"""
+
 DART_OPTIONS: dict[str, Any] = {
     "sigma_ay": 1.0,
     "sigma_yaw_rate": 0.05,
@@ -1079,7 +1088,7 @@ def curve_accuracy(
 
 def config_from_request(drive: Any, request: EstimateRequest) -> GPSSMConfig:
     opts = dict(request.options or {})
-    basis = make_basis(request.basis)
+    basis = make_basis(request.basis or CLI_DEFAULT_BASIS)
     cfg = GPSSMConfig(drive.vehicle, basis=basis,
                       particles=request.particles or 200)
     if drive.meta.extra.get("format") == "dart":
