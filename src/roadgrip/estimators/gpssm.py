@@ -61,6 +61,24 @@ model): ``zeta_f = a_f^T phi(alpha_f) + w_f``, ``zeta_r = a_r^T phi(alpha_r) + w
 independent ``w_f, w_r``. Each is exactly conjugate; the two share nothing but the
 particle's state trajectory.
 
+Odd-symmetric bases
+-------------------
+``tensor-odd:n x n`` and ``separable-odd:n`` keep only the basis functions that are odd in
+the slip angles (:func:`roadgrip.estimators.basis.make_basis`): ``mu(-alpha) =
+-mu(alpha)``, a left-right symmetric vehicle. The lateral velocity is observed only through
+the consistency of the learned curve; with an unconstrained basis a bias in ``vy`` shifts
+both turning directions the same way and is absorbed by a shifted curve, with the odd
+basis it is not. On the simulated snow drive this takes the ``vy`` error from about
+0.06 m/s to 0.01 m/s and the curve error from 0.01-0.04 to below 0.005.
+
+Practicalities
+--------------
+``vx`` comes from the non-driven wheels, the ``vx`` column or the pose
+(``GPSSMConfig.vx_source``, :func:`drive_vx`). Below ``min_speed`` the statistics are
+frozen. Data slower than ``max_dt`` are interpolated onto sub-steps
+(:func:`upsample_inputs`). :data:`DART_OPTIONS` holds the settings used for the DART
+JetRacer recordings.
+
 Outputs
 -------
 Friction curves are reported for the odd part ``(mu(alpha) - mu(-alpha)) / 2`` on
