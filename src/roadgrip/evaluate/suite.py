@@ -136,7 +136,7 @@ QUICK = BenchSettings(
     "quick",
     durations={"snow-slalom": 60.0, "dry-gravel-dry": None, "f1tenth-patches": None,
                "straight-cruise": 30.0},
-    particles=100,
+    particles=50,
     dart_files=1,
     frictionmaps_runs=("DS3", "DS4", "DS5"),
 )
