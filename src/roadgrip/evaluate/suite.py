@@ -40,6 +40,7 @@ from roadgrip.evaluate import metrics as M
 
 __all__ = [
     "BENCH_COLUMNS",
+    "COLUMN_NOTES",
     "DEMO",
     "FULL",
     "QUICK",
@@ -640,6 +641,25 @@ BENCH_COLUMNS: dict[str, tuple[str, str]] = {
 """Metric key -> (column header, format) of the benchmark table."""
 
 
+COLUMN_NOTES = (
+    "Columns: curve MAE / band cov. = worst over axles and times (t = 50 s and end) of the "
+    "posterior-mean curve error and 95 % band coverage over 0.5° slip bins visited ≥ 20 times; "
+    "peak err. = final peak estimate − true peak (only where the estimator reports the peak as "
+    "observed; otherwise it is judged as a lower bound in the notes); peak − reference = largest "
+    "final axle peak − the floor's approximate friction (DART: 0.8 high, 0.35 low); μ band cov. = "
+    "fraction of time the true peak lies in the 95 % band; class acc. = fraction of time "
+    "classified correctly ('unknown' counts as wrong), (excited) = on sufficiently excited "
+    "samples (|a| ≥ 2 m/s² for ≥ 0.3 s; DART: the estimator's excited samples after 10 s); max "
+    "delay = worst detection delay (the new class held ≥ 0.5 s) after the first sample the "
+    "estimator flags as excited following a surface change; confident wrong = fraction of "
+    "samples with a confident claim outside tolerance (a band no wider than 0.2 with the "
+    "estimate more than 0.1 off, or a wrong 'high'/'low' class; a class held through the "
+    "unexcited seconds after a surface change counts); map = cells with ≥ 10 excited "
+    "observations, their mean absolute error and the fraction inside mean ± 1.96 std."
+)
+"""What the benchmark columns mean (shown under the table)."""
+
+
 def bench_table(records: Sequence[RunRecord]) -> pd.DataFrame:
     """One row per run: drive, method, status and every metric (NaN where it does not apply)."""
     rows = []
@@ -722,17 +742,7 @@ def write_outputs(records: Sequence[RunRecord], out_dir: Path, settings: BenchSe
     table.to_csv(out_dir / "bench.csv", index=False)
     md = [f"# roadgrip benchmark\n\nseed {seed}; {settings.describe()}\n\n", table_markdown(table)]
     md.extend(f"\n{n}\n" for n in suite_notes(records))
-    md.append(
-        "\nColumns: curve MAE / band cov. = worst over axles and times (t = 50 s and end) of the "
-        "posterior-mean curve error and 95 % band coverage over slip bins visited ≥ 20 times; "
-        "peak err. = final peak estimate − true peak (only where the estimator reports the peak as observed); peak − reference = largest final axle peak − the floor's approximate friction (DART: 0.8 high, 0.35 low); μ band cov. = "
-        "fraction of time the true peak lies in the 95 % band; class acc. (excited) = on "
-        "sufficiently excited samples (|a| ≥ 2 m/s² for ≥ 0.3 s); max delay = worst detection "
-        "delay (the new class held ≥ 0.5 s) after the first sample the estimator flags as excited "
-        "following a surface change; confident "
-        "wrong = fraction of samples with a confident claim outside tolerance (0.1 in μ, or the "
-        "wrong class); map = cells with ≥ 10 excited observations.\n"
-    )
+    md.append("\n" + COLUMN_NOTES + "\n")
     for r in records:
         if r.details:
             md.append(f"\n**{r.case.drive} / {r.case.label}**\n")

@@ -27,6 +27,7 @@ from roadgrip.evaluate import metrics as M
 from roadgrip.evaluate.suite import (
     BENCH_COLUMNS,
     CLASSIFIERS,
+    COLUMN_NOTES,
     RunRecord,
     bench_table,
     format_cell,
@@ -62,6 +63,7 @@ figure img { max-width: 100%; border: 1px solid #e9ecef; }
 figcaption { font-size: .85em; color: #495057; }
 .note { color: #868e96; font-style: italic; }
 ul.details { font-size: .85em; }
+p.legend { font-size: .8em; color: #495057; max-width: 70em; }
 """
 
 
@@ -234,6 +236,7 @@ def build_report(
         elif sec == "benchmark":
             if len(table):
                 parts.append(_bench_html(table))
+                parts.append(f'<p class="legend">{html.escape(COLUMN_NOTES)}</p>')
                 for rec in records:
                     if rec.details:
                         parts.append(f"<h3>{html.escape(rec.case.drive)} / {html.escape(rec.case.label)}</h3>")
