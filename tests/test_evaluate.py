@@ -348,3 +348,23 @@ def test_dart_classifier_runs_on_the_second_half_with_a_first_half_calibration(m
     assert tab["t"].iloc[0] >= full.t[0] + 0.5 * full.duration - 1e-9
     assert 0.0 <= rec.metrics["class_acc_exc"] <= 1.0
     assert any("calibrated on the first halves" in d for d in rec.details)
+
+
+@pytest.mark.slow
+def test_real_estimators_are_reproducible_by_seed():
+    pytest.importorskip("roadgrip.sim.scenarios")
+    from dataclasses import replace
+
+    from roadgrip.evaluate import suite
+
+    settings = replace(suite.QUICK, particles=20, real_data=False,
+                       durations={"snow-slalom": 20.0, "f1tenth-patches": 20.0},
+                       scenarios=("snow-slalom", "f1tenth-patches"), gpssm_variants=("gpssm-sep-odd",))
+    cases = [c for c in suite.default_cases(settings) if suite.method_available(c.method)]
+    if not cases:
+        pytest.skip("no estimator available")
+    speed = ["samples_per_s", "rtf"]
+    a = suite.bench_table(suite.run_suite(cases, settings, seed=4)).drop(columns=speed)
+    b = suite.bench_table(suite.run_suite(cases, settings, seed=4)).drop(columns=speed)
+    assert (a["status"] == "ok").all(), a["status"].tolist()
+    pd.testing.assert_frame_equal(a, b)
