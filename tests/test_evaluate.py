@@ -254,7 +254,11 @@ def _stand_in(method, drive, request):
     mu = true_peak_series(drive) + rng.normal(0.0, 0.02, drive.n)
     tab = pd.DataFrame({"t": t, "mu_front": mu, "mu_rear": mu, "mu_front_lower": mu - 0.1,
                         "mu_front_upper": mu + 0.1, "mu_rear_lower": mu - 0.1, "mu_rear_upper": mu + 0.1,
-                        "peak_observed_front": True, "peak_observed_rear": method != "gpssm-lb"})
+                        "peak_observed_front": True,
+                        "peak_observed_rear": not request.options.get("lower_bound", False)})
+    if request.options.get("offset"):
+        for c in ("mu_front", "mu_front_lower", "mu_front_upper"):
+            tab[c] = tab[c] + request.options["offset"]
     return EstimateResult(method, conform(tab), {})
 
 
@@ -285,10 +289,24 @@ def test_suite_runs_scores_and_isolates_failures(stand_ins):
 
 def test_unobserved_peak_is_judged_as_a_lower_bound(stand_ins):
     suite = stand_ins
-    rec = suite.run_suite([suite.Case("hand", "gpssm-lb", "gpssm-lb")], suite.QUICK,
-                          drives={"hand": _hand_drive()})[0]
+    rec = suite.run_suite([suite.Case("hand", "gpssm", "gpssm", options=(("lower_bound", True),))],
+                          suite.QUICK, drives={"hand": _hand_drive()})[0]
     assert "peak_err_f" in rec.metrics and "peak_err_r" not in rec.metrics
     assert any("rear: peak not observed" in d and "bound holds" in d for d in rec.details)
+
+
+def test_narrow_wrong_estimates_count_as_confident_wrong_claims(stand_ins):
+    suite = stand_ins
+    drive = _hand_drive()
+    # gpssm: a narrow band 0.3 too high on the front axle, peak observed: a wrong claim
+    gp = suite.run_suite([suite.Case("hand", "gpssm", "gpssm", options=(("offset", 0.3),))],
+                         suite.QUICK, drives={"hand": drive})[0]
+    assert gp.metrics["conf_wrong"] == pytest.approx(1.0)
+    assert gp.metrics["peak_err_f"] == pytest.approx(0.3, abs=0.1)
+    # a method without peak flags (as the cascade): its mu is a claim of the peak, judged as one
+    ok = suite.run_suite([suite.Case("hand", "brls-free", "mu-method")], suite.QUICK,
+                         drives={"hand": drive})[0]
+    assert ok.metrics["conf_wrong"] < 0.01 and "peak_err_f" in ok.metrics
 
 
 def test_bench_is_reproducible_by_seed_and_writes_markdown_and_csv(stand_ins, tmp_path):

@@ -470,7 +470,7 @@ def confident_wrong_rate(
     if not ok.any():
         return float("nan")
     width = hi - lo
-    confident = np.isfinite(width) & (width <= 2.0 * tol) & np.isfinite(est)
+    confident = np.isfinite(width) & (width <= 2.0 * tol + 1e-9) & np.isfinite(est)
     if observed is not None:
         obs = np.asarray(observed, bool)
         _same_len(estimate=est, observed=obs)

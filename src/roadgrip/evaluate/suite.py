@@ -66,6 +66,9 @@ basis with the exact per-particle linear algebra, the same with the fast backend
 separable per-axle basis, and its odd-symmetric form."""
 
 CLASSIFIERS = ("brls", "slipmap")
+PEAK_FLAG_METHODS = ("gpssm",)
+"""Methods that write ``peak_observed_*``; for the others ``mu_*`` is the friction
+coefficient itself, a claim about the peak wherever its band is narrow."""
 FRICTION_METHODS = ("gpssm", "cascade")
 
 CURVE_BIN_WIDTH = float(np.radians(0.5))
@@ -456,7 +459,9 @@ def _score_friction(rec: RunRecord) -> None:
         lo = _finite_col(tab, f"mu_{axle}_lower")
         hi = _finite_col(tab, f"mu_{axle}_upper")
         truth = _truth_on(drive, tab, M.true_peak_series(drive, axle))
-        obs = tab[f"peak_observed_{axle}"].to_numpy(bool) if f"peak_observed_{axle}" in tab else None
+        obs = None
+        if rec.case.method in PEAK_FLAG_METHODS and f"peak_observed_{axle}" in tab:
+            obs = tab[f"peak_observed_{axle}"].to_numpy(bool)
         err = est[-1] - truth[-1]
         final_obs = bool(obs[-1]) if obs is not None else True
         if final_obs:

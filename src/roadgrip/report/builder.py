@@ -28,6 +28,7 @@ from roadgrip.evaluate.suite import (
     BENCH_COLUMNS,
     CLASSIFIERS,
     COLUMN_NOTES,
+    PEAK_FLAG_METHODS,
     RunRecord,
     bench_table,
     format_cell,
@@ -137,8 +138,10 @@ def _figures(records: Sequence[RunRecord], extra_drives: dict) -> _Page:
         tab = rec.result.table
         label = f"{rec.case.drive} / {rec.case.label}"
         if _has_mu(tab):
+            shown = tab if rec.case.method in PEAK_FLAG_METHODS else tab.drop(
+                columns=["peak_observed_front", "peak_observed_rear"], errors="ignore")
             page.add("friction", f"{label}: peak friction per axle, 95 % band, true peak dashed",
-                     P.plot_friction_trace(tab, _truth_peaks(rec), title=label), label)
+                     P.plot_friction_trace(shown, _truth_peaks(rec), title=label), label)
         curves = rec.result.curves
         if curves is not None and len(curves):
             visited = None
