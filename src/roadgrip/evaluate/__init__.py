@@ -3,6 +3,9 @@
 * :mod:`roadgrip.evaluate.metrics`: metric functions on plain arrays.
 * :mod:`roadgrip.evaluate.suite`: which estimator runs on which scenario or
   real data set, how each run is scored, and ``roadgrip bench``.
+* :mod:`roadgrip.evaluate.maps`: friction grids of a run and their cell truth.
+
+The output contract the metrics read is described in ``docs/output-contract.md``.
 """
 
 from roadgrip.evaluate.metrics import (
