@@ -206,6 +206,13 @@ class GPSSMConfig:
         in the curve band: the error of representing a tire curve with a truncated basis,
         which the posterior of the basis weights does not contain (a few thousandths for
         the Magic Formula with 20 functions per axle).
+    max_sideslip : float or None
+        Largest body sideslip angle ``|arctan(vy / vx)|`` [rad] a particle may take after
+        the propagation; ``None`` for no bound. Where the data demand more lateral force
+        than a particle's sampled curve gives (at and past the friction limit, or a slip
+        beyond the basis domain where the learned part vanishes), nothing in eq. 7 pulls
+        ``vy`` back: it integrates ``-vx r`` and runs away (hundreds of m/s on the DART
+        recordings). A car that is not spinning out stays well inside the bound (:data:`DART_OPTIONS`).
     """
 
     vehicle: VehicleParams
@@ -232,6 +239,7 @@ class GPSSMConfig:
     vx_source: str = "auto"
     slip_sigma: float = math.radians(0.25)
     curve_sigma_floor: float = 0.005
+    max_sideslip: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.vehicle, VehicleParams):
@@ -243,6 +251,8 @@ class GPSSMConfig:
         d = self.basis.outputs
         if not self.nu0 > d + 1:
             raise ValueError(f"nu0 must exceed d + 1 = {d + 1}, got {self.nu0!r}")
+        if self.max_sideslip is not None and not 0.0 < self.max_sideslip < math.pi / 2:
+            raise ValueError(f"max_sideslip must be in (0, pi/2) rad or None, got {self.max_sideslip!r}")
         for name in ("sigma_w0", "sigma_ay", "sigma_yaw_rate", "sigma_vy0", "peak_range",
                      "bin_width", "slip_sigma", "curve_sigma_floor", "max_dt", "min_speed"):
             v = getattr(self, name)
@@ -549,6 +559,10 @@ def step(
         Phi = state.Phi
         Phi *= lam
         nu = lam * state.nu
+    if config.max_sideslip is not None:
+        # physical bound on the body sideslip angle (GPSSMConfig.max_sideslip)
+        vy_max = math.tan(config.max_sideslip) * max(float(sample.vx), 0.0)
+        np.clip(x[:, LateralState.VY], -vy_max, vy_max, out=x[:, LateralState.VY])
     rng = np.random.default_rng()
     rng.bit_generator.state = state.rng
 
@@ -563,8 +577,11 @@ def step(
     mu_prior = np.stack([config.prior_tire.mu(alpha_f), config.prior_tire.mu(alpha_r)], axis=1)
 
     ratio = _manifold_ratio(state)
-    fpk2, where = _odd(config, ratio, state.peak_alpha)  # (2, 2, m)
-    fpk = np.stack([fpk2[0, 0], fpk2[1, 1]])  # front curve at its peak, rear at its peak
+    pk_args = (float(state.peak_alpha[0]), float(state.peak_alpha[1]))
+    if b.kind == "tensor":  # the manifold ratio changes every step
+        fpk, where = _peak_features.__wrapped__(config, ratio, *pk_args)
+    else:
+        fpk, where = _peak_features(config, 1.0, *pk_args)
     # right-hand sides: phi, Psi^T, peak features of the groups
     if b.kind == "tensor":
         rp = np.broadcast_to(fpk.T[None, None], (N, 1, b.m, 2))
@@ -717,6 +734,19 @@ def _zeta_mean(config: GPSSMConfig, MT: NDArray, phi: NDArray) -> NDArray:
 
 
 @lru_cache(maxsize=64)
+def _peak_features(config: GPSSMConfig, ratio: float, a_front: float, a_rear: float) -> tuple[NDArray, NDArray]:
+    """Odd-part features of the front curve at ``a_front`` and the rear at ``a_rear``,
+    (2, m), and the (group, row) table of :func:`_axle_features`. Cached: the peak slip
+    angles are grid points and the separable bases do not depend on ``ratio``; the arrays
+    are read-only."""
+    fpk2, where = _odd(config, ratio, np.array([a_front, a_rear]))  # (2, 2, m)
+    fpk = np.stack([fpk2[0, 0], fpk2[1, 1]])
+    fpk.flags.writeable = False
+    where.flags.writeable = False
+    return fpk, where
+
+
+@lru_cache(maxsize=64)
 def _peak_grid(config: GPSSMConfig, ratio: float) -> tuple[NDArray, NDArray, NDArray]:
     """Slip grid on ``[0, peak_range]``, odd-part features (2, n, m) and prior curve."""
     grid = np.linspace(0.0, config.peak_range, config.peak_grid)
@@ -775,14 +805,17 @@ def resample(state: GPSSMState, idx: NDArray) -> GPSSMState:
 
     The state ``x``, friction sample ``mu``, information matrix, ``Psi`` and ``Phi`` of
     new particle ``i`` are those of old particle ``idx[i]`` (Algorithm 1, line 9).
+    The matrix buffers of ``state`` are reused (moved in place for sorted ``idx``); pass
+    :func:`copy_state` of it if the old state is still needed.
     """
     idx = np.asarray(idx)
     n = len(state.logw)
     if idx.shape != (n,) or idx.min() < 0 or idx.max() >= n:
         raise ValueError(f"resampling indices must be {n} integers in [0, {n})")
     return state._replace(
-        x=state.x[idx], mu=state.mu[idx], lin=la.take(state.lin, idx), Psi=state.Psi[idx],
-        Phi=state.Phi[idx], logw=np.full(n, -math.log(n)),
+        x=state.x[idx], mu=state.mu[idx], lin=la.take(state.lin, idx),
+        Psi=la.take_rows(state.Psi, idx), Phi=la.take_rows(state.Phi, idx),
+        logw=np.full(n, -math.log(n)),
     )
 
 

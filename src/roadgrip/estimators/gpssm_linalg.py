@@ -249,10 +249,45 @@ def update(st: LinAlgState, phi: NDArray, pb_phi: NDArray | None) -> LinAlgState
 
 
 def take(st: LinAlgState, idx: NDArray) -> LinAlgState:
-    """Rows ``idx`` (resampling): each particle keeps its own matrices."""
+    """Rows ``idx`` (resampling): each particle keeps its own matrices.
+
+    The buffers of ``st`` are consumed (rows are moved in place when ``idx`` is sorted).
+    """
     return st._replace(
-        sigma=st.sigma[idx], pinv=st.pinv[idx] if st.pinv.ndim == 4 else st.pinv
+        sigma=take_rows(st.sigma, idx), pinv=take_rows(st.pinv, idx) if st.pinv.ndim == 4 else st.pinv
     )
+
+
+def take_rows(a: NDArray, idx: NDArray) -> NDArray:
+    """``a[idx]`` along the first axis; in place (``a`` is overwritten and returned) when
+    ``idx`` is non-decreasing, as systematic resampling produces, else a new array.
+
+    In place, only the rows that change are copied, without a temporary of the size of ``a``.
+    """
+    idx = np.asarray(idx, dtype=np.int64)
+    if len(idx) != a.shape[0] or not a.flags.c_contiguous or np.any(np.diff(idx) < 0):
+        return a[idx]
+    _gather_sorted(a.reshape(a.shape[0], -1), idx)
+    return a
+
+
+@numba.njit(cache=True)
+def _gather_sorted(a, idx):  # pragma: no cover - compiled
+    """In place ``a <- a[idx]`` for non-decreasing ``idx``.
+
+    Rows with ``idx[i] >= i`` are filled in increasing ``i`` (they read rows not yet
+    written), then rows with ``idx[i] < i`` in decreasing ``i`` (a source row ``q =
+    idx[i] < i`` was either untouched or had ``idx[q] = q``, by monotonicity).
+    """
+    n = a.shape[0]
+    for i in range(n):
+        j = idx[i]
+        if j > i:
+            a[i, :] = a[j, :]
+    for i in range(n - 1, -1, -1):
+        j = idx[i]
+        if j < i:
+            a[i, :] = a[j, :]
 
 
 def copy(st: LinAlgState) -> LinAlgState:
