@@ -143,6 +143,7 @@ QUICK = BenchSettings(
     particles=50,
     dart_files=1,
     frictionmaps_runs=("DS3", "DS4", "DS5"),
+    gpssm_variants=("gpssm-fast", "gpssm-sep", "gpssm-sep-odd"),
 )
 DEMO = BenchSettings(
     "demo",
