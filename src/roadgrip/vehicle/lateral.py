@@ -115,7 +115,7 @@ def lateral_discrete(
     fzf, fzr = params.fz_front, params.fz_rear
     a = np.stack([s.vy - dt * s.vx * s.r, s.r], axis=-1)
     c = np.cos(s.steer)
-    G = np.empty(a.shape + (2,))
+    G = np.empty((*a.shape, 2))
     G[..., 0, 0] = dt * fzf * c / params.mass
     G[..., 0, 1] = dt * fzr / params.mass
     G[..., 1, 0] = dt * params.lf * fzf * c / params.yaw_inertia
@@ -137,7 +137,7 @@ def lateral_measurement(
     """
     s = _split(x, u)
     h = np.stack([np.zeros_like(s.r), s.r], axis=-1)
-    D = np.zeros(h.shape + (2,))
+    D = np.zeros((*h.shape, 2))
     D[..., 0, 0] = params.fz_front * np.cos(s.steer) / params.mass
     D[..., 0, 1] = params.fz_rear / params.mass
     return h, D
