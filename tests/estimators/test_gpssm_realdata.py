@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from roadgrip.estimators.basis import make_basis
-from roadgrip.estimators.gpssm import DART_OPTIONS, GPSSM, GPSSMConfig
+from roadgrip.estimators.gpssm import DART_OPTIONS, GPSSM, GPSSMConfig, drive_vx
 
 DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dart"
 FILES = {
@@ -33,14 +33,18 @@ def _run(name, seed=0):
 def test_runs_on_the_recordings_without_nan(name):
     d, t = _run(name)
     assert len(t) == d.n
+    # the sideslip bound of DART_OPTIONS: no lateral-velocity run-away (was hundreds of m/s)
+    vx_max = np.nanmax(drive_vx(d, DART_OPTIONS["vx_source"]))
+    assert t["vy"].abs().max() <= np.tan(DART_OPTIONS["max_sideslip"]) * vx_max + 1e-9
     assert np.isfinite(t.select_dtypes("number").to_numpy()).all()
     assert (t["mu_front_lower"] <= t["mu_front"] + 1e-12).all()
     assert (t["mu_front"] <= t["mu_front_upper"] + 1e-12).all()
 
 
 @pytest.mark.xfail(
-    reason="on the JetRacer recordings the lateral-velocity estimate can drift away at the "
-    "friction limit, and the learned peak then depends on the random seed",
+    reason="the recordings are steady one-direction turns: the lateral velocity (a common "
+    "shift of both slip angles) is not identified, and the learned peak depends on the random "
+    "seed (max over axles, seeds 0-5: rubbery 0.23-0.65, tape and tiles 0.19-0.59)",
     strict=False,
 )
 def test_learned_peak_friction_separates_the_two_floors():
