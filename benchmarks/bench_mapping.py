@@ -6,7 +6,9 @@ Run: ``.venv/bin/python benchmarks/bench_mapping.py``. Random observations over 
 ``--real OUTDIR`` also runs the cascade and the grid on the F1/10 runs DS1-DS5
 of ``../shared/data/frictionmaps`` (when present), writes each map (NPZ, CSV,
 PNG) and the merged DS3-DS5 map to OUTDIR, and prints how the maps of DS3, DS4
-and DS5 (the same loop) agree on their common cells.
+and DS5 (the same loop) agree on their common cells. ``--calibrate`` reads the
+runs with the pose calibration of the reader (gyro and odometry-speed scales,
+effective steering gain; ``roadgrip.io.frictionmaps``) and prints the fitted values.
 """
 
 from __future__ import annotations
@@ -46,12 +48,12 @@ def main() -> None:
           f"observations kept {int(m.n_obs.sum()):,} of {n:,}")
 
 
-def frictionmaps(outdir: str) -> None:
+def frictionmaps(outdir: str, calibrate: bool = False, steer_delay: float = 0.0) -> None:
     import sys
     from pathlib import Path
 
     from roadgrip.estimators import cascade as C
-    from roadgrip.io import read_drive
+    from roadgrip.io.frictionmaps import read_frictionmaps
     from roadgrip.plots.maps import plot_grid
 
     root = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "frictionmaps"
@@ -62,7 +64,12 @@ def frictionmaps(outdir: str) -> None:
     out.mkdir(parents=True, exist_ok=True)
     grids = {}
     for ds in ("DS1", "DS2", "DS3", "DS4", "DS5"):
-        drive = read_drive(str(root / ds), format="frictionmaps")
+        drive = read_frictionmaps(root / ds, calibrate=calibrate, steer_delay=steer_delay)
+        if calibrate:
+            c = drive.meta.extra["calibration"]
+            print(f"{ds}: gyro scale {c['gyro_scale']:.3f}, speed scale {c['speed_scale']:.3f}, "
+                  f"steering gain {c['steer_gain']:.3f} ({c['steer_gain_n']} steady samples), ay/(vx r) "
+                  f"{drive.meta.extra['kinematic_checks'].get('ay_over_vx_yaw_rate', np.nan):.2f}")
         res = C.run_cli(drive, C.EstimateRequest(plot_path=str(out / f"{ds}_cascade.png")))
         g = M.grid_from_estimates(res.table, 0.5)
         grids[ds] = g
@@ -95,7 +102,11 @@ if __name__ == "__main__":
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--real", metavar="OUTDIR", help="also map the frictionmaps runs into OUTDIR")
+    ap.add_argument("--calibrate", action="store_true", help="calibrate the real runs against the pose")
+    ap.add_argument("--steer-delay", type=float, default=0.0, help="command delay [s] for the real runs")
+    ap.add_argument("--real-only", action="store_true", help="skip the synthetic fusion benchmark")
     a = ap.parse_args()
-    main()
+    if not a.real_only:
+        main()
     if a.real:
-        frictionmaps(a.real)
+        frictionmaps(a.real, calibrate=a.calibrate, steer_delay=a.steer_delay)

@@ -216,3 +216,83 @@ def test_frictionmaps_steer_delay_improves_fit_to_the_linear_model():
     assert c1 > c0 + 0.03 and c1 > c3 and c1 > 0.97
     with pytest.raises(ValueError, match="steer_delay must be a non-negative"):
         read_frictionmaps(FM / "DS3", steer_delay=-0.1)
+
+
+# --------------------------------------------------------------------------- pose calibration
+def _synthetic_run(seed=3, n=6000, rate=50.0):
+    """Kinematic car on a varying-curvature path; pose integrated from the truth."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / rate
+    v = 2.0 + 0.8 * np.sin(2 * np.pi * t / 23.0)
+    r = 1.2 * np.sin(2 * np.pi * t / 7.0) + 0.4 * np.sin(2 * np.pi * t / 3.1)
+    dt = 1.0 / rate
+    psi = np.r_[0.0, np.cumsum(0.5 * (r[1:] + r[:-1]) * dt)]
+    x = np.r_[0.0, np.cumsum(0.5 * (v[1:] * np.cos(psi[1:]) + v[:-1] * np.cos(psi[:-1])) * dt)]
+    y = np.r_[0.0, np.cumsum(0.5 * (v[1:] * np.sin(psi[1:]) + v[:-1] * np.sin(psi[:-1])) * dt)]
+    x = x + rng.normal(0, 0.01, n)
+    y = y + rng.normal(0, 0.01, n)
+    psi_m = psi + rng.normal(0, 0.005, n)
+    # localisation jumps: a 1.5 m / 0.5 rad offset over 40 samples, flagged at both ends
+    jump = np.zeros(n, bool)
+    for k in (900, 3100, 5000):
+        x[k:k + 40] += 1.5
+        psi_m[k:k + 40] += 0.5
+        jump[[k, k + 40]] = True
+    return t, v, r, x, y, psi_m, jump
+
+
+def test_fit_pose_scales_recovers_known_scales():
+    from roadgrip.io.frictionmaps import fit_pose_scales
+
+    t, v, r, x, y, psi, jump = _synthetic_run()
+    rng = np.random.default_rng(4)
+    gyro = 1.07 * r + rng.normal(0, 0.02, len(t))
+    odo = 1.04 * v + rng.normal(0, 0.02, len(t))
+    fit = fit_pose_scales(t, gyro, odo, x, y, psi, jump)
+    assert fit["gyro_scale"] == pytest.approx(1 / 1.07, rel=3e-3)
+    assert fit["speed_scale"] == pytest.approx(1 / 1.04, rel=3e-3)
+    # the jumps matter: unflagged, the same data give a worse speed scale
+    bad = fit_pose_scales(t, gyro, odo, x, y, psi, np.zeros_like(jump), window=1.0)
+    assert abs(bad["speed_scale"] - 1 / 1.04) > abs(fit["speed_scale"] - 1 / 1.04)
+    with pytest.raises(ValueError, match="too few"):
+        fit_pose_scales(t, gyro, 0.0 * odo, x, y, psi, jump)
+
+
+def test_fit_steer_gain_recovers_known_gain():
+    from roadgrip.io.frictionmaps import fit_steer_gain
+
+    rng = np.random.default_rng(5)
+    n, wheelbase = 4000, 0.32
+    cmd = np.repeat(rng.uniform(-0.34, 0.34, n // 100), 100)  # held commands
+    vx = np.repeat(rng.uniform(1.5, 4.0, n // 100), 100)
+    delta = 0.62 * cmd  # effective road-wheel angle
+    r = vx * np.tan(delta) / wheelbase + rng.normal(0, 0.01, n)
+    ay = vx * r
+    k, used = fit_steer_gain(cmd, r, vx, ay, wheelbase)
+    assert used > 20
+    assert k == pytest.approx(0.62, rel=5e-3)
+    # never above the command, and no fit without samples
+    assert fit_steer_gain(cmd, 2 * r, vx, 0 * ay, wheelbase)[0] == 1.0
+    assert fit_steer_gain(cmd, r, vx, ay, wheelbase, steady=np.zeros(n, bool)) == (1.0, 0)
+    with pytest.raises(ValueError, match="non-positive"):
+        fit_steer_gain(cmd, -r, vx, ay, wheelbase)
+
+
+@needs_fm
+@pytest.mark.parametrize("run", ["DS3", "DS4"])
+def test_frictionmaps_calibration(run):
+    from roadgrip.io.frictionmaps import read_frictionmaps
+
+    raw = read_frictionmaps(FM / run)
+    d = read_frictionmaps(FM / run, calibrate=True)
+    c = d.meta.extra["calibration"]
+    assert np.allclose(d.col("yaw_rate"), c["gyro_scale"] * raw.col("yaw_rate"))
+    assert np.allclose(d.col("vx"), c["speed_scale"] * raw.col("vx"))
+    assert np.allclose(d.col("steer_cmd"), raw.col("steer"))
+    assert np.allclose(d.col("steer"), c["steer_gain"] * raw.col("steer"))
+    assert 0.0 < c["steer_gain"] <= 1.0
+    # an independent estimate (median per-step pose speed ratio) now agrees with the odometry
+    before = raw.meta.extra["kinematic_checks"]["pose_speed_over_vx"]
+    after = d.meta.extra["kinematic_checks"]["pose_speed_over_vx"]
+    assert abs(after - 1.0) < 0.05
+    assert abs(after - 1.0) <= abs(before - 1.0) + 0.01

@@ -38,6 +38,34 @@ and recorded asynchronously at about 18-44 Hz. Conversions, all recorded in
 of 0.95-1.09 in turns; DS4 gives about 0.5 with a pose speed about 0.8 of the
 odometry speed, so in DS4 the odometry speed (and possibly the accelerometer
 scale) disagrees with the pose kinematics: treat its ``vx`` with care.
+
+``calibrate=True`` (off by default) corrects the slip-angle inputs against the
+particle-filter pose, per run (:func:`fit_pose_scales`, :func:`fit_steer_gain`;
+the fitted values are in ``meta.extra['calibration']``):
+
+* gyro scale ``k_r``: least-squares slope of the pose heading change against
+  the integrated gyro yaw rate over windows of ``window`` seconds;
+  ``yaw_rate *= k_r``.
+* odometry speed scale ``k_v``: least-squares slope of the pose chord
+  ``|p(t+W) - p(t)|`` against the chord of the odometry speed integrated along
+  the pose heading over the same window; ``vx *= k_v``. Windows that contain a
+  flagged ``pose_jump`` or a dropped tick are excluded, and one pass rejects
+  windows with residuals above 3 scaled MADs. Assumes the pose is unbiased in
+  scale (a LiDAR map at 0.05 m/px) and the side slip small (|vy| << vx), so the
+  chord of the odometry path is that of the true path.
+* steering gain ``k_d``: the command is not the road-wheel angle (the car turns
+  0.5-0.8 times as much as a kinematic car with the commanded angle). The
+  effective angle is ``k_d * command``, ``k_d`` the least-squares slope of the
+  kinematic angle ``atan(L r / vx)`` (corrected ``r``, ``vx``) against the
+  command in steady cornering: command and yaw rate each within 0.02 rad and
+  0.3 rad/s over the last 0.3 s, ``|ay| < 0.5 g``, ``vx > 1 m/s``,
+  ``|command| > 0.05 rad``. Bounded to (0, 1]: the effective angle never
+  exceeds the command. It assumes a constant gain (no speed dependence) and
+  folds the understeer below 0.5 g into the gain. With fewer than 20 steady
+  samples (DS4 without ``steer_delay``) the gain is left at 1 and
+  ``steer_gain_n`` records 0. The command itself is kept as ``steer_cmd``.
+  On DS1-DS5 the steady gain is 0.8-1.0: the large turn deficit seen in
+  transients is the actuation lag, not a miscalibrated steering.
 """
 
 from __future__ import annotations
@@ -53,7 +81,14 @@ from roadgrip.io._csv import read_csv_exact
 from roadgrip.io.resample import resample
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
-__all__ = ["ERPM_PER_MPS", "is_frictionmaps_dir", "quaternion_yaw", "read_frictionmaps"]
+__all__ = [
+    "ERPM_PER_MPS",
+    "fit_pose_scales",
+    "fit_steer_gain",
+    "is_frictionmaps_dir",
+    "quaternion_yaw",
+    "read_frictionmaps",
+]
 
 ERPM_PER_MPS = 7800.0
 """VESC electrical rpm per m/s of the F1/10 car (README of the data)."""
@@ -136,6 +171,141 @@ def _kinematic_checks(df: pd.DataFrame, jump: np.ndarray) -> dict[str, float]:
     return out
 
 
+def _robust_slope(y: np.ndarray, x: np.ndarray) -> float:
+    """Least-squares slope of ``y = k x`` through 0, refitted once without 3-MAD outliers."""
+    k = float(np.dot(x, y) / np.dot(x, x))
+    res = y - k * x
+    mad = 1.4826 * np.median(np.abs(res - np.median(res)))
+    keep = np.abs(res) <= 3.0 * mad if mad > 0 else np.ones_like(res, dtype=bool)
+    if keep.sum() >= 10:
+        k = float(np.dot(x[keep], y[keep]) / np.dot(x[keep], x[keep]))
+    return k
+
+
+def fit_pose_scales(
+    t: np.ndarray,
+    yaw_rate: np.ndarray,
+    vx: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    psi: np.ndarray,
+    jump: np.ndarray,
+    *,
+    window: float = 1.0,
+) -> dict[str, float]:
+    """Gyro and odometry-speed scales that make them agree with the pose.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Time [s], increasing; ticks may be missing (gaps are not used).
+    yaw_rate, vx : ndarray, shape (n,)
+        Gyro yaw rate [rad/s] and odometry speed [m/s].
+    x, y, psi : ndarray, shape (n,)
+        Pose [m, m, rad], ``psi`` unwrapped.
+    jump : ndarray of bool, shape (n,)
+        Samples where the pose jumped (windows containing one are not used).
+    window : float
+        Window length [s].
+
+    Returns
+    -------
+    dict
+        ``gyro_scale`` (``k_r``, pose heading rate / gyro), ``speed_scale``
+        (``k_v``, pose speed / odometry) and the number of windows used for
+        each (``n_yaw``, ``n_speed``).
+
+    Raises
+    ------
+    ValueError
+        Too few usable windows (fewer than 20) for either fit.
+    """
+    t = np.asarray(t, float)
+    dt = np.diff(t)
+    h = float(np.median(dt))
+    w = max(round(window / h), 1)
+    n = len(t)
+    if n <= w + 1:
+        raise ValueError(f"pose calibration: {n} samples are too few for a {window} s window")
+    # cumulative integrals (trapezoid) of the gyro and of the odometry velocity along the pose heading
+    cum_r = np.r_[0.0, np.cumsum(0.5 * (yaw_rate[1:] + yaw_rate[:-1]) * dt)]
+    vxc, vyc = vx * np.cos(psi), vx * np.sin(psi)
+    cum_x = np.r_[0.0, np.cumsum(0.5 * (vxc[1:] + vxc[:-1]) * dt)]
+    cum_y = np.r_[0.0, np.cumsum(0.5 * (vyc[1:] + vyc[:-1]) * dt)]
+    bad = np.r_[0, np.cumsum((dt > 1.5 * h) | np.asarray(jump, bool)[1:])]
+    i0 = np.arange(n - w)
+    i1 = i0 + w
+    clean = bad[i1] == bad[i0]
+    d_gyro = cum_r[i1] - cum_r[i0]
+    d_pose = psi[i1] - psi[i0]
+    ch_odo = np.hypot(cum_x[i1] - cum_x[i0], cum_y[i1] - cum_y[i0])
+    ch_pose = np.hypot(x[i1] - x[i0], y[i1] - y[i0])
+    use_r = clean & (np.abs(d_gyro) > 0.1)
+    use_v = clean & (ch_odo > 0.3)
+    if use_r.sum() < 20 or use_v.sum() < 20:
+        raise ValueError(
+            f"pose calibration: too few clean turning/moving windows ({int(use_r.sum())} for the gyro, "
+            f"{int(use_v.sum())} for the speed; need 20)"
+        )
+    return {
+        "gyro_scale": _robust_slope(d_pose[use_r], d_gyro[use_r]),
+        "speed_scale": _robust_slope(ch_pose[use_v], ch_odo[use_v]),
+        "n_yaw": int(use_r.sum()),
+        "n_speed": int(use_v.sum()),
+    }
+
+
+def fit_steer_gain(
+    steer_cmd: np.ndarray,
+    yaw_rate: np.ndarray,
+    vx: np.ndarray,
+    ay: np.ndarray,
+    wheelbase: float,
+    *,
+    steady: np.ndarray | None = None,
+    max_ay: float = 0.5 * GRAVITY,
+) -> tuple[float, int]:
+    """Gain from the steering command to the effective road-wheel angle.
+
+    Least-squares slope of the kinematic angle ``atan(L r / vx)`` against the
+    command in steady, moderate cornering (``steady``, ``|ay| < max_ay``,
+    ``vx > 1 m/s``, command above 0.05 rad), clipped to (0, 1].
+
+    Parameters
+    ----------
+    steer_cmd, yaw_rate, vx, ay : ndarray, shape (n,)
+        Command [rad], yaw rate [rad/s], speed [m/s], lateral acceleration [m/s^2].
+    wheelbase : float
+        ``L = lf + lr`` [m].
+    steady : ndarray of bool, shape (n,), optional
+        Samples in steady cornering (default: all).
+    max_ay : float
+        Largest lateral acceleration [m/s^2] of the samples used.
+
+    Returns
+    -------
+    k_d : float
+        Gain in (0, 1]; 1 (no correction) with fewer than 20 usable samples.
+    n : int
+        Samples used (0 when the gain was left at 1).
+
+    Raises
+    ------
+    ValueError
+        A non-positive fitted gain (steering sign or axes wrong).
+    """
+    use = (np.abs(ay) < max_ay) & (vx > 1.0) & (np.abs(steer_cmd) > 0.05)
+    if steady is not None:
+        use &= np.asarray(steady, bool)
+    if use.sum() < 20:
+        return 1.0, 0
+    kin = np.arctan(wheelbase * yaw_rate[use] / vx[use])
+    k = _robust_slope(kin, steer_cmd[use])
+    if not k > 0:
+        raise ValueError(f"steering-gain fit: non-positive gain {k:.3f} (steering sign or axes wrong?)")
+    return float(min(k, 1.0)), int(use.sum())
+
+
 def read_frictionmaps(
     path: str | Path,
     vehicle: str | Path | VehicleParams | None = None,
@@ -143,6 +313,8 @@ def read_frictionmaps(
     rate: float = 50.0,
     max_gap: float = 0.25,
     steer_delay: float = 0.0,
+    calibrate: bool = False,
+    window: float = 1.0,
 ) -> Drive:
     """Read one FrictionMaps run folder into a canonical :class:`~roadgrip.drive.Drive`.
 
@@ -159,6 +331,12 @@ def read_frictionmaps(
     steer_delay : float
         Delay [s] applied to the command stream (``steer``, ``speed_cmd``), to
         model the steering actuation lag (about 0.1 s; module docstring).
+    calibrate : bool
+        Scale ``yaw_rate`` and ``vx`` to the pose and replace ``steer`` by the
+        fitted effective road-wheel angle (module docstring); the command is
+        then kept as the extra column ``steer_cmd``.
+    window : float
+        Window [s] of the pose calibration (:func:`fit_pose_scales`).
 
     Returns
     -------
@@ -227,6 +405,25 @@ def read_frictionmaps(
     jump = np.r_[False, (step > allowed) | (dpsi > allowed_psi)]
     df["pose_jump"] = jump.astype(float)
 
+    calib: dict[str, float] = {}
+    if calibrate:
+        calib = fit_pose_scales(
+            t, df["yaw_rate"].to_numpy(), df["vx"].to_numpy(), df["x"].to_numpy(), df["y"].to_numpy(),
+            df["psi"].to_numpy(), jump, window=window,
+        )
+        df["yaw_rate"] = df["yaw_rate"] * calib["gyro_scale"]
+        df["vx"] = df["vx"] * calib["speed_scale"]
+        df["steer_cmd"] = df["steer"]
+        # steady: command and yaw rate nearly constant over the last 0.3 s (ticks; gaps ignored)
+        nw = max(round(0.3 * rate), 2)
+        span = {c: df[c].rolling(nw).max() - df[c].rolling(nw).min() for c in ("steer", "yaw_rate")}
+        steady = ((span["steer"] < 0.02) & (span["yaw_rate"] < 0.3)).to_numpy()
+        calib["steer_gain"], calib["steer_gain_n"] = fit_steer_gain(
+            df["steer"].to_numpy(), df["yaw_rate"].to_numpy(), df["vx"].to_numpy(), df["ay"].to_numpy(),
+            veh.lf + veh.lr, steady=steady,
+        )
+        df["steer"] = df["steer"] * calib["steer_gain"]
+
     checks = _kinematic_checks(df, jump)
 
     # exact grid times from the tick numbers
@@ -236,6 +433,8 @@ def read_frictionmaps(
     order = ["t", "ax", "ay", "yaw_rate", "steer", "vx", "x", "y", "psi", "speed_cmd", "pose_jump"]
     if has_core:
         order.append("vx_motor")
+    if calibrate:
+        order.append("steer_cmd")
     df = df[order]
     extra = {
         "format": "frictionmaps",
@@ -247,6 +446,7 @@ def read_frictionmaps(
         "ticks_dropped_in_gaps": int(n_dropped),
         "pose_jumps": int(jump.sum()),
         "kinematic_checks": checks,
+        "calibration": calib,
         "conversions": {
             "t": "s + 1e-9 ns, resampled to a uniform clock on the overlap of the streams, "
             "minus t0_epoch_s; ticks in stream gaps > max_gap dropped",
