@@ -78,8 +78,8 @@ from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
 from roadgrip.estimators.kinematic import (
+    KinematicClassifier,
     KinematicConfig,
-    KinematicEstimator,
     KinematicInput,
     KinematicOutput,
     estimate_kinematics,
@@ -631,7 +631,7 @@ def sufficiently_excited(
 # online object
 
 
-class BRLSClassifier:
+class BRLSClassifier(KinematicClassifier):
     """Online bRLS friction classifier: kinematic stage + two bRLS channels + state machine.
 
     Parameters
@@ -651,6 +651,8 @@ class BRLSClassifier:
     (True, False)
     """
 
+    default_config = staticmethod(default_config)
+
     def __init__(
         self,
         params: VehicleParams,
@@ -658,31 +660,16 @@ class BRLSClassifier:
         kinematic: KinematicConfig = KinematicConfig(),
         aid: str = "wheels",
     ) -> None:
-        self.params = params
-        self.config = config if config is not None else default_config()
-        self.kinematic = KinematicEstimator(params, kinematic, aid)
+        super().__init__(params, config, kinematic, aid)
         self.state_ = brls_init(self.config)
-        self._t_prev: float | None = None
-
-    @classmethod
-    def for_drive(
-        cls, drive: Drive, config: BRLSConfig | None = None,
-        kinematic: KinematicConfig = KinematicConfig(),
-    ) -> BRLSClassifier:
-        """A classifier for ``drive``'s vehicle with the velocity aid its signals allow."""
-        from roadgrip.estimators.kinematic import resolve_aid
-
-        return cls(drive.vehicle, config, kinematic, resolve_aid(drive, kinematic))
 
     def step(self, sample: KinematicInput) -> BRLSOutput:
         """Process one sample; returns the classification after it."""
-        kin = self.kinematic.step(sample)
-        dt = 0.01 if self._t_prev is None else float(sample.t) - self._t_prev
+        kin, dt = self._advance(sample)
         phi_long, phi_lat = regressors(kin, np.asarray(sample.steer), self.config.min_speed,
                                        self.config.lateral_regressor)
         self.state_, out = brls_step(self.state_, dt, float(phi_long), float(sample.ax),
                                      float(phi_lat), float(sample.ay), self.config)
-        self._t_prev = float(sample.t)
         return out
 
     def run(self, drive: Drive) -> pd.DataFrame:

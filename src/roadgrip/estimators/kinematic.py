@@ -45,7 +45,7 @@ and the batch loop, so ``run`` equals stepping exactly.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numba
 import numpy as np
@@ -58,6 +58,8 @@ from roadgrip.vehicle.params import VehicleParams
 from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
 
 __all__ = [
+    "FIRST_STEP_S",
+    "KinematicClassifier",
     "KinematicConfig",
     "KinematicEstimator",
     "KinematicInput",
@@ -546,6 +548,43 @@ class KinematicEstimator:
                 a["t"][i], a["ax"][i], a["ay"][i], a["yaw_rate"][i], a["steer"][i],
                 a["omega"][i], a["x"][i], a["y"][i], a["psi"][i], a["vx_meas"][i],
             )
+
+
+FIRST_STEP_S = 0.01
+"""Time step [s] assumed for the first sample of an online run (no previous sample)."""
+
+
+class KinematicClassifier:
+    """Online base of the classifiers fed by the kinematic stage (bRLS, slip map).
+
+    Holds the vehicle, the frozen config, a :class:`KinematicEstimator` and the time of
+    the previous sample; subclasses set ``default_config`` and their own kernel state,
+    and implement ``step`` on top of :meth:`_advance`.
+    """
+
+    default_config: Any = None
+
+    def __init__(
+        self, params: VehicleParams, config: Any = None,
+        kinematic: KinematicConfig = KinematicConfig(), aid: str = "wheels",
+    ) -> None:
+        self.params = params
+        self.config = config if config is not None else type(self).default_config()
+        self.kinematic = KinematicEstimator(params, kinematic, aid)
+        self._t_prev: float | None = None
+
+    @classmethod
+    def for_drive(cls, drive: Drive, config: Any = None,
+                  kinematic: KinematicConfig = KinematicConfig()) -> Any:
+        """A classifier for ``drive``'s vehicle with the velocity aid its signals allow."""
+        return cls(drive.vehicle, config, kinematic, resolve_aid(drive, kinematic))
+
+    def _advance(self, sample: KinematicInput) -> tuple[KinematicOutput, float]:
+        """Run the kinematic stage on ``sample``; return its output and the step [s]."""
+        kin = self.kinematic.step(sample)
+        dt = FIRST_STEP_S if self._t_prev is None else float(sample.t) - self._t_prev
+        self._t_prev = float(sample.t)
+        return kin, dt
 
 
 def to_frame(out: KinematicOutput, t: NDArray[np.float64]) -> pd.DataFrame:

@@ -57,8 +57,8 @@ from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
 from roadgrip.estimators.kinematic import (
+    KinematicClassifier,
     KinematicConfig,
-    KinematicEstimator,
     KinematicInput,
     KinematicOutput,
     estimate_kinematics,
@@ -393,7 +393,7 @@ def _evidence_from_kin(kin: KinematicOutput, ax, ay, steer, params, config) -> S
                     np.atleast_2d(kin.wheels_valid), params, config, np.atleast_1d(kin.vx))
 
 
-class SlipMapClassifier:
+class SlipMapClassifier(KinematicClassifier):
     """Online slip-map classifier: kinematic stage + evidence + recursion.
 
     Parameters
@@ -406,36 +406,23 @@ class SlipMapClassifier:
         Velocity aid of the kinematic stage for :meth:`step`.
     """
 
+    default_config = staticmethod(default_config)
+
     def __init__(
         self, params: VehicleParams, config: SlipMapConfig | None = None,
         kinematic: KinematicConfig = KinematicConfig(), aid: str = "wheels",
     ) -> None:
-        self.params = params
-        self.config = config if config is not None else default_config()
-        self.kinematic = KinematicEstimator(params, kinematic, aid)
+        super().__init__(params, config, kinematic, aid)
         self.state_ = slipmap_init()
         self.prefilter_ = np.zeros(8)
-        self._t_prev: float | None = None
-
-    @classmethod
-    def for_drive(
-        cls, drive: Drive, config: SlipMapConfig | None = None,
-        kinematic: KinematicConfig = KinematicConfig(),
-    ) -> SlipMapClassifier:
-        """A classifier for ``drive``'s vehicle with the velocity aid its signals allow."""
-        from roadgrip.estimators.kinematic import resolve_aid
-
-        return cls(drive.vehicle, config, kinematic, resolve_aid(drive, kinematic))
 
     def step(self, sample: KinematicInput) -> SlipMapOutput:
-        kin = self.kinematic.step(sample)
-        dt = 0.01 if self._t_prev is None else float(sample.t) - self._t_prev
+        kin, dt = self._advance(sample)
         y = _prefilter(_pack(kin, sample.ax, sample.ay), np.array([float(sample.t)]),
                        self.config.prefilter_tau_s, dt, self.prefilter_)
         kin_f, ax_f, ay_f = _unpack(kin, y)
         ev = _evidence_from_kin(kin_f, ax_f, ay_f, sample.steer, self.params, self.config)
         self.state_, out = slipmap_step(self.state_, dt, ev, self.config)
-        self._t_prev = float(sample.t)
         return out
 
     def run(self, drive: Drive) -> pd.DataFrame:
