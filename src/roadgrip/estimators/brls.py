@@ -62,6 +62,7 @@ classifier's reference curves
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field, replace
@@ -78,11 +79,14 @@ from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
 from roadgrip.estimators.kinematic import (
+    LATERAL_ACCELERATION_SOURCES,
     KinematicClassifier,
     KinematicConfig,
     KinematicInput,
     KinematicOutput,
+    drive_lateral_acceleration,
     estimate_kinematics,
+    select_lateral_acceleration,
 )
 from roadgrip.tire import SURFACES
 from roadgrip.vehicle.params import VehicleParams
@@ -119,6 +123,10 @@ DEFAULT_FRICTION = {
 
 SWITCH_PENALTY = 0.01
 """Score penalty per class switch in :func:`calibrate` (fraction of time)."""
+
+SCORE_TOLERANCE = 0.01
+"""Scores within this of the best count as equally good in :func:`calibrate`
+(fraction of time); among them the largest margin wins."""
 
 
 @dataclass(frozen=True)
@@ -196,6 +204,14 @@ class BRLSConfig:
         Bound on the prediction error ``|eps|`` of eq. 6 [m/s²] (a Huber-type
         robust RLS: a burst of outliers moves the estimate by a bounded amount);
         ``inf`` = the paper's update.
+    lateral_acceleration : {'auto', 'imu', 'kinematic'}
+        Output of the lateral channel: the accelerometer's ``ay``, or the
+        kinematic ``r vx + dvy/dt`` of the upstream stage; ``'auto'`` takes the
+        kinematic one when the velocity comes from a pose
+        (:func:`roadgrip.estimators.kinematic.select_lateral_acceleration`).
+    theoretical_slip : bool
+        Lateral regressor from the theoretical slips ``tan(alpha) vx / (R omega)``
+        instead of the slip angles (see :func:`regressors`).
     """
 
     long: ChannelCalibration
@@ -212,8 +228,15 @@ class BRLSConfig:
     prefilter_tau_s: float = 0.0
     lateral_regressor: str = "axles"
     error_clip: float = math.inf
+    lateral_acceleration: str = "auto"
+    theoretical_slip: bool = False
 
     def __post_init__(self) -> None:
+        if self.lateral_acceleration not in LATERAL_ACCELERATION_SOURCES:
+            raise ValueError(
+                f"lateral_acceleration must be one of {LATERAL_ACCELERATION_SOURCES}, "
+                f"got {self.lateral_acceleration!r}"
+            )
         if self.lateral_regressor not in ("axles", "rear"):
             raise ValueError(
                 f"lateral_regressor must be 'axles' or 'rear', got {self.lateral_regressor!r}"
@@ -564,9 +587,29 @@ def brls_batch(
     return _state_from_vector(st), out
 
 
+def rolling_ratio(kappa: NDArray) -> NDArray[np.float64]:
+    """``vx / (R omega)`` of a wheel from its slip (eq. 2's definition).
+
+    Eq. 2 divides by the larger of the two speeds, so ``vx / (R omega) = 1 - kappa``
+    when driving (``kappa >= 0``) and ``1 / (1 + kappa)`` when braking; braking
+    slip is bounded at -0.5 (a locking wheel has no rolling speed).
+    """
+    k = np.clip(np.asarray(kappa, float), -0.5, 1.0)
+    return np.where(k >= 0.0, 1.0 - k, 1.0 / (1.0 + k))
+
+
+def _axle_rolling_ratio(kin: KinematicOutput, axle: slice) -> NDArray[np.float64]:
+    """Mean :func:`rolling_ratio` of an axle's measured wheels (1 where none is measured)."""
+    kappa = np.asarray(kin.kappa, float)[..., axle]
+    valid = np.asarray(kin.wheels_valid, bool)[..., axle]
+    n = valid.sum(axis=-1)
+    k = np.where(n > 0, (kappa * valid).sum(axis=-1) / np.maximum(n, 1), 0.0)
+    return rolling_ratio(k)
+
+
 def regressors(
     kin: KinematicOutput, steer: NDArray, min_speed: float = 0.0, lateral: str = "axles",
-    params: VehicleParams | None = None,
+    params: VehicleParams | None = None, theoretical_slip: bool = False,
 ) -> tuple[NDArray, NDArray]:
     """The two regressors of eq. 4.
 
@@ -580,14 +623,28 @@ def regressors(
     paper's regressor in symmetric driving. Both are set to 0 (no information)
     where ``|vx| < min_speed`` [m/s]: near standstill the slips are dominated
     by the low-speed regularisation.
+
+    ``theoretical_slip=True`` replaces each axle's slip angle by the brush
+    model's theoretical lateral slip ``sigma_y = tan(alpha) vx / (R omega)``
+    (Pacejka, *Tire and Vehicle Dynamics*, Sec. 3.2): the tread deflection
+    builds up over the contact length at the wheel's rolling speed
+    ``R omega``, not at the travel speed, so a spinning wheel (``kappa > 0``)
+    needs a larger slip angle for the same lateral force (the combined-slip
+    reduction in the linear range). The ratio comes from the axle's measured
+    wheels (:func:`rolling_ratio`); an axle without wheel speeds keeps ``tan(alpha)``.
     """
     kappa = np.asarray(kin.kappa, float)
     slow = np.abs(np.asarray(kin.vx, float)) < min_speed
     phi_long = np.where(slow, 0.0, kappa.sum(axis=-1))
+    a_f = np.asarray(kin.alpha_f, float)
+    a_r = np.asarray(kin.alpha_r, float)
+    if theoretical_slip:
+        a_f = np.tan(a_f) * _axle_rolling_ratio(kin, slice(0, 2))
+        a_r = np.tan(a_r) * _axle_rolling_ratio(kin, slice(2, 4))
     if lateral == "axles":
-        lat = np.asarray(kin.alpha_f) * np.cos(steer) + np.asarray(kin.alpha_r)
+        lat = a_f * np.cos(steer) + a_r
     elif lateral == "rear":
-        lat = 2.0 * np.asarray(kin.alpha_r)
+        lat = 2.0 * a_r
     else:
         raise ValueError(f"lateral regressor must be 'axles' or 'rear', got {lateral!r}")
     phi_lat = np.where(slow, 0.0, lat)
@@ -665,11 +722,14 @@ class BRLSClassifier(KinematicClassifier):
 
     def step(self, sample: KinematicInput) -> BRLSOutput:
         """Process one sample; returns the classification after it."""
-        kin, dt = self._advance(sample)
+        kin, dt, ay_kin = self._advance(sample)
         phi_long, phi_lat = regressors(kin, np.asarray(sample.steer), self.config.min_speed,
-                                       self.config.lateral_regressor)
+                                       self.config.lateral_regressor,
+                                       theoretical_slip=self.config.theoretical_slip)
+        ay = select_lateral_acceleration(self.config.lateral_acceleration, self.kinematic.aid,
+                                         float(sample.ay), ay_kin)
         self.state_, out = brls_step(self.state_, dt, float(phi_long), float(sample.ax),
-                                     float(phi_lat), float(sample.ay), self.config)
+                                     float(phi_lat), float(ay), self.config)
         return out
 
     def run(self, drive: Drive) -> pd.DataFrame:
@@ -683,9 +743,10 @@ def _run_table(
 ) -> tuple[pd.DataFrame, KinematicOutput]:
     kin = estimate_kinematics(drive, kin_cfg)
     steer = drive.col("steer")
-    phi_long, phi_lat = regressors(kin, steer, config.min_speed, config.lateral_regressor)
-    _, out = brls_batch(drive.t, phi_long, drive.col("ax"), phi_lat, drive.col("ay"), config,
-                        dt0=dt0)
+    phi_long, phi_lat = regressors(kin, steer, config.min_speed, config.lateral_regressor,
+                                   theoretical_slip=config.theoretical_slip)
+    ay = drive_lateral_acceleration(drive, kin, config.lateral_acceleration, kin_cfg)
+    _, out = brls_batch(drive.t, phi_long, drive.col("ax"), phi_lat, ay, config, dt0=dt0)
     table = pd.DataFrame({
         "t": drive.t,
         "grip_class": out.grip_class,
@@ -697,6 +758,7 @@ def _run_table(
         "phi_lat": phi_lat,
         "w_long": out.w_long,
         "w_lat": out.w_lat,
+        "ay_used": ay,
         "vx_hat": kin.vx,
         "beta_hat": kin.beta,
     })
@@ -862,30 +924,63 @@ def _channel_candidates(
                 np.where(moving, phi, 0.0), y, np.full(drive.n, np.nan),
                 0.5 * (refs["high"] + refs["low"]), base.s0, math.exp(-dt / memory), 0.0, base.s_max,
             )
-            est[lab].append(th[(np.abs(phi) >= gamma * ln2) & moving])
+            est[lab].append(th[(np.abs(phi) >= gamma * ln2) & settled(drive.t, moving)])
         hi, lo = np.concatenate(est["high"]), np.concatenate(est["low"])
         mid = 0.5 * (refs["high"] + refs["low"])
-        for thr in {mid, _best_threshold(hi, lo)[0] if hi.size >= 10 and lo.size >= 10 else mid}:
+        thrs = {mid}
+        if hi.size >= 10 and lo.size >= 10:
+            thrs.add(_best_threshold(hi, lo)[0])
+        # largest margin between the drives: halfway between the lowest median
+        # estimate of a high drive and the highest median of a low drive
+        med = {lab: [float(np.median(e)) for e in est[lab] if e.size >= 10] for lab in est}
+        if med["high"] and med["low"] and min(med["high"]) > max(med["low"]):
+            thrs.add(0.5 * (min(med["high"]) + max(med["low"])))
+        for thr in sorted(thrs):
             thr = min(max(thr, refs["low"]), refs["high"])
             out.append(ChannelCalibration(refs["high"], refs["low"], thr, gamma, True))
     return out
 
 
-def _score(cfg: BRLSConfig, data: list) -> tuple[float, int]:
-    """Mean fraction of time in the labelled class, starting in the other state; extra switches."""
-    accs, switches = [], 0
-    for drive, lab, _kin, regs, _moving in data:
+def settled(t: NDArray, moving: NDArray) -> NDArray[np.bool_]:
+    """Moving samples from :data:`CALIBRATION_SETTLING_S` after the vehicle first moves.
+
+    The settling period counts from the first moving sample: before it no
+    estimator has information, so a drive that starts at a standstill is not
+    judged on its first seconds of motion. All samples when it never moves.
+    """
+    moving = np.asarray(moving, bool)
+    if not moving.any():
+        return np.ones(moving.shape, bool)
+    t0 = t[int(np.argmax(moving))]
+    m = moving & (t >= t0 + CALIBRATION_SETTLING_S)
+    return m if m.any() else moving
+
+
+def _score(cfg: BRLSConfig, data: list) -> tuple[float, int, float]:
+    """Calibration score of one configuration over the labelled drives.
+
+    Returns the mean fraction of the settled moving time (:func:`settled`) in
+    the labelled class, starting in the other state; the class switches beyond
+    the first; and the margin: per drive and enabled channel the median over
+    the settled moving samples of the estimate's distance from the threshold
+    on the labelled side, in units of ``ref_high - ref_low`` (negative on the
+    wrong side), averaged over the channels, and the smallest over the drives.
+    """
+    accs, switches, margins = [], 0, []
+    for drive, lab, _kin, regs, moving in data:
         c = replace(cfg, initial_state="low" if lab == "high" else "high")
         _, out = brls_batch(drive.t, regs["long"][0], regs["long"][1], regs["lat"][0],
                             regs["lat"][1], c)
         cls = out.grip_class
-        judged = _moving & (drive.t >= drive.t[0] + CALIBRATION_SETTLING_S)
-        if not judged.any():
-            judged = np.ones(drive.n, bool)
+        judged = settled(drive.t, moving)
         accs.append(float((cls[judged] == lab).mean()))
         known = cls[cls != "unknown"]
         switches += max(int(np.sum(known[1:] != known[:-1])) - 1, 0)
-    return float(np.mean(accs)), switches
+        side = 1.0 if lab == "high" else -1.0
+        m = [float(np.median(side * (th[judged] - ch.threshold) / (ch.ref_high - ch.ref_low)))
+             for ch, th in ((cfg.long, out.theta_long), (cfg.lat, out.theta_lat)) if ch.enabled]
+        margins.append(float(np.mean(m)))
+    return float(np.mean(accs)), switches, float(min(margins))
 
 
 def calibrate(
@@ -898,6 +993,7 @@ def calibrate(
     prefilters: Sequence[float] = (0.0, 0.5, 1.0),
     lateral_regressors: Sequence[str] = ("axles", "rear"),
     error_clips: Sequence[float] = (math.inf, 1.0),
+    theoretical_slips: Sequence[bool] = (False, True),
     friction: dict[str, float] | None = None,
 ) -> Calibration:
     """Learn the bRLS references, thresholds, gammas and memory, and the slip-map curves.
@@ -915,7 +1011,8 @@ def calibrate(
        ``theta > thr -> high`` on the excited samples.
 
     Both steps run on the prefiltered signals, for each prefilter time constant
-    in ``prefilters`` [s] and each lateral regressor in ``lateral_regressors``.
+    in ``prefilters`` [s] and each lateral regressor in ``lateral_regressors``
+    (with slip angles or theoretical slips, ``theoretical_slips``).
     For every lateral regressor, prefilter, memory and error clip, each
     channel's candidates are run alone, and the best two of each channel
     together, as the full classifier over each labelled drive,
@@ -942,6 +1039,9 @@ def calibrate(
         carry simulator truth (``mu_true``), else :data:`DEFAULT_FRICTION`.
     error_clips : sequence of float
         Prediction-error bounds tried [m/s²] (``BRLSConfig.error_clip``).
+    theoretical_slips : sequence of bool
+        Slip-angle or theoretical-slip lateral regressors tried
+        (``BRLSConfig.theoretical_slip``).
 
     Returns
     -------
@@ -958,14 +1058,16 @@ def calibrate(
         raise ValueError("calibration needs at least one 'high' and one 'low' drive")
     base = base or default_config()
     kins = [(drive, lab, estimate_kinematics(drive, kinematic)) for drive, lab in drives]
-    best = None
+    scored: list[tuple[float, BRLSConfig, float, int, float]] = []
     off = {name: replace(getattr(base, name), enabled=False) for name in ("long", "lat")}
-    for lateral in lateral_regressors:
+    for lateral, theoretical in itertools.product(lateral_regressors, theoretical_slips):
         data = []
         for drive, lab, kin in kins:
-            pl, pa = regressors(kin, drive.col("steer"), base.min_speed, lateral)
+            pl, pa = regressors(kin, drive.col("steer"), base.min_speed, lateral,
+                                theoretical_slip=theoretical)
             moving = np.abs(kin.vx) >= base.min_speed
-            regs = {"long": (pl, drive.col("ax")), "lat": (pa, drive.col("ay"))}
+            ay = drive_lateral_acceleration(drive, kin, base.lateral_acceleration, kinematic)
+            regs = {"long": (pl, drive.col("ax")), "lat": (pa, ay)}
             data.append((drive, lab, kin, regs, moving))
         for tau in prefilters:
             fdata = _filtered(data, float(tau))
@@ -975,12 +1077,13 @@ def calibrate(
                          for name in ("long", "lat")}
                 for clip in error_clips:
                     common = {"memory_s": mem, "prefilter_tau_s": float(tau),
-                              "lateral_regressor": lateral, "error_clip": float(clip)}
+                              "lateral_regressor": lateral, "error_clip": float(clip),
+                              "theoretical_slip": bool(theoretical)}
 
                     def run(cl, ca, common=common, data=data):
                         cfg = replace(base, long=cl, lat=ca, **common)
-                        acc, sw = _score(cfg, data)
-                        return acc - SWITCH_PENALTY * sw, cfg, acc, sw
+                        acc, sw, margin = _score(cfg, data)
+                        return acc - SWITCH_PENALTY * sw, cfg, acc, sw, margin
 
                     # each channel alone, then the best two of each together
                     alone_l = sorted((run(cl, off["lat"]) for cl in cands["long"]),
@@ -990,26 +1093,31 @@ def calibrate(
                     results = alone_l + alone_a + [
                         run(rl[1].long, ra[1].lat) for rl in alone_l[:2] for ra in alone_a[:2]
                     ]
-                    for r in results:
-                        if best is None or r[0] > best[0] + 1e-9:
-                            best = r
-    if best is None:
+                    scored.extend(results)
+    if not scored:
         raise ValueError(
             "calibration failed: no channel gives ordered high/low stiffness references; "
             "are the drives excited and correctly labelled?"
         )
-    _, cfg, acc, sw = best
+    # within SCORE_TOLERANCE of the best score, the largest margin wins (first on ties)
+    top = max(r[0] for r in scored)
+    near = [r for r in scored if r[0] >= top - SCORE_TOLERANCE]
+    best = max(near, key=lambda r: r[4])
+    _, cfg, acc, sw, margin = best
     diag: dict[str, Any] = {
         "fraction_in_labelled_class": acc,
         "class_switches": sw,
+        "margin": margin,
         "long_channel": "on" if cfg.long.enabled else "off",
         "lat_channel": "on" if cfg.lat.enabled else "off",
         "lateral_regressor": cfg.lateral_regressor,
         "prefilter_tau_s": cfg.prefilter_tau_s,
         "memory_s": cfg.memory_s,
         "error_clip": cfg.error_clip,
+        "theoretical_slip": cfg.theoretical_slip,
+        "lateral_acceleration": cfg.lateral_acceleration,
     }
-    sm = slipmap.calibrate_section(kins)
+    sm = slipmap.calibrate_section(kins, kinematic=kinematic)
     veh = kins[0][0].vehicle.name
     prov = tuple({"source": d[0].meta.source, "label": d[1], "samples": int(d[0].n)} for d in kins)
     if friction is None:

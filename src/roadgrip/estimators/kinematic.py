@@ -38,6 +38,19 @@ Slips from the estimated state: per-wheel longitudinal slip (paper 002 eq. 2,
 track and steering) and axle slip angles (eq. 3, :func:`roadgrip.vehicle.slip.slip_angles`,
 roadgrip sign convention: positive alpha gives positive lateral force).
 
+**Kinematic lateral acceleration** (:func:`kinematic_lateral_acceleration`):
+``ay_kin = r vx + dvy/dt`` with the backward difference of the estimated ``vy``.
+It is the CG lateral acceleration by definition (body-frame kinematics), and
+with the pose aid (tau_pose shorter than the sample step) it comes from the
+gyro and the pose alone, independent of the accelerometer. The classifiers use
+it in place of the accelerometer's ``ay`` when the pose aid runs
+(:func:`select_lateral_acceleration`, source ``'auto'``): on the DART car the
+accelerometer's ``ay`` scatters by 1.6-5 m/s² (standard deviation of
+``ay - ay_kin`` over a run) around it, mostly chassis vibration sampled at
+10 Hz, whereas ``r vx`` needs no differentiation in steady cornering. Without
+a pose, ``ay_kin`` is the accelerometer's ``ay`` plus the drift correction and
+brings nothing new, so ``'auto'`` keeps the accelerometer.
+
 The per-sample update is one compiled function used by both the online step
 and the batch loop, so ``run`` equals stepping exactly.
 """
@@ -59,17 +72,21 @@ from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
 
 __all__ = [
     "FIRST_STEP_S",
+    "LATERAL_ACCELERATION_SOURCES",
     "KinematicClassifier",
     "KinematicConfig",
     "KinematicEstimator",
     "KinematicInput",
     "KinematicOutput",
     "KinematicState",
+    "drive_lateral_acceleration",
     "estimate_kinematics",
     "inputs_from_drive",
     "kinematic_init",
+    "kinematic_lateral_acceleration",
     "kinematic_step",
     "resolve_aid",
+    "select_lateral_acceleration",
     "slip_v_eps",
     "to_frame",
     "wheel_slips",
@@ -553,6 +570,78 @@ class KinematicEstimator:
 FIRST_STEP_S = 0.01
 """Time step [s] assumed for the first sample of an online run (no previous sample)."""
 
+LATERAL_ACCELERATION_SOURCES = ("auto", "imu", "kinematic")
+"""Lateral acceleration fed to the classifiers (:func:`select_lateral_acceleration`)."""
+
+
+def kinematic_lateral_acceleration(
+    t: NDArray, vx: NDArray, vy: NDArray, yaw_rate: NDArray
+) -> NDArray[np.float64]:
+    """CG lateral acceleration from the estimated velocity: ``r vx + dvy/dt``.
+
+    Body-frame kinematics (ISO 8855): ``ay = dvy/dt + r vx``. ``dvy/dt`` is the
+    backward difference of ``vy`` (causal, as in the online step); it is 0 at
+    the first sample.
+
+    Parameters
+    ----------
+    t : ndarray, shape (T,)
+        Sample times [s], strictly increasing.
+    vx, vy : ndarray, shape (T,)
+        Estimated CG velocity [m/s] (:class:`KinematicOutput`).
+    yaw_rate : ndarray, shape (T,)
+        [rad/s].
+
+    Returns
+    -------
+    ndarray, shape (T,)
+        [m/s²].
+    """
+    t = np.asarray(t, float)
+    vy = np.asarray(vy, float)
+    dvy = np.zeros_like(vy)
+    if vy.size > 1:
+        dvy[1:] = np.diff(vy) / np.diff(t)
+    return np.asarray(yaw_rate, float) * np.asarray(vx, float) + dvy
+
+
+def select_lateral_acceleration(
+    source: str, aid: str, ay_imu: NDArray | float, ay_kin: NDArray | float
+) -> NDArray[np.float64] | float:
+    """The lateral acceleration a classifier uses.
+
+    Parameters
+    ----------
+    source : {'auto', 'imu', 'kinematic'}
+        ``'imu'`` the accelerometer, ``'kinematic'`` :func:`kinematic_lateral_acceleration`,
+        ``'auto'`` the kinematic one when the velocity aid is the pose (module
+        docstring), else the accelerometer.
+    aid : {'wheels', 'pose'}
+        The resolved velocity aid of the kinematic stage.
+    ay_imu, ay_kin : float or ndarray
+        [m/s²].
+    """
+    if source not in LATERAL_ACCELERATION_SOURCES:
+        raise ValueError(
+            f"lateral acceleration source must be one of {LATERAL_ACCELERATION_SOURCES}, "
+            f"got {source!r}"
+        )
+    if source == "kinematic" or (source == "auto" and aid == "pose"):
+        return ay_kin
+    return ay_imu
+
+
+def drive_lateral_acceleration(
+    drive: Drive, kin: KinematicOutput, source: str, config: KinematicConfig = KinematicConfig()
+) -> NDArray[np.float64]:
+    """:func:`select_lateral_acceleration` over a whole drive, shape (T,) [m/s²].
+
+    ``kin`` is :func:`estimate_kinematics` of ``drive`` with ``config``.
+    """
+    ay_kin = kinematic_lateral_acceleration(drive.t, kin.vx, kin.vy, drive.col("yaw_rate"))
+    return np.asarray(select_lateral_acceleration(source, resolve_aid(drive, config),
+                                                  drive.col("ay"), ay_kin), float)
+
 
 class KinematicClassifier:
     """Online base of the classifiers fed by the kinematic stage (bRLS, slip map).
@@ -579,12 +668,18 @@ class KinematicClassifier:
         """A classifier for ``drive``'s vehicle with the velocity aid its signals allow."""
         return cls(drive.vehicle, config, kinematic, resolve_aid(drive, kinematic))
 
-    def _advance(self, sample: KinematicInput) -> tuple[KinematicOutput, float]:
-        """Run the kinematic stage on ``sample``; return its output and the step [s]."""
+    def _advance(self, sample: KinematicInput) -> tuple[KinematicOutput, float, float]:
+        """Run the kinematic stage on ``sample``.
+
+        Returns its output, the step [s] and the kinematic lateral acceleration
+        [m/s²] (:func:`kinematic_lateral_acceleration`, same backward difference).
+        """
+        prev = self.kinematic.state
         kin = self.kinematic.step(sample)
         dt = FIRST_STEP_S if self._t_prev is None else float(sample.t) - self._t_prev
         self._t_prev = float(sample.t)
-        return kin, dt
+        dvy = (float(kin.vy) - prev.vy) / dt if prev.started else 0.0
+        return kin, dt, float(sample.yaw_rate) * float(kin.vx) + dvy
 
 
 def to_frame(out: KinematicOutput, t: NDArray[np.float64]) -> pd.DataFrame:

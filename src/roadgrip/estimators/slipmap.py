@@ -57,11 +57,14 @@ from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
 from roadgrip.estimators.kinematic import (
+    LATERAL_ACCELERATION_SOURCES,
     KinematicClassifier,
     KinematicConfig,
     KinematicInput,
     KinematicOutput,
+    drive_lateral_acceleration,
     estimate_kinematics,
+    select_lateral_acceleration,
 )
 from roadgrip.tire import SURFACES, MagicFormula
 from roadgrip.vehicle.params import VehicleParams
@@ -115,6 +118,11 @@ class SlipMapConfig:
         Time constant [s] of a first-order low-pass applied to the slips and
         accelerations before the maps (0 = none): the noise of a low-rate
         inertial sensor otherwise scatters the samples across the reference curve.
+    lateral_acceleration : {'auto', 'imu', 'kinematic'}
+        Lateral acceleration placed on the lateral map: the accelerometer's, or
+        the kinematic ``r vx + dvy/dt``; ``'auto'`` takes the kinematic one when
+        the velocity comes from a pose
+        (:func:`roadgrip.estimators.kinematic.select_lateral_acceleration`).
     """
 
     long_curve: MagicFormula
@@ -130,8 +138,14 @@ class SlipMapConfig:
     w_excited: float = 0.1
     min_speed: float = 0.5
     prefilter_tau_s: float = 0.0
+    lateral_acceleration: str = "auto"
 
     def __post_init__(self) -> None:
+        if self.lateral_acceleration not in LATERAL_ACCELERATION_SOURCES:
+            raise ValueError(
+                f"lateral_acceleration must be one of {LATERAL_ACCELERATION_SOURCES}, "
+                f"got {self.lateral_acceleration!r}"
+            )
         for name in ("sigma_x", "sigma_y", "lowpass_tau_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
@@ -417,8 +431,10 @@ class SlipMapClassifier(KinematicClassifier):
         self.prefilter_ = np.zeros(8)
 
     def step(self, sample: KinematicInput) -> SlipMapOutput:
-        kin, dt = self._advance(sample)
-        y = _prefilter(_pack(kin, sample.ax, sample.ay), np.array([float(sample.t)]),
+        kin, dt, ay_kin = self._advance(sample)
+        ay = select_lateral_acceleration(self.config.lateral_acceleration, self.kinematic.aid,
+                                         float(sample.ay), ay_kin)
+        y = _prefilter(_pack(kin, sample.ax, ay), np.array([float(sample.t)]),
                        self.config.prefilter_tau_s, dt, self.prefilter_)
         kin_f, ax_f, ay_f = _unpack(kin, y)
         ev = _evidence_from_kin(kin_f, ax_f, ay_f, sample.steer, self.params, self.config)
@@ -430,13 +446,15 @@ class SlipMapClassifier(KinematicClassifier):
 
 
 def _filtered_evidence(
-    drive: Drive, kin: KinematicOutput, config: SlipMapConfig, dt0: float | None = 0.01
+    drive: Drive, kin: KinematicOutput, config: SlipMapConfig, dt0: float | None = 0.01,
+    kin_cfg: KinematicConfig = KinematicConfig(),
 ) -> SlipMapEvidence:
     """Evidence of a whole drive after the prefilter (equals the online object's)."""
     t = drive.t
     if dt0 is None:
         dt0 = float(t[1] - t[0]) if drive.n > 1 else 0.01
-    y = _prefilter(_pack(kin, drive.col("ax"), drive.col("ay")), t, config.prefilter_tau_s,
+    ay = drive_lateral_acceleration(drive, kin, config.lateral_acceleration, kin_cfg)
+    y = _prefilter(_pack(kin, drive.col("ax"), ay), t, config.prefilter_tau_s,
                    float(dt0), np.zeros(8))
     kin_f, ax_f, ay_f = _unpack(kin, y)
     return _evidence_from_kin(kin_f, ax_f, ay_f, drive.col("steer"), drive.vehicle, config)
@@ -445,7 +463,7 @@ def _filtered_evidence(
 def _run_table(drive: Drive, config: SlipMapConfig, kin_cfg: KinematicConfig,
                dt0: float | None = 0.01) -> pd.DataFrame:
     kin = estimate_kinematics(drive, kin_cfg)
-    ev = _filtered_evidence(drive, kin, config, dt0)
+    ev = _filtered_evidence(drive, kin, config, dt0, kin_cfg)
     _, out = slipmap_batch(drive.t, ev, config, dt0=dt0)
     return pd.DataFrame({
         "t": drive.t,
@@ -469,7 +487,8 @@ def _run_table(drive: Drive, config: SlipMapConfig, kin_cfg: KinematicConfig,
 
 
 def calibrate_section(
-    data: list[tuple[Drive, str, KinematicOutput]], base: SlipMapConfig | None = None
+    data: list[tuple[Drive, str, KinematicOutput]], base: SlipMapConfig | None = None,
+    kinematic: KinematicConfig = KinematicConfig(),
 ) -> dict[str, Any]:
     """Choose each channel's mid-friction curve from labelled drives.
 
@@ -486,6 +505,8 @@ def calibrate_section(
     (:data:`roadgrip.estimators.brls.CALIBRATION_SETTLING_S`) spent in the
     labelled class, minus ``SWITCH_PENALTY`` per class switch beyond the first.
 
+    The lateral acceleration is ``base.lateral_acceleration``'s.
+
     Returns
     -------
     dict
@@ -494,6 +515,8 @@ def calibrate_section(
     """
     base = base or default_config()
     fit: dict[str, float] = {}
+    ays = [drive_lateral_acceleration(drive, kin, base.lateral_acceleration, kinematic)
+           for drive, _, kin in data]
     curves = {"long_curve": base.long_curve, "lat_curve": base.lat_curve}
     for chan, key in (("x", "long_curve"), ("y", "lat_curve")):
         c0 = curves[key]
@@ -503,11 +526,11 @@ def calibrate_section(
                 cur = replace(c0, D=c0.D * dscale, B=c0.B * bscale)
                 cfg = replace(base, **{key: cur})
                 acc_hi, acc_lo, n_hi, n_lo = 0.0, 0.0, 0.0, 0.0
-                for drive, lab, kin in data:
-                    ev = _evidence_from_kin(kin, drive.col("ax"), drive.col("ay"),
+                for (drive, lab, kin), ay in zip(data, ays, strict=True):
+                    ev = _evidence_from_kin(kin, drive.col("ax"), ay,
                                             drive.col("steer"), drive.vehicle, cfg)
                     w = ev.w_x if chan == "x" else ev.w_y
-                    a = drive.col("ax" if chan == "x" else "ay")
+                    a = drive.col("ax") if chan == "x" else ay
                     ref = ev.ax_ref if chan == "x" else ev.ay_ref
                     above = np.abs(a) > np.abs(ref)
                     if lab == "high":
@@ -526,16 +549,14 @@ def calibrate_section(
     cfg = replace(base, **curves)
     # prefilter and output dynamics, scored on the full recursion over the settled
     # moving samples (as the bRLS calibration)
-    from roadgrip.estimators.brls import CALIBRATION_SETTLING_S
+    from roadgrip.estimators.brls import settled
 
-    masks = []
-    for drive, _lab, kin in data:
-        m = (np.abs(kin.vx) >= cfg.min_speed) & (drive.t >= drive.t[0] + CALIBRATION_SETTLING_S)
-        masks.append(m if m.any() else np.ones(drive.n, bool))
+    masks = [settled(drive.t, np.abs(kin.vx) >= cfg.min_speed) for drive, _lab, kin in data]
     best = None
     for pf in (0.0, 0.5, 1.0):
         cpf = replace(cfg, prefilter_tau_s=pf)
-        evs = [(drive, lab, _filtered_evidence(drive, kin, cpf)) for drive, lab, kin in data]
+        evs = [(drive, lab, _filtered_evidence(drive, kin, cpf, kin_cfg=kinematic))
+               for drive, lab, kin in data]
         for tau in (0.5, 1.0, 2.0, 4.0):
             for hyst in (0.1, 0.2, 0.3):
                 c = replace(cpf, lowpass_tau_s=tau, hysteresis=hyst)
@@ -549,10 +570,9 @@ def calibrate_section(
                 key = float(np.mean(accs)) - SWITCH_PENALTY * extra
                 if best is None or key > best[0] + 1e-9:
                     best = (key, c, float(np.mean(accs)), extra)
-    cfg = best[1]
     fit["fraction_in_labelled_class"] = best[2]
     fit["extra_switches"] = best[3]
-    return {"config": cfg.to_dict(), "fit": fit}
+    return {"config": best[1].to_dict(), "fit": fit}
 
 
 def config_from_calibration(section: dict[str, Any]) -> SlipMapConfig:
