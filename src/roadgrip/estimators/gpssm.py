@@ -99,6 +99,7 @@ group (2 tensor, 1 separable), ``m`` features per group.
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
@@ -108,6 +109,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from roadgrip.constants import V_EPS
+from roadgrip.estimators import gpssm_kernel as gk
 from roadgrip.estimators import gpssm_linalg as la
 from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
 from roadgrip.estimators.basis import SeparableBasis, TensorBasis, make_basis
@@ -353,8 +356,9 @@ class GPSSMState(NamedTuple):
         ``[sum alpha_f², sum alpha_f alpha_r]`` (tensor-basis manifold ratio).
     peak_alpha : ndarray, shape (2,)
         Argmax of the last posterior mean curve, per axle [rad].
-    rng : dict
-        Bit-generator state.
+    rng : numpy.random.Generator
+        The filter's random stream (advanced in place by :func:`step`, like the other
+        buffers).
     """
 
     k: int
@@ -370,7 +374,7 @@ class GPSSMState(NamedTuple):
     visits: NDArray
     slip_moments: NDArray
     peak_alpha: NDArray
-    rng: dict
+    rng: np.random.Generator
 
 
 class GPSSMEstimate(NamedTuple):
@@ -517,14 +521,14 @@ def init(config: GPSSMConfig, sample: Sample, seed: int = 0) -> GPSSMState:
         x=x,
         mu=np.zeros((N, 2)),
         logw=np.full(N, -math.log(N)),
-        lin=la.init(config.linalg, N, G, m),
+        lin=la.init(config.linalg, N, G, m, history=config.refactor_every),
         Psi=np.zeros((N, G, d, m)),
         Phi=np.zeros((N, G, d, d)),
         nu=float(config.nu0),
         visits=np.zeros((2, _n_bins(config)), dtype=np.int64),
         slip_moments=np.zeros(2),
         peak_alpha=np.full(2, config.prior_tire.peak()[0]),
-        rng=rng.bit_generator.state,
+        rng=rng,
     )
 
 
@@ -544,11 +548,24 @@ def step(
     arrays of ``state``; keep :func:`copy_state` of it if the old state is still needed.
     ``state=None`` initialises from ``sample`` with ``seed``.
 
+    The ``'exact'`` and ``'fast'`` modes run the compiled per-particle kernel
+    (:mod:`roadgrip.estimators.gpssm_kernel`); ``'direct'`` runs the NumPy reference
+    implementation (:func:`step_reference`). Both draw the same random numbers.
+
     Returns
     -------
     state : GPSSMState
     estimate : GPSSMEstimate
     """
+    if config.linalg == "direct":
+        return step_reference(state, sample, config, seed)
+    return _step_compiled(state, sample, config, seed)
+
+
+def step_reference(
+    state: GPSSMState | None, sample: Sample, config: GPSSMConfig, seed: int = 0
+) -> tuple[GPSSMState, GPSSMEstimate]:
+    """:func:`step` with array operations over the particles (any ``linalg`` mode)."""
     _check_sample(sample)
     veh = config.vehicle
     b = config.basis
@@ -574,8 +591,7 @@ def step(
         # physical bound on the body sideslip angle (GPSSMConfig.max_sideslip)
         vy_max = math.tan(config.max_sideslip) * max(float(sample.vx), 0.0)
         np.clip(x[:, LateralState.VY], -vy_max, vy_max, out=x[:, LateralState.VY])
-    rng = np.random.default_rng()
-    rng.bit_generator.state = state.rng
+    rng = state.rng
 
     u = np.array([sample.steer, sample.vx], dtype=float)
     learn = bool(sample.vx >= config.min_speed)
@@ -589,8 +605,8 @@ def step(
 
     ratio = _manifold_ratio(state)
     pk_args = (float(state.peak_alpha[0]), float(state.peak_alpha[1]))
-    if b.kind == "tensor":  # the manifold ratio changes every step
-        fpk, where = _peak_features.__wrapped__(config, ratio, *pk_args)
+    if b.kind == "tensor":  # at the manifold ratio to 1e-3, as the peak grid
+        fpk, where = _peak_features(config, round(ratio, 3), *pk_args)
     else:
         fpk, where = _peak_features(config, 1.0, *pk_args)
     # right-hand sides: phi, Psi^T, peak features of the groups
@@ -673,7 +689,7 @@ def step(
         t=float(sample.t), u=u, x=x, mu=mu, logw=np.log(np.maximum(w, 1e-300)), lin=lin,
         Psi=Psi, Phi=Phi, nu=float(nu), visits=visits, slip_moments=moments,
         peak_alpha=np.array([peak["alpha"][0], peak["alpha"][1]]),
-        rng=rng.bit_generator.state,
+        rng=rng,
     )
     if idx is not None:
         new = resample(new, idx)
@@ -688,6 +704,130 @@ def step(
         mu_rear_lower=peak["lo"][1], mu_rear_upper=peak["hi"][1],
         peak_alpha_front=peak["alpha"][0], peak_alpha_rear=peak["alpha"][1],
         peak_observed_front=peak["obs"][0], peak_observed_rear=peak["obs"][1],
+        excited=excited, ess=ess, resampled=bool(resampled),
+    )
+    return new, est
+
+
+@lru_cache(maxsize=16)
+def _kernel_constants(config: GPSSMConfig) -> dict[str, Any]:
+    """Packed arrays of :mod:`roadgrip.estimators.gpssm_kernel` for a configuration."""
+    veh = config.vehicle
+    vp = np.zeros(gk.VEH.SIZE)
+    vp[gk.VEH.MASS], vp[gk.VEH.FZF], vp[gk.VEH.FZR] = veh.mass, veh.fz_front, veh.fz_rear
+    vp[gk.VEH.LF], vp[gk.VEH.LR], vp[gk.VEH.IZZ] = veh.lf, veh.lr, veh.yaw_inertia
+    vp[gk.VEH.V_EPS] = V_EPS
+    pt = config.prior_tire
+    tensor, nf, fidx, ridx, wgt = gk.basis_tables(config.basis)
+    exact = config.linalg == "exact"
+    return {
+        "veh": vp, "mf": np.array([pt.B, pt.C, pt.D, pt.E], float),
+        "tensor": tensor, "nf": nf, "fidx": fidx, "ridx": ridx, "wgt": wgt,
+        "Lambda0": np.ascontiguousarray(config.Lambda0),
+        "tol": 1e-13 if exact else 1.0, "max_terms": 60 if exact else 1,
+        "where": np.array([[0, 0], [0, 1]] if tensor else [[0, 0], [1, 0]], np.int64),
+        "col": np.array([0, 1] if tensor else [0, 0], np.int64),
+    }
+
+
+def _step_compiled(
+    state: GPSSMState | None, sample: Sample, config: GPSSMConfig, seed: int
+) -> tuple[GPSSMState, GPSSMEstimate]:
+    """:func:`step` through the compiled kernel (``'exact'`` and ``'fast'``)."""
+    _check_sample(sample)
+    kc = _kernel_constants(config)
+    b = config.basis
+    N, G, d, m = config.particles, b.groups, b.outputs, b.m
+    lam = config.forgetting
+    if state is None:
+        state = init(config, sample, seed)
+        lin, nu, propagate, dt = state.lin, state.nu, False, 0.0
+    else:
+        dt = sample.t - state.t
+        if not dt > 0:
+            raise ValueError(f"GP-SSM samples must have increasing time: {state.t} then {sample.t}")
+        lin = la.forget(state.lin, lam, config.refactor_every)
+        nu, propagate = lam * state.nu, True
+    learn = bool(sample.vx >= config.min_speed)
+    if learn:
+        lin = la.reserve(lin)
+    rng = state.rng
+    ratio = _manifold_ratio(state)
+    pk_args = (float(state.peak_alpha[0]), float(state.peak_alpha[1]))
+    if b.kind == "tensor":
+        fpk, _ = _peak_features(config, round(ratio, 3), *pk_args)
+        fpk_g = np.ascontiguousarray(fpk.T[None])        # (1, m, 2)
+    else:
+        fpk, _ = _peak_features(config, 1.0, *pk_args)
+        fpk_g = np.ascontiguousarray(fpk[:, :, None])    # (2, m, 1)
+    dof = nu - d + 1.0
+    if config.proposal == "conditional":
+        gdraw = rng.chisquare(dof, size=(N, G))
+        zdraw = rng.standard_normal((N, 2)).reshape(N, 1, 2)
+    else:
+        zdraw = rng.standard_normal((N, G, d))
+        gdraw = rng.chisquare(dof, size=(N, G))
+    vy_max = -1.0
+    if config.max_sideslip is not None:
+        vy_max = math.tan(config.max_sideslip) * max(float(sample.vx), 0.0)
+    alpha = np.empty((N, 2))
+    M = np.empty((N, G, d, m))
+    Lam = np.empty((N, G, d, d))
+    vpk = np.empty((N, G, fpk_g.shape[2]))
+    munow = np.empty((N, 2))
+    e = np.empty(gk.EST.SIZE)
+    logw = state.logw
+    gk.particle_pass(
+        state.x, state.mu, logw, lin.pinv.reshape(N * G, m, m),
+        lin.hist.reshape(N * G, lin.hist.shape[2], m), lin.nhist, state.Psi, state.Phi,
+        propagate, float(dt), float(state.u[0]), float(state.u[1]), float(sample.steer),
+        float(sample.vx), float(sample.ay), float(sample.yaw_rate), learn,
+        kc["veh"], kc["mf"], lam, nu, kc["Lambda0"], config.sigma_ay, config.sigma_yaw_rate, vy_max,
+        lin.p_scale, 1.0 - lin.c, kc["tol"], kc["max_terms"],
+        kc["tensor"], kc["nf"], kc["fidx"], kc["ridx"], kc["wgt"], b.L, fpk_g,
+        gdraw, zdraw, config.proposal == "conditional",
+        alpha, M, Lam, vpk, munow, e,
+    )
+    if learn:
+        lin.hcoef[lin.nhist] = 1.0 / lin.sigma_scale
+        lin = lin._replace(nhist=lin.nhist + 1)
+        nu = nu + 1.0
+    af_m, ar_m = float(e[gk.EST.ALPHA_F]), float(e[gk.EST.ALPHA_R])
+    visits = state.visits
+    nb = visits.shape[1]
+    if learn:
+        for ax, a_ in enumerate((af_m, ar_m)):
+            visits[ax, min(int(abs(a_) / config.bin_width), nb - 1)] += 1
+    moments = state.slip_moments + learn * np.array([af_m * af_m, af_m * ar_m])
+    excited = learn and bool(max(abs(af_m), abs(ar_m)) > config.excitation_slip)
+    grid, feats, prior = _peak_grid(config, round(ratio, 3))
+    a_vis = np.zeros(2)
+    for ax in range(2):
+        vb = np.flatnonzero(visits[ax] >= config.peak_visits)
+        a_vis[ax] = (vb[-1] + 1) * config.bin_width if len(vb) else 0.0
+    pk = np.empty((2, 5))
+    gk.peak_summary(M, Lam, max(nu - d - 1.0, 1.0), logw, vpk, feats, prior, grid, kc["where"],
+                    kc["col"], a_vis, b.ell, _Z95, pk)
+    ess = float(e[gk.EST.ESS])
+    resampled = ess <= config.ess_threshold * N
+    new = GPSSMState(
+        k=state.k + 1, t=float(sample.t), u=np.array([sample.steer, sample.vx], dtype=float),
+        x=state.x, mu=state.mu, logw=logw, lin=lin, Psi=state.Psi, Phi=state.Phi, nu=float(nu),
+        visits=visits, slip_moments=moments, peak_alpha=pk[:, 3].copy(), rng=rng,
+    )
+    if resampled:
+        new = resample(new, _systematic(rng, np.exp(logw)))
+    est = GPSSMEstimate(
+        t=float(sample.t),
+        vy=float(e[gk.EST.VY]), vy_std=float(e[gk.EST.VY_STD]),
+        yaw_rate=float(e[gk.EST.YAW_RATE]), yaw_rate_std=float(e[gk.EST.YAW_RATE_STD]),
+        alpha_f=af_m, alpha_r=ar_m,
+        mu_now_front=float(e[gk.EST.MU_NOW_F]), mu_now_rear=float(e[gk.EST.MU_NOW_R]),
+        mu_front=float(pk[0, 0]), mu_rear=float(pk[1, 0]),
+        mu_front_lower=float(pk[0, 1]), mu_front_upper=float(pk[0, 2]),
+        mu_rear_lower=float(pk[1, 1]), mu_rear_upper=float(pk[1, 2]),
+        peak_alpha_front=float(pk[0, 3]), peak_alpha_rear=float(pk[1, 3]),
+        peak_observed_front=bool(pk[0, 4]), peak_observed_rear=bool(pk[1, 4]),
         excited=excited, ess=ess, resampled=bool(resampled),
     )
     return new, est
@@ -836,7 +976,7 @@ def copy_state(state: GPSSMState) -> GPSSMState:
         u=state.u.copy(), x=state.x.copy(), mu=state.mu.copy(), logw=state.logw.copy(),
         lin=la.copy(state.lin), Psi=state.Psi.copy(), Phi=state.Phi.copy(),
         visits=state.visits.copy(), slip_moments=state.slip_moments.copy(),
-        peak_alpha=state.peak_alpha.copy(), rng=dict(state.rng),
+        peak_alpha=state.peak_alpha.copy(), rng=copy.deepcopy(state.rng),
     )
 
 

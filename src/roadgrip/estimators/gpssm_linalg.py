@@ -24,6 +24,10 @@ Three interchangeable backends (``GPSSMConfig.linalg``):
     fall below ``1e-13`` of the sum. Every ``refactor_every`` steps ``P_B`` is recomputed
     from ``Sigma`` (Cholesky of ``Sigma + I``, ``c = 1``), which also removes rounding
     drift of the rank-1 updates. ``O(N m²)`` per step, exact to rounding.
+    The rank-1 terms of ``Sigma`` are not added to the stored matrix every step: their
+    feature vectors are kept in a short history (one row per data update since the last
+    refactorisation, with its scale) and folded into ``Sigma`` with one matrix product
+    per particle at the refactorisation, so a step touches ``P_B`` only.
 ``'fast'``
     As ``'exact'`` with ``Sigma`` and ``P_B`` stored in single precision, a single
     Neumann correction term and a refactorisation in double precision every
@@ -42,7 +46,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["LINALG_MODES", "LinAlgState", "forget", "init", "refactor", "solve", "take", "update"]
+__all__ = ["LINALG_MODES", "LinAlgState", "flush", "forget", "init", "refactor", "reserve", "solve", "take",
+           "update"]
 
 LINALG_MODES = ("exact", "fast", "direct")
 
@@ -64,6 +69,13 @@ class LinAlgState(NamedTuple):
         Prior weight currently inside ``P_B``.
     since_refactor : int
         Steps since the last refactorisation.
+    hist : ndarray, shape (N, G, J, m)
+        Feature vectors of the data updates not yet folded into ``sigma``
+        (``'exact'``, ``'fast'``; empty for ``'direct'``).
+    hcoef : ndarray, shape (J,)
+        Their scales: ``Sigma = sigma_scale (sigma + sum_j hcoef_j h_j h_j^T)``.
+    nhist : int
+        Rows of ``hist`` in use.
     """
 
     mode: str
@@ -73,18 +85,48 @@ class LinAlgState(NamedTuple):
     p_scale: float
     c: float
     since_refactor: int
+    hist: NDArray
+    hcoef: NDArray
+    nhist: int
 
 
-def init(mode: str, n: int, groups: int, m: int) -> LinAlgState:
-    """Prior state: ``Sigma = 0``, ``H = I``."""
+def init(mode: str, n: int, groups: int, m: int, history: int = 64) -> LinAlgState:
+    """Prior state: ``Sigma = 0``, ``H = I``; ``history`` rank-1 terms are buffered."""
     if mode not in LINALG_MODES:
         raise ValueError(f"unknown linear-algebra mode {mode!r}; expected one of {LINALG_MODES}")
     dtype = np.float32 if mode == "fast" else np.float64
     sigma = np.zeros((n, groups, m, m), dtype=dtype)
     if mode == "direct":
-        return LinAlgState(mode, sigma, np.zeros(0), 1.0, 1.0, 1.0, 0)
+        return LinAlgState(mode, sigma, np.zeros(0), 1.0, 1.0, 1.0, 0, np.zeros((n, groups, 0, m)),
+                           np.zeros(0), 0)
     pinv = np.broadcast_to(np.eye(m, dtype=dtype), (n, groups, m, m)).copy()
-    return LinAlgState(mode, sigma, pinv, 1.0, 1.0, 1.0, 0)
+    hist = np.zeros((n, groups, max(int(history), 1), m), dtype=dtype)
+    return LinAlgState(mode, sigma, pinv, 1.0, 1.0, 1.0, 0, hist, np.zeros(hist.shape[2]), 0)
+
+
+def flush(st: LinAlgState) -> LinAlgState:
+    """Fold the buffered rank-1 terms into ``sigma`` (``sigma += sum_j hcoef_j h_j h_j^T``)."""
+    if st.mode == "direct" or st.nhist == 0:
+        return st
+    N, G, J, m = st.hist.shape
+    _fold(st.sigma.reshape(N * G, m, m), st.hist.reshape(N * G, J, m),
+          st.hcoef.astype(st.hist.dtype), st.nhist)
+    return st._replace(nhist=0)
+
+
+def reserve(st: LinAlgState) -> LinAlgState:
+    """Make room for one more buffered rank-1 term."""
+    if st.mode != "direct" and st.nhist >= st.hist.shape[2]:
+        return flush(st)
+    return st
+
+
+@numba.njit(cache=True)
+def _fold(sigma, hist, hcoef, n):  # pragma: no cover - compiled
+    for b in range(hist.shape[0]):
+        H = hist[b, :n]
+        Hw = H * hcoef[:n].reshape(n, 1)
+        sigma[b] += np.dot(Hw.T, H)
 
 
 def forget(st: LinAlgState, lam: float, refactor_every: int) -> LinAlgState:
@@ -107,6 +149,7 @@ def refactor(st: LinAlgState) -> LinAlgState:
     particle inside a compiled loop)."""
     if st.mode == "direct":
         return st
+    st = flush(st)
     _refactor(st.sigma.reshape((-1, *st.sigma.shape[-2:])),
               st.pinv.reshape((-1, *st.pinv.shape[-2:])), st.sigma_scale)
     return st._replace(sigma_scale=1.0, p_scale=1.0, c=1.0, since_refactor=0)
@@ -184,25 +227,20 @@ def _neumann(pinv, p_scale, delta, Rt, n_exact, tol, max_terms):  # pragma: no c
 
 
 @numba.njit(cache=True, fastmath=True)
-def _rank1(sigma, pinv, phi, pb_phi, sigma_scale, p_scale):  # pragma: no cover - compiled
-    """sigma += phi phi^T / sigma_scale;  P_B <- P_B - (P_B phi)(P_B phi)^T / (1 + phi^T P_B phi)."""
+def _rank1(pinv, phi, pb_phi, p_scale):  # pragma: no cover - compiled
+    """P_B <- P_B - (P_B phi)(P_B phi)^T / (1 + phi^T P_B phi) (Sherman-Morrison)."""
     B, m = phi.shape
     for b in range(B):
         s = 0.0
         for i in range(m):
             s += phi[b, i] * pb_phi[b, i]
         g = 1.0 / ((1.0 + s) * p_scale)
-        S = sigma[b]
         P = pinv[b]
         pb = pb_phi[b]
-        ph = phi[b]
         for i in range(m):
-            fi = ph[i] / sigma_scale
             ui = pb[i] * g
-            Si = S[i]
             Pr = P[i]
             for j in range(m):
-                Si[j] += fi * ph[j]
                 Pr[j] -= ui * pb[j]
 
 
@@ -240,12 +278,14 @@ def update(st: LinAlgState, phi: NDArray, pb_phi: NDArray | None) -> LinAlgState
         sig = st.sigma
         sig += phi[..., :, None] * phi[..., None, :]
         return st
+    st = reserve(st)
+    st.hist[:, :, st.nhist] = phi
+    st.hcoef[st.nhist] = 1.0 / st.sigma_scale
     _rank1(
-        st.sigma.reshape(N * G, m, m), st.pinv.reshape(N * G, m, m),
-        np.ascontiguousarray(phi.reshape(N * G, m)), pb_phi.reshape(N * G, m),
-        st.sigma_scale, st.p_scale,
+        st.pinv.reshape(N * G, m, m),
+        np.ascontiguousarray(phi.reshape(N * G, m)), pb_phi.reshape(N * G, m), st.p_scale,
     )
-    return st
+    return st._replace(nhist=st.nhist + 1)
 
 
 def take(st: LinAlgState, idx: NDArray) -> LinAlgState:
@@ -253,9 +293,10 @@ def take(st: LinAlgState, idx: NDArray) -> LinAlgState:
 
     The buffers of ``st`` are consumed (rows are moved in place when ``idx`` is sorted).
     """
-    return st._replace(
-        sigma=take_rows(st.sigma, idx), pinv=take_rows(st.pinv, idx) if st.pinv.ndim == 4 else st.pinv
-    )
+    if st.mode == "direct":
+        return st._replace(sigma=take_rows(st.sigma, idx))
+    return st._replace(sigma=take_rows(st.sigma, idx), pinv=take_rows(st.pinv, idx),
+                       hist=take_rows(st.hist, idx))
 
 
 def take_rows(a: NDArray, idx: NDArray) -> NDArray:
@@ -291,10 +332,15 @@ def _gather_sorted(a, idx):  # pragma: no cover - compiled
 
 
 def copy(st: LinAlgState) -> LinAlgState:
-    return st._replace(sigma=st.sigma.copy(), pinv=st.pinv.copy())
+    return st._replace(sigma=st.sigma.copy(), pinv=st.pinv.copy(), hist=st.hist.copy(),
+                       hcoef=st.hcoef.copy())
 
 
 def information(st: LinAlgState) -> NDArray:
     """``H = Sigma + I`` in double precision, shape (N, G, m, m) (for checks)."""
     m = st.sigma.shape[-1]
-    return st.sigma.astype(np.float64) * st.sigma_scale + np.eye(m)
+    S = st.sigma.astype(np.float64)
+    if st.mode != "direct" and st.nhist:
+        h = st.hist[:, :, :st.nhist].astype(np.float64)
+        S = S + np.einsum("ngjm,j,ngjk->ngmk", h, st.hcoef[:st.nhist], h)
+    return S * st.sigma_scale + np.eye(m)
