@@ -145,6 +145,40 @@ def test_config_validation():
         BRLSConfig.from_dict({**default_config().to_dict(), "forgeting": 0.9})
 
 
+def test_theoretical_slip_regressor():
+    """tan(alpha) vx / (R omega): eq. 2's slip gives vx / (R omega) = 1 - kappa driving, 1 / (1 + kappa) braking."""
+    from roadgrip.estimators.kinematic import KinematicOutput
+
+    a_f, a_r = np.array([0.05, 0.05, 0.05]), np.array([0.1, 0.1, 0.1])
+    kappa = np.array([[0.0, 0.0, 0.2, 0.2], [0.0, 0.0, -0.2, -0.2], [0.0, 0.0, 0.2, 0.2]])
+    valid = np.array([[False, False, True, True]] * 2 + [[False, False, False, False]])
+    vx = np.full(3, 2.0)
+    kin = KinematicOutput(vx, 0 * vx, 0 * vx, kappa, a_f, a_r, valid)
+    _, rear = brls.regressors(kin, np.zeros(3), lateral="rear", theoretical_slip=True)
+    np.testing.assert_allclose(rear, 2 * np.tan(0.1) * np.array([0.8, 1 / 0.8, 1.0]))
+    _, plain = brls.regressors(kin, np.zeros(3), lateral="rear")
+    np.testing.assert_allclose(plain, 0.2)
+    # front axle without wheel speeds keeps tan(alpha_f)
+    _, axles = brls.regressors(kin, np.full(3, 0.3), lateral="axles", theoretical_slip=True)
+    np.testing.assert_allclose(axles[0], np.tan(0.05) * np.cos(0.3) + np.tan(0.1) * 0.8)
+    assert brls.rolling_ratio(np.array(-0.9)) == pytest.approx(2.0)  # braking slip bounded
+
+
+def test_settled_counts_from_the_first_moving_sample():
+    t = np.arange(0.0, 40.0, 0.1)
+    moving = t >= 12.0
+    m = brls.settled(t, moving)
+    assert t[m][0] == pytest.approx(12.0 + brls.CALIBRATION_SETTLING_S)
+    assert m[t >= 22.05].all()
+    assert brls.settled(t, np.zeros(t.size, bool)).all()  # never moves: everything
+
+
+def test_lateral_acceleration_setting_is_validated():
+    with pytest.raises(ValueError, match="lateral_acceleration"):
+        replace(default_config(), lateral_acceleration="gps")
+    assert BRLSConfig.from_dict(default_config().to_dict()).lateral_acceleration == "auto"
+
+
 def test_summary_maps_the_class_to_its_friction_reference():
     fr = {"high": 0.9, "low": 0.3}
     t = pd.DataFrame({"grip_class": ["unknown", "high"], "grip_index": [0.5, 0.9]})
@@ -354,19 +388,20 @@ def test_dart_calibrate_first_halves_classify_second_halves(tmp_path):
     cal = brls.calibrate(cal_set, friction={"high": 0.85, "low": 0.35})
     path = tmp_path / "dart.yaml"
     save_calibration(cal, path)
-    accs = []
+    # the pose gives the lateral acceleration (r vx + dvy/dt), not the noisy accelerometer
+    assert cal.brls.lateral_acceleration == "auto"
+    accs = {}
     for drive, label in test_set:
-        table = brls.run_cli(drive, EstimateRequest(calibration=str(path), progress=False)).table
+        result = brls.run_cli(drive, EstimateRequest(calibration=str(path), progress=False))
+        table = result.table
         acc = excited_accuracy(table, label)
-        summary = brls.run_cli(drive, EstimateRequest(calibration=str(path), progress=False)).meta["summary"]
-        assert summary["MostProbable"] == (0.85 if label == "high" else 0.35)
+        assert result.meta["summary"]["MostProbable"] == (0.85 if label == "high" else 0.35)
         print(f"bRLS {label:4s} {Path(drive.meta.source).name}: excited {table['excited'].mean():.2f}, "
               f"correct {acc:.3f} of excited time after {SETTLING_S:.0f} s")
-        accs.append(acc)
-    # three of the four test halves reach 90 %; the fourth (a high-grip run with a
-    # violent lateral-acceleration episode late in the run) stays above 70 %
-    assert sorted(accs)[1] >= 0.9
-    assert min(accs) >= 0.7
+        accs[Path(drive.meta.source).name] = acc
+    # acceptance: every test half is classified correctly for at least 90 % of its
+    # excited time after the settling period
+    assert min(accs.values()) >= 0.9, accs
 
 
 @pytest.mark.realdata
@@ -380,13 +415,15 @@ def test_dart_concatenation_high_low_high_is_tracked(tmp_path):
     t = drive.t
     truth = np.where((t >= starts[1]) & (t < starts[2]), "low", "high")
     events = detection_delays(t, table["grip_class"].to_numpy(), truth, np.ones(t.size, bool), hold=1.0)
+    assert [e.new_class for e in events] == ["low", "high"]
     for e in events:
         print(f"DART concatenation: change at {e.t_change:.1f} s -> {e.new_class}, "
               f"detected after {e.delay_from_change:.1f} s")
-        assert e.detected and e.delay_from_change < 5.0
+        assert e.detected and e.delay_from_change < 3.0
     cls = table["grip_class"].to_numpy()
     print(f"DART concatenation: correct {np.mean(cls == truth):.3f} of the time")
-    assert np.mean(cls == truth) > 0.85
+    assert np.mean(cls == truth) > 0.95
+    assert count_switches(cls) == 2
 
 
 def test_cli_calibrate_and_estimate(dgd, tmp_path):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -10,7 +12,10 @@ from roadgrip.drive import Drive, DriveValidationError
 from roadgrip.estimators.kinematic import (
     KinematicConfig,
     KinematicEstimator,
+    drive_lateral_acceleration,
     estimate_kinematics,
+    kinematic_lateral_acceleration,
+    select_lateral_acceleration,
     wheel_slips,
 )
 from roadgrip.vehicle import PRESETS
@@ -153,3 +158,84 @@ def test_pose_aid_recovers_speed_and_sideslip_on_a_circle():
     est = KinematicEstimator(drive.vehicle, aid="pose")
     rows = [est.step(s) for s in KinematicEstimator.samples(drive)]
     np.testing.assert_allclose([r_.vy for r_ in rows], out.vy, rtol=1e-12, atol=1e-15)
+
+
+def _circle_drive(n=600, dt=0.1, vx=2.0, vy=-0.15, r=1.5, ay_noise=3.0, seed=0):
+    """Steady circle with a pose; the accelerometer's ay carries white noise of ``ay_noise``."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * dt
+    psi = r * t
+    x = (vx * np.sin(psi) + vy * (np.cos(psi) - 1.0)) / r
+    y = (-vx * (np.cos(psi) - 1.0) + vy * np.sin(psi)) / r
+    df = pd.DataFrame({"t": t, "ax": np.full(n, -r * vy),
+                       "ay": r * vx + ay_noise * rng.standard_normal(n),
+                       "yaw_rate": np.full(n, r), "steer": np.full(n, 0.2), "x": x, "y": y,
+                       "psi": psi})
+    return Drive.from_frame(df, PRESETS["jetracer"], source="test")
+
+
+def test_kinematic_lateral_acceleration_from_the_pose_ignores_accelerometer_noise():
+    vx, r = 2.0, 1.5
+    drive = _circle_drive(vx=vx, r=r)
+    out = estimate_kinematics(drive)  # pose aid
+    ay_kin = kinematic_lateral_acceleration(drive.t, out.vx, out.vy, drive.col("yaw_rate"))
+    # centripetal r vx (constant vy), independent of the accelerometer's 3 m/s² noise
+    np.testing.assert_allclose(ay_kin[5:], r * vx, rtol=0.01)
+    assert np.std(drive.col("ay")) > 2.5
+    used = drive_lateral_acceleration(drive, out, "auto")
+    np.testing.assert_array_equal(used, ay_kin)  # pose aid -> kinematic
+    np.testing.assert_array_equal(drive_lateral_acceleration(drive, out, "imu"), drive.col("ay"))
+
+
+def test_kinematic_lateral_acceleration_carries_dvy_dt():
+    """Straight heading, lateral velocity ramping at a: ay = dvy/dt = a (r = 0)."""
+    n, dt, vx, a = 300, 0.1, 2.0, 0.8
+    t = np.arange(n) * dt
+    df = pd.DataFrame({"t": t, "ax": np.zeros(n), "ay": np.zeros(n), "yaw_rate": np.zeros(n),
+                       "steer": np.zeros(n), "x": vx * t, "y": 0.5 * a * t**2, "psi": np.zeros(n)})
+    drive = Drive.from_frame(df, PRESETS["jetracer"], source="test")
+    out = estimate_kinematics(drive)
+    ay_kin = kinematic_lateral_acceleration(drive.t, out.vx, out.vy, drive.col("yaw_rate"))
+    assert ay_kin[0] == 0.0  # no previous sample
+    np.testing.assert_allclose(ay_kin[3:], a, rtol=1e-6)
+
+
+def test_lateral_acceleration_source_selection():
+    assert select_lateral_acceleration("auto", "pose", 1.0, 2.0) == 2.0
+    assert select_lateral_acceleration("auto", "wheels", 1.0, 2.0) == 1.0
+    assert select_lateral_acceleration("imu", "pose", 1.0, 2.0) == 1.0
+    assert select_lateral_acceleration("kinematic", "wheels", 1.0, 2.0) == 2.0
+    with pytest.raises(ValueError, match="lateral acceleration source"):
+        select_lateral_acceleration("gps", "pose", 1.0, 2.0)
+
+
+DART = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dart"
+
+
+@pytest.mark.realdata
+def test_dart_kinematic_lateral_acceleration_is_the_quieter_measurement():
+    """On every DART run the pose-kinematic ay follows the accelerometer's mean, with a tenth of its noise.
+
+    Noise per sample: median absolute first difference / (0.6745 sqrt 2) over the
+    moving samples (the signals change slowly at 10 Hz, so the differences are noise).
+    """
+    if not DART.is_dir():
+        pytest.skip(f"DART data not found at {DART} (../shared/data beside the checkout)")
+    from roadgrip.io import read_drive
+
+    def noise(x, m):
+        d = np.diff(x)[m[1:] & m[:-1]]
+        return 1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0)
+
+    for path in sorted(DART.glob("*/*.csv")):
+        drive = read_drive(path, format="dart")
+        out = estimate_kinematics(drive)
+        m = out.vx > 0.5
+        ay_kin = drive_lateral_acceleration(drive, out, "auto")
+        ay_imu = drive.col("ay")
+        n_kin, n_imu = noise(ay_kin, m), noise(ay_imu, m)
+        bias = float(np.mean(ay_imu[m] - ay_kin[m]))
+        print(f"{path.name}: ay noise accelerometer {n_imu:.2f} m/s², pose kinematics {n_kin:.2f} m/s², "
+              f"mean difference {bias:+.2f} m/s²")
+        assert n_kin < 0.2 * n_imu
+        assert abs(bias) < 0.5

@@ -118,6 +118,8 @@ def test_recursion_eq16_converges_and_says_unknown_without_information():
 def test_config_validation_and_roundtrip():
     cfg = default_config()
     assert SlipMapConfig.from_dict(cfg.to_dict()) == cfg
+    with pytest.raises(ValueError, match="lateral_acceleration"):
+        replace(cfg, lateral_acceleration="gps")
     with pytest.raises(ValueError, match="sigma_x"):
         replace(cfg, sigma_x=0.0)
     with pytest.raises(ValueError, match="unknown slipmap setting"):
@@ -179,6 +181,23 @@ def test_run_equals_stepping(dgd, prefilter):
 
 
 @pytest.mark.realdata
+def test_dart_run_equals_stepping_with_pose_kinematic_acceleration():
+    from test_brls import dart_split
+
+    drive = dart_split()[1][2][0].slice_time(50.0, 70.0)
+    clf = SlipMapClassifier.for_drive(drive, replace(default_config(0.5), prefilter_tau_s=0.5))
+    assert clf.kinematic.aid == "pose"
+    batch = clf.run(drive)
+    rows = [clf.step(s) for s in KinematicEstimator.samples(drive)]
+    np.testing.assert_allclose(batch["grip_index"], [r.grip_index for r in rows], rtol=1e-10)
+    np.testing.assert_allclose(batch["w_y"], [r.w_y for r in rows], rtol=1e-10, atol=1e-15)
+    # the lateral map sees the pose-kinematic ay, not the accelerometer's
+    imu = slipmap._run_table(drive, replace(clf.config, lateral_acceleration="imu"),
+                             clf.kinematic.config)
+    assert not np.allclose(batch["w_y"], imu["w_y"])
+
+
+@pytest.mark.realdata
 def test_dart_calibrate_first_halves_classify_second_halves(tmp_path):
     from test_brls import concatenate, dart_split, excited_accuracy
 
@@ -187,15 +206,16 @@ def test_dart_calibrate_first_halves_classify_second_halves(tmp_path):
     cal_set, test_set = dart_split()
     path = tmp_path / "dart.yaml"
     save_calibration(calibrate(cal_set), path)
-    accs = []
+    accs = {}
     for drive, label in test_set:
         table = slipmap.run_cli(drive, EstimateRequest(calibration=str(path), progress=False)).table
         acc = excited_accuracy(table, label)
-        print(f"slipmap {label:4s} {drive.meta.source.rsplit('/', 1)[-1]}: excited "
+        name = drive.meta.source.rsplit('/', 1)[-1]
+        print(f"slipmap {label:4s} {name}: excited "
               f"{table['excited'].mean():.2f}, correct {acc:.3f} of excited time after 10 s")
-        accs.append(acc)
-    assert sorted(accs)[1] >= 0.85
-    assert min(accs) >= 0.8
+        accs[name] = acc
+    # acceptance: every test half >= 90 % of its excited time after the settling period
+    assert min(accs.values()) >= 0.9, accs
     # concatenation high -> low -> high
     highs = [d for d, lab in test_set if lab == "high"]
     lows = [d for d, lab in test_set if lab == "low"]
@@ -204,9 +224,10 @@ def test_dart_calibrate_first_halves_classify_second_halves(tmp_path):
     t = drive.t
     truth = np.where((t >= starts[1]) & (t < starts[2]), "low", "high")
     events = detection_delays(t, table["grip_class"].to_numpy(), truth, np.ones(t.size, bool), hold=1.0)
+    assert [e.new_class for e in events] == ["low", "high"]
     for e in events:
         print(f"slipmap DART concatenation: change at {e.t_change:.1f} s -> {e.new_class}, "
               f"detected after {e.delay_from_change:.1f} s")
-        assert e.detected and e.delay_from_change < 5.0
+        assert e.detected and e.delay_from_change < 3.0
     print(f"slipmap DART concatenation: correct {np.mean(table['grip_class'] == truth):.3f} of the time")
-    assert np.mean(table["grip_class"] == truth) > 0.8
+    assert np.mean(table["grip_class"] == truth) > 0.9

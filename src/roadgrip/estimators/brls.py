@@ -105,8 +105,10 @@ __all__ = [
     "default_config",
     "load_calibration",
     "regressors",
+    "rolling_ratio",
     "run_cli",
     "save_calibration",
+    "settled",
     "sufficiently_excited",
 ]
 
