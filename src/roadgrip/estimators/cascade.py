@@ -39,6 +39,19 @@ tire, ``vy = lr r - vx alpha_r`` with ``alpha_r = m ay lf / (l C_r)``, standard
 deviation ``|vx| (slip_bias_std + |alpha_r|) + 0.01 m/s``. It is off in
 cornering, where the tires may be nonlinear and the friction information lies.
 
+*Pose velocity.* When the drive carries a body velocity differentiated from a
+localisation pose (columns ``vx_pose, vy_pose``, e.g. the particle-filter pose
+of the F1/10 runs, :func:`roadgrip.io.frictionmaps.pose_body_velocity`), stage 1
+fuses it as a direct measurement of ``[vx, vy]`` with standard deviation
+``pose_velocity_std``; NaN marks samples without one (near localisation jumps).
+The pose error is correlated over the differentiation window
+(``pose_velocity_corr_time``), so each sample's variance is inflated by
+``corr_time / T``: a window counts as one independent measurement. This bounds
+the drift of the integrated ``vy`` in cornering, where the straight-driving
+pseudo-measurement is off: on the F1/10 run DS5 the root-mean-square
+difference between the stage-1 ``vy`` and the pose ``vy`` falls from 0.36 to
+0.18 m/s (the pose's own noise is about 0.1 m/s), on DS4 from 0.98 to 0.42 m/s.
+
 The inputs ``u = [ax, ay, r]`` are measured, so the state noise follows from the
 sensor noise: ``Q1 = T² (diag(sa², sa²) + sr² g gᵀ)`` with ``g = [vy, -vx]``
 (first-order propagation of accelerometer noise ``sa`` and gyro noise ``sr``;
@@ -115,7 +128,21 @@ so ``alpha_r - Fyr / C_r`` measures the slip-angle error; when its
 root-mean-square over the last 5 s (exponential window) exceeds the assumed
 bias, the test is repeated with the exact brush inversion at that larger
 error (:func:`_slip_bias_effect`), which also catches a bias that would move
-the tire between adhesion and sliding. On logs whose slip angles are much
+the tire between adhesion and sliding. The front axle's residual
+``alpha_f - Fyf / C_f`` is tracked the same way.
+
+The last test concerns the slip angle's *random* error: the exact inversion is
+repeated at ``alpha ± z sqrt(var(alpha) + e²)`` (``z = slip_noise_z``,
+``var(alpha)`` from the stage-2 covariance, ``e`` the axle's consistency
+residual above) and must move by at most ``max_slip_bias_effect``. Without
+it, a sample whose slip angle is overestimated lands on the sliding branch of
+the brush model, where the local slope says the force no longer depends on the
+slip, and reports ``mu = |F| / Fz``: the grip *used*, not the peak. On the
+F1/10 runs 99 % of the excited samples were of that kind (cascade rear slip
+0.2-0.55 rad where the pose gives 0.02-0.08 rad), and the maps followed how
+hard each run was driven. A tire that, within its slip uncertainty, may as
+well be in its linear range gives only the lower bound ``|F| / Fz``, which no
+Gaussian observation expresses, so such samples are not excited. On logs whose slip angles are much
 worse than assumed, few samples count as excited and the map keeps its prior.
 
 A sample that fails the test for an axle leaves that axle's estimate where it
@@ -131,9 +158,16 @@ that ``mu`` lies at or beyond the bound, which no Gaussian observation states).
 Sensor noise
 ------------
 Unless given in :class:`CascadeConfig`, the noise standard deviations of the
-accelerometers, gyro and speed signal are estimated from the drive itself by
+accelerometers, gyro and speed signal are taken from the reader
+(``meta.extra['sensor_noise']``, measured on the native streams before
+resampling) or else estimated from the drive itself by
 :func:`noise_from_drive` (robust scale of second differences, which removes a
-smooth signal and leaves white noise with variance ``6 s²``).
+smooth signal and leaves white noise with variance ``6 s²``). On a signal
+upsampled by linear interpolation the second differences vanish between
+native samples, so the estimate from the drive is far too small: on the F1/10
+runs (IMU at 18-30 Hz resampled to 50 Hz) 0.05 m/s² and 0.003 rad/s instead of
+about 1 m/s² and 0.04-0.15 rad/s, which made the filters overconfident (mean
+stage-2 NIS 20 for 5 degrees of freedom on DS5; 2.6 with the native noise).
 """
 
 from __future__ import annotations
@@ -266,7 +300,10 @@ class _P(IntEnum):
     STEER_BIAS = 28
     VY_BIAS = 29
     CONSIST_TAU = 30
-    SIZE = 31
+    VAR_POSE = 31  # pose-velocity variance per sample [m²/s²] times the sample interval [s]
+    SLIP_Z = 32
+    STEER_TAU = 33
+    SIZE = 34
 
 
 class _O(IntEnum):
@@ -327,6 +364,14 @@ class CascadeConfig:
         Systematic steering-angle error [rad], added to ``slip_bias_std`` for the
         front axle (e.g. 0.05 when ``steer`` is a command rather than a measured
         road-wheel angle, as in the F1/10 data of paper 003).
+    steer_response_time : float or None
+        Time constant [s] of the steering actuator when ``steer`` is a command
+        rather than a measured road-wheel angle: the command change not yet
+        followed, ``|steer - lowpass(steer)|`` (first-order low-pass with this
+        time constant), is added to the steering-angle standard deviation of
+        the front slip angle. ``None``: 0.1 s when the drive says its steering
+        is a command (``meta.extra['steer_is_command']``, set by the
+        frictionmaps reader), else 0 (a measured angle).
     accel_model_std : float
         Accelerometer model error [m/s²] (bias, grade, mounting offset), added to
         the accelerometer noise in stages 1 and 2.
@@ -366,9 +411,22 @@ class CascadeConfig:
         would move its ``mu`` observation by at most this much [-]: close to the
         linear range of the tire, ``mu`` follows from the small curvature of the
         force and any slip bias maps into a large friction error.
+    slip_noise_z : float
+        A sample counts as excited only if the brush inversion also moves by at
+        most ``max_slip_bias_effect`` when the slip angle moves by ``slip_noise_z``
+        of its own standard deviations (stage-2 covariance); 0 disables this test.
     ay_straight : float
         Below this lateral acceleration [m/s²] stage 1 adds the straight-driving
         pseudo-measurement of ``vy`` (module docstring); 0 disables it.
+    pose_velocity_std : float
+        Standard deviation [m/s] of the pose-derived body velocity
+        (``vx_pose, vy_pose`` columns, e.g. from the localisation of the
+        frictionmaps runs); 0 ignores those columns. See *Pose velocity*.
+    pose_velocity_corr_time : float
+        Correlation time [s] of the pose-velocity error (the smoothing window of
+        the differentiation): each sample's variance is inflated by
+        ``corr_time / T`` so that one window carries the information of one
+        independent measurement.
     v_min : float
         No friction update below this speed [m/s].
     v_eps : float
@@ -385,6 +443,7 @@ class CascadeConfig:
     speed_std: float | None = None
     steer_std: float = 0.005
     steer_bias_std: float = 0.0
+    steer_response_time: float | None = None
     accel_model_std: float = 0.1
     accel_bias_std: float | None = None
     accel_bias_rate_std: float = 0.002
@@ -398,7 +457,10 @@ class CascadeConfig:
     slip_bias_std: float = 0.01
     vy_bias_std: float = 0.03
     max_slip_bias_effect: float = 0.1
+    slip_noise_z: float = 2.0
     ay_straight: float = 1.0
+    pose_velocity_std: float = 0.1
+    pose_velocity_corr_time: float = 0.3
     v_min: float = 1.0
     v_eps: float = 0.1
     speed_source: str = "auto"
@@ -451,10 +513,12 @@ class CascadeState(NamedTuple):
         Stage 2 (:class:`ForceState`).
     friction_mean, friction_cov : ndarray, (2,), (2, 2)
         Stage 3 (:class:`FrictionState`).
-    inputs : ndarray, (4,)
+    inputs : ndarray, (6,)
         ``ax, ay, yaw_rate`` of the last sample (stage 1 integrates the mean of
-        the inputs at both ends of a step) and the running mean square of the
-        slip-angle consistency residual [rad²] (module docstring).
+        the inputs at both ends of a step), the running mean squares of the
+        rear and front slip-angle consistency residuals [rad²] (module
+        docstring) and the low-passed steering angle [rad] (NaN before the
+        first sample; ``steer_response_time``).
     """
 
     t: float
@@ -468,7 +532,11 @@ class CascadeState(NamedTuple):
 
 
 class CascadeSample(NamedTuple):
-    """One sample of the inputs (SI): time, accelerations, yaw rate, steering, measured speed."""
+    """One sample of the inputs (SI): time, accelerations, yaw rate, steering, measured speed.
+
+    ``vx_pose, vy_pose`` [m/s] are the optional body velocity derived from a
+    localisation pose (NaN: none at this sample; module docstring, *Pose velocity*).
+    """
 
     t: float
     ax: float
@@ -476,6 +544,8 @@ class CascadeSample(NamedTuple):
     yaw_rate: float
     steer: float
     speed: float
+    vx_pose: float = float("nan")
+    vy_pose: float = float("nan")
 
 
 class CascadeEstimate(NamedTuple):
@@ -667,7 +737,7 @@ def friction_measurement(M, alpha_f, alpha_r, fzf, fzr, kf, kr, mu_min, mu_max):
 
 
 @njit(cache=True)
-def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, g6, w2m, w2c, g2, out):  # pragma: no cover
+def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, vxp, vyp, p, w6m, w6c, g6, w2m, w2c, g2, out):  # pragma: no cover
     """One sample through the three stages; updates the state arrays in place, fills ``out``."""
     m = p[_P.MASS]
     repairs = 0
@@ -718,6 +788,16 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
     xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), resid, H, np.array([[p[_P.VAR_SPEED]]]))
     xe[:] = xn
     Pe[:, :] = Pn
+    # body velocity from the localisation pose: bounds the drift of the integrated vy
+    if p[_P.VAR_POSE] > 0.0 and dt > 0.0 and vyp == vyp and vxp == vxp:
+        Hp = np.zeros((2, 4))
+        Hp[0, 0] = 1.0
+        Hp[1, 1] = 1.0
+        vpose = p[_P.VAR_POSE] / dt
+        xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), np.array([vxp - xe[0], vyp - xe[1]]), Hp,
+                                  np.diag(np.array([vpose, vpose])))
+        xe[:] = xn
+        Pe[:, :] = Pn
     # standstill (zero-velocity update): vx = vy = 0 and the accelerometers read their biases
     if abs(vmeas) < 0.05 and abs(r) < 0.05:
         Hz = np.zeros((4, 4))
@@ -794,7 +874,17 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
     gf = np.array([cf * qf_ / u, -cf * lf / u, -cf / u])
     gr = np.array([cr * qr_ / u, cr * lr / u, -cr / u])
     Pv = np.ascontiguousarray(Pu[:3, :3])
-    var_af = gf @ Pv @ gf + p[_P.VAR_STEER]
+    # steering actuator: a commanded angle is reached with a lag; the part of the last
+    # command changes not yet followed, |steer - low-pass(steer)|, is steering error
+    tau_s = p[_P.STEER_TAU]
+    if tau_s > 0.0:
+        if up[5] != up[5]:
+            up[5] = steer
+        up[5] += min(dt / tau_s, 1.0) * (steer - up[5])
+        steer_lag = steer - up[5]
+    else:
+        steer_lag = 0.0
+    var_af = gf @ Pv @ gf + p[_P.VAR_STEER] + steer_lag * steer_lag
     var_ar = gr @ Pv @ gr
     ax_est = (xu[3] * np.cos(steer) - xu[4] * np.sin(steer)) / m
     wb = lf + lr
@@ -808,6 +898,9 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
         e_lin = alpha_r - xu[5] / (p[_P.KR] * max(fzr, 1e-9))
         lam = min(dt / p[_P.CONSIST_TAU], 1.0)
         up[3] += lam * (e_lin * e_lin - up[3])
+        if fzf > 0.0:
+            e_lin_f = alpha_f - xu[4] / (p[_P.KF] * fzf)
+            up[4] += lam * (e_lin_f * e_lin_f - up[4])
     # ---- stage 3: UKF2 (eq. 11-12) ----
     mu_min = p[_P.MU_MIN]
     mu_max = p[_P.MU_MAX]
@@ -865,14 +958,24 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
         if sc > sb:
             bias_f = max(bias_f, _slip_bias_effect(xu[4], alpha_f, fzf, kf, np.sqrt(sc * sc + sbf * sbf)))
             bias_r = max(bias_r, _slip_bias_effect(xu[5], alpha_r, fzr, kr, sc))
-        if lam_f >= p[_P.EXC_PREC] * dt and dt > 0.0 and bias_f <= p[_P.MAX_BIAS] and not clipped_f:
+        # the same inversion across the slip angle's own uncertainty (z standard deviations):
+        # a tire that may as well be in its linear range gives only a lower bound, |F| / Fz
+        zs = p[_P.SLIP_Z]
+        gate_f = 0.0
+        gate_r = 0.0
+        if zs > 0.0:
+            gate_f = _slip_bias_effect(xu[4], alpha_f, fzf, kf, zs * np.sqrt(var_af + up[4]))
+            gate_r = _slip_bias_effect(xu[5], alpha_r, fzr, kr, zs * np.sqrt(var_ar + up[3]))
+        if (lam_f >= p[_P.EXC_PREC] * dt and dt > 0.0 and bias_f <= p[_P.MAX_BIAS] and not clipped_f
+                and gate_f <= p[_P.MAX_BIAS]):
             obs_f = (xm[0] / Pm[0, 0] - prior_m0 / prior_v0) / lam_f
             if mu_min <= obs_f <= mu_max:
                 exc_f = 1.0
                 obs_vf = 1.0 / lam_f
             else:
                 obs_f = np.nan
-        if lam_r >= p[_P.EXC_PREC] * dt and dt > 0.0 and bias_r <= p[_P.MAX_BIAS] and not clipped_r:
+        if (lam_r >= p[_P.EXC_PREC] * dt and dt > 0.0 and bias_r <= p[_P.MAX_BIAS] and not clipped_r
+                and gate_r <= p[_P.MAX_BIAS]):
             obs_r = (xm[1] / Pm[1, 1] - prior_m1 / prior_v1) / lam_r
             if mu_min <= obs_r <= mu_max:
                 exc_r = 1.0
@@ -928,14 +1031,14 @@ def _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax, ay, r, steer, vmeas, p, w6m, w6c, 
 
 
 @njit(cache=True)
-def _run(t, ax, ay, r, steer, speed, xe, Pe, xu, Pu, xm, Pm, up, t_prev, p, w6m, w6c, g6, w2m, w2c, g2):  # pragma: no cover
+def _run(t, ax, ay, r, steer, speed, vxp, vyp, xe, Pe, xu, Pu, xm, Pm, up, t_prev, p, w6m, w6c, g6, w2m, w2c, g2):  # pragma: no cover
     """Compiled loop over samples; the state arrays are updated in place."""
     n = t.shape[0]
     out = np.empty((n, _O.SIZE))
     tp = t_prev
     for k in range(n):
         dt = t[k] - tp if tp == tp else 0.0  # no predict before the first sample
-        _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax[k], ay[k], r[k], steer[k], speed[k], p,
+        _step(xe, Pe, xu, Pu, xm, Pm, up, dt, ax[k], ay[k], r[k], steer[k], speed[k], vxp[k], vyp[k], p,
               w6m, w6c, g6, w2m, w2c, g2, out[k])
         tp = t[k]
     return out
@@ -1055,10 +1158,23 @@ def _params(vehicle: VehicleParams, cfg: CascadeConfig, noise: dict[str, float],
     p[_P.STEER_BIAS] = cfg.steer_bias_std
     p[_P.VY_BIAS] = cfg.vy_bias_std
     p[_P.CONSIST_TAU] = 5.0
+    p[_P.VAR_POSE] = cfg.pose_velocity_std**2 * cfg.pose_velocity_corr_time
+    p[_P.SLIP_Z] = cfg.slip_noise_z
+    p[_P.STEER_TAU] = cfg.steer_response_time or 0.0
     return p
 
 
-def _resolve_noise(cfg: CascadeConfig, drive: Drive | None, speed: NDArray[np.float64] | None) -> dict[str, float]:
+def _resolve_noise(cfg: CascadeConfig, drive: Drive | None, speed: NDArray[np.float64] | None,
+                   speed_source: str = "") -> dict[str, float]:
+    """Noise standard deviations: the config's, else the reader's, else estimated from the drive.
+
+    A reader that resamples asynchronous streams may record the noise it measured
+    on the native streams in ``meta.extra['sensor_noise']`` (``accel_std``,
+    ``gyro_std``, and ``speed_std`` of the ``vx`` column), per tick of the
+    drive's clock; :func:`noise_from_drive` on an upsampled, linearly
+    interpolated signal would report a fraction of it (the frictionmaps runs:
+    0.05 m/s² instead of about 1 m/s², mean stage-2 NIS 20 instead of 5).
+    """
     given = {k: getattr(cfg, k) for k in _NOISE_FLOORS}
     if all(v is not None for v in given.values()):
         return {k: float(v) for k, v in given.items()}
@@ -1066,6 +1182,12 @@ def _resolve_noise(cfg: CascadeConfig, drive: Drive | None, speed: NDArray[np.fl
         missing = [k for k, v in given.items() if v is None]
         raise ValueError(f"give {missing} in CascadeConfig or a drive to estimate them from")
     est = noise_from_drive(drive, speed)
+    native = dict(drive.meta.extra.get("sensor_noise", {}) or {})
+    if speed_source != "column vx":
+        native.pop("speed_std", None)
+    for k in _NOISE_FLOORS:
+        if k in native and np.isfinite(native[k]) and native[k] > 0:
+            est[k] = max(float(native[k]), _NOISE_FLOORS[k])
     return {k: float(given[k]) if given[k] is not None else est[k] for k in given}
 
 
@@ -1089,7 +1211,7 @@ def init(vehicle: VehicleParams, config: CascadeConfig, vx0: float = 0.0, noise:
     Pu = np.diag([vmin**2, max(n["gyro_std"], 0.01) ** 2, 0.2**2, fw, fw, fw])
     xm = np.full(2, config.mu_prior)
     Pm = np.eye(2) * config.mu_prior_std**2
-    return CascadeState(float("nan"), xe, Pe, xu, Pu, xm, Pm, np.zeros(4))
+    return CascadeState(float("nan"), xe, Pe, xu, Pu, xm, Pm, np.array([0.0, 0.0, 0.0, 0.0, 0.0, np.nan]))
 
 
 class _Compiled(NamedTuple):
@@ -1126,6 +1248,10 @@ def _estimate(row: NDArray[np.float64]) -> CascadeEstimate:
 
 def _check_sample(sample: CascadeSample) -> None:
     for name, v in zip(CascadeSample._fields, sample, strict=True):
+        if name in ("vx_pose", "vy_pose"):
+            if np.isinf(v):
+                raise ValueError(f"cascade sample field {name!r} is infinite (NaN marks a missing pose)")
+            continue
         if not np.isfinite(v):
             raise ValueError(f"cascade sample field {name!r} is not finite: {v!r}")
 
@@ -1160,6 +1286,7 @@ def step(
     out = _run(
         np.array([sample.t]), np.array([sample.ax]), np.array([sample.ay]),
         np.array([sample.yaw_rate]), np.array([sample.steer]), np.array([sample.speed]),
+        np.array([sample.vx_pose]), np.array([sample.vy_pose]),
         *arrays, state.t, *c,
     )
     return CascadeState(float(sample.t), *arrays), _estimate(out[0])
@@ -1173,6 +1300,13 @@ def _drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[dict[str, NDArra
     for k, v in cols.items():
         if not np.all(np.isfinite(v)):
             raise DriveValidationError(f"cascade input {k!r} holds NaN/inf")
+    n = len(cols["t"])
+    use_pose = config.pose_velocity_std > 0 and drive.has("vx_pose", "vy_pose")
+    for c in ("vx_pose", "vy_pose"):
+        v = np.asarray(drive.col(c), dtype=float) if use_pose else np.full(n, np.nan)
+        if np.isinf(v).any():
+            raise DriveValidationError(f"cascade input {c!r} holds inf (NaN marks a missing pose)")
+        cols[c] = v
     return cols, src, share
 
 
@@ -1201,12 +1335,15 @@ def run(drive: Drive, config: CascadeConfig | None = None) -> tuple[NDArray[np.f
     cols, src, share = _drive_inputs(drive, config)
     if config.accel_bias_std is None:
         config = dataclasses.replace(config, accel_bias_std=0.3 if _has_standstill(cols) else 0.0)
-    noise = _resolve_noise(config, drive, cols["speed"])
+    if config.steer_response_time is None:
+        command = bool(drive.meta.extra.get("steer_is_command", False))
+        config = dataclasses.replace(config, steer_response_time=0.1 if command else 0.0)
+    noise = _resolve_noise(config, drive, cols["speed"], src)
     state = init(drive.vehicle, config, float(cols["speed"][0]), noise)
     arrays = [np.array(a, copy=True) for a in state[1:]]
     c = _compile_args(drive.vehicle, config, noise, share)
     out = _run(cols["t"], cols["ax"], cols["ay"], cols["yaw_rate"], cols["steer"], cols["speed"],
-               *arrays, float("nan"), *c)
+               cols["vx_pose"], cols["vy_pose"], *arrays, float("nan"), *c)
     final = CascadeState(float(cols["t"][-1]), *arrays)
     return out, {"noise": noise, "speed_source": src, "front_share": share, "state": final,
                  "config": config}
@@ -1258,7 +1395,8 @@ def samples(drive: Drive, config: CascadeConfig | None = None) -> list[CascadeSa
     """The drive as a list of :class:`CascadeSample` (for online replay)."""
     cols, _, _ = _drive_inputs(drive, config or CascadeConfig())
     return [CascadeSample(*v) for v in zip(cols["t"], cols["ax"], cols["ay"], cols["yaw_rate"],
-                                           cols["steer"], cols["speed"], strict=True)]
+                                           cols["steer"], cols["speed"], cols["vx_pose"], cols["vy_pose"],
+                                           strict=True)]
 
 
 # -- result table and CLI --------------------------------------------------------------

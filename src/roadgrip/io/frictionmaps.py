@@ -32,6 +32,19 @@ and recorded asynchronously at about 18-44 Hz. Conversions, all recorded in
   ``pose_jump`` (1.0 where the pose moved more than the odometry allows:
   ``|dp| > |vx| dt + 0.1 m + 0.5 |vx| dt``, or the heading changed more than
   ``|yaw_rate| dt + 0.2 rad``), not repaired.
+* ``vx_pose``, ``vy_pose``: body-frame velocity differentiated from the pose
+  over 0.3 s (:func:`pose_body_velocity`), NaN within half a window of a jump
+  or a gap. Fused by the cascade's stage 1 (it bounds the drift of the
+  integrated lateral velocity). At low lateral acceleration (rear slip below
+  0.01 rad) ``vy_pose`` follows ``d r`` with ``d`` = 0.15-0.27 m fitted per
+  run, close to ``lr`` = 0.208 m, so the pose refers to about the CG; its
+  scatter about that line is 0.10-0.16 m/s (robust), its heading offset
+  0.004-0.02 rad (``vy_pose / vx_pose`` on straights).
+* ``meta.extra['sensor_noise']``: white-noise standard deviations of the
+  accelerometers, gyro and odometry speed measured on the native streams
+  (IMU at 18-30 Hz) and expressed per tick of the output clock
+  (:func:`_stream_noise`); estimated on the resampled, linearly interpolated
+  signals they would be 10-20 times too small.
 
 ``meta.extra['kinematic_checks']`` holds two consistency ratios (see
 :func:`_kinematic_checks`). DS1, DS2, DS3 and DS5 give ``ay / (vx yaw_rate)``
@@ -86,6 +99,7 @@ __all__ = [
     "fit_pose_scales",
     "fit_steer_gain",
     "is_frictionmaps_dir",
+    "pose_body_velocity",
     "quaternion_yaw",
     "read_frictionmaps",
 ]
@@ -169,6 +183,31 @@ def _kinematic_checks(df: pd.DataFrame, jump: np.ndarray) -> dict[str, float]:
     if ok.sum() >= 20:
         out["pose_speed_over_vx"] = float(np.median(vp[ok] / vx[1:][ok]))
     return out
+
+
+def _stream_noise(t: np.ndarray, x: np.ndarray, rate: float) -> tuple[float, float]:
+    """White-noise standard deviation of a raw stream, expressed per tick of the output clock.
+
+    The robust scale (1.4826 MAD) of the second differences of the samples as
+    recorded, divided by ``sqrt(6)``, is the noise of one native sample
+    (:func:`roadgrip.estimators.cascade.noise_from_drive` uses the same
+    estimator). Estimated on the resampled signal it would be far too small:
+    linear interpolation between native samples has zero second difference.
+    Interpolated onto a faster clock, the noise of one native sample persists
+    over ``rate / native_rate`` ticks; as white noise per tick with the same
+    integrated effect its standard deviation is ``s sqrt(rate / native_rate)``.
+
+    Returns
+    -------
+    std : float
+        Per-tick white-noise equivalent [unit of ``x``].
+    native_rate : float
+        Median rate of the stream [Hz].
+    """
+    native = 1.0 / float(np.median(np.diff(t)))
+    d2 = np.diff(np.asarray(x, float), 2)
+    s = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6.0)
+    return s * np.sqrt(max(rate / native, 1.0)), native
 
 
 def _robust_slope(y: np.ndarray, x: np.ndarray) -> float:
@@ -306,6 +345,72 @@ def fit_steer_gain(
     return float(min(k, 1.0)), int(use.sum())
 
 
+def pose_body_velocity(
+    t: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    psi: np.ndarray,
+    bad: np.ndarray,
+    *,
+    window: float = 0.3,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Body-frame velocity ``(vx, vy)`` [m/s] differentiated from a pose.
+
+    A local quadratic (Savitzky-Golay) fit over ``window`` seconds gives the
+    map-frame velocity ``(x', y')`` and the smoothed heading ``psi``; the
+    velocity is rotated into the body frame, ``vx = cos(psi) x' + sin(psi) y'``,
+    ``vy = -sin(psi) x' + cos(psi) y'``. The fit never spans a missing tick (a
+    gap in ``t``) or a sample in ``bad`` (a localisation jump): samples within
+    half a window of either, and segments shorter than a window, get NaN.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Time [s] on a uniform clock with possibly missing ticks.
+    x, y, psi : ndarray, shape (n,)
+        Pose [m, m, rad] (``psi`` unwrapped) of the point the velocity refers to.
+    bad : ndarray of bool, shape (n,)
+        Samples whose pose is not to be used.
+    window : float
+        Fit window [s] (odd number of samples, at least 5).
+
+    Returns
+    -------
+    vx, vy : ndarray, shape (n,)
+        Body velocity [m/s]; NaN where not available.
+    """
+    from scipy.signal import savgol_filter
+
+    t = np.asarray(t, float)
+    n = len(t)
+    vx = np.full(n, np.nan)
+    vy = np.full(n, np.nan)
+    if n < 5:
+        return vx, vy
+    h = float(np.median(np.diff(t)))
+    w = max(round(window / h) // 2 * 2 + 1, 5)
+    half = w // 2
+    bad = np.asarray(bad, bool)
+    # segments between missing ticks and bad samples
+    brk = np.r_[True, np.diff(t) > 1.5 * h] | bad
+    seg = np.cumsum(brk)
+    for s in np.unique(seg):
+        idx = np.flatnonzero((seg == s) & ~bad)
+        if len(idx) < w:
+            continue
+        i0, i1 = idx[0], idx[-1] + 1
+        xd = savgol_filter(x[i0:i1], w, 2, deriv=1, delta=h)
+        yd = savgol_filter(y[i0:i1], w, 2, deriv=1, delta=h)
+        ps = savgol_filter(psi[i0:i1], w, 2)
+        c, sn = np.cos(ps), np.sin(ps)
+        bx, by = c * xd + sn * yd, -sn * xd + c * yd
+        # the edges use a one-sided fit: keep only the centred part
+        bx[:half] = bx[-half:] = np.nan
+        by[:half] = by[-half:] = np.nan
+        vx[i0:i1], vy[i0:i1] = bx, by
+    return vx, vy
+
+
 def read_frictionmaps(
     path: str | Path,
     vehicle: str | Path | VehicleParams | None = None,
@@ -315,6 +420,7 @@ def read_frictionmaps(
     steer_delay: float = 0.0,
     calibrate: bool = False,
     window: float = 1.0,
+    pose_velocity_window: float = 0.3,
 ) -> Drive:
     """Read one FrictionMaps run folder into a canonical :class:`~roadgrip.drive.Drive`.
 
@@ -337,6 +443,9 @@ def read_frictionmaps(
         then kept as the extra column ``steer_cmd``.
     window : float
         Window [s] of the pose calibration (:func:`fit_pose_scales`).
+    pose_velocity_window : float
+        Fit window [s] of the body velocity differentiated from the pose
+        (:func:`pose_body_velocity`, columns ``vx_pose, vy_pose``).
 
     Returns
     -------
@@ -425,12 +534,28 @@ def read_frictionmaps(
         df["steer"] = df["steer"] * calib["steer_gain"]
 
     checks = _kinematic_checks(df, jump)
+    # sensor noise from the native streams (per output tick; see _stream_noise)
+    s_ax, r_imu = _stream_noise(imu["t"].to_numpy(), imu["ax"].to_numpy(), rate)
+    s_ay, _ = _stream_noise(imu["t"].to_numpy(), imu["ay"].to_numpy(), rate)
+    s_r, _ = _stream_noise(imu["t"].to_numpy(), imu["yaw_rate"].to_numpy(), rate)
+    s_v, r_odo = _stream_noise(odom["t"].to_numpy(), odom["vx"].to_numpy(), rate)
+    noise = {
+        "accel_std": max(s_ax, s_ay),
+        "gyro_std": s_r * calib.get("gyro_scale", 1.0),
+        "speed_std": s_v * calib.get("speed_scale", 1.0),
+        "imu_rate_hz": r_imu,
+        "odom_rate_hz": r_odo,
+    }
+    df["vx_pose"], df["vy_pose"] = pose_body_velocity(
+        t, df["x"].to_numpy(), df["y"].to_numpy(), df["psi"].to_numpy(), jump, window=pose_velocity_window
+    )
 
     # exact grid times from the tick numbers
     k = np.round((t - t0) * rate)
     epoch = s_ref + t0 + k[0] / rate
     df["t"] = (k - k[0]) / rate
-    order = ["t", "ax", "ay", "yaw_rate", "steer", "vx", "x", "y", "psi", "speed_cmd", "pose_jump"]
+    order = ["t", "ax", "ay", "yaw_rate", "steer", "vx", "x", "y", "psi", "speed_cmd", "pose_jump", "vx_pose",
+             "vy_pose"]
     if has_core:
         order.append("vx_motor")
     if calibrate:
@@ -443,10 +568,12 @@ def read_frictionmaps(
         "rate_hz": float(rate),
         "max_gap_s": float(max_gap),
         "steer_delay_s": float(steer_delay),
+        "steer_is_command": True,
         "ticks_dropped_in_gaps": int(n_dropped),
         "pose_jumps": int(jump.sum()),
         "kinematic_checks": checks,
         "calibration": calib,
+        "sensor_noise": noise,
         "conversions": {
             "t": "s + 1e-9 ns, resampled to a uniform clock on the overlap of the streams, "
             "minus t0_epoch_s; ticks in stream gaps > max_gap dropped",
@@ -457,6 +584,8 @@ def read_frictionmaps(
             "steer": f"commandData.delta (command, zero-order hold), delayed {steer_delay} s",
             "speed_cmd": "commandData.V (command, zero-order hold)",
             "x/y/psi": "pfPoseData (particle filter), psi from the quaternion, unwrapped",
+            "vx_pose/vy_pose": f"body velocity differentiated from the pose over {pose_velocity_window} s "
+            "(pose_body_velocity); NaN near jumps and gaps",
             "pose_jump": "1 where the pose step exceeds 1.5 |vx| dt + 0.1 m or the heading "
             "step exceeds |yaw_rate| dt + 0.2 rad (not repaired)",
             **({"vx_motor": "-coreData.RPM / 7800 [m/s]"} if has_core else {}),
