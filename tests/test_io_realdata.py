@@ -296,3 +296,65 @@ def test_frictionmaps_calibration(run):
     after = d.meta.extra["kinematic_checks"]["pose_speed_over_vx"]
     assert abs(after - 1.0) < 0.05
     assert abs(after - 1.0) <= abs(before - 1.0) + 0.01
+
+
+def test_pose_body_velocity_on_a_sliding_circle():
+    """Constant speed V on a circle with a constant body sideslip beta: body velocity V (cos b, sin b)."""
+    from roadgrip.io.frictionmaps import pose_body_velocity
+
+    rate, n, radius, speed, beta = 50.0, 1500, 3.0, 2.0, 0.15
+    t = np.arange(n) / rate
+    w = speed / radius
+    x, y = radius * np.sin(w * t), radius * (1 - np.cos(w * t))
+    psi = w * t - beta  # course angle w t; the body points beta to the right of the velocity
+    bad = np.zeros(n, bool)
+    bad[700] = True  # a localisation jump
+    keep = np.ones(n, bool)
+    keep[1000:1010] = False  # ten missing ticks
+    vx, vy = pose_body_velocity(t[keep], x[keep], y[keep], psi[keep], bad[keep], window=0.3)
+    ok = np.isfinite(vx)
+    # a quadratic fit over 0.3 s of a circle at 0.67 rad/s: error of order (w T)^2 / 10
+    np.testing.assert_allclose(vx[ok], speed * np.cos(beta), atol=2e-3)
+    np.testing.assert_allclose(vy[ok], speed * np.sin(beta), atol=2e-3)
+    tk = t[keep]
+    # NaN within half a window (7 ticks) of the jump and the gap and at the ends, nowhere else
+    near = np.abs(tk - t[700]) <= 7 / rate + 1e-9  # the jump and 7 ticks either side
+    near |= (tk >= t[999] - 6 / rate - 1e-9) & (tk <= t[1010] + 6 / rate + 1e-9)  # 7 ticks each side
+    near |= (tk < 7 / rate - 1e-9) | (tk > t[-1] - 7 / rate + 1e-9)
+    np.testing.assert_array_equal(~ok, near)
+
+
+def test_stream_noise_of_an_upsampled_stream():
+    """White noise recorded at 20 Hz and interpolated to 50 Hz: per-tick std s sqrt(50 / 20)."""
+    from roadgrip.estimators.cascade import _robust_noise
+    from roadgrip.io.frictionmaps import _stream_noise
+
+    rng = np.random.default_rng(6)
+    t = np.arange(20000) / 20.0
+    x = np.sin(0.5 * t) + rng.normal(0, 0.3, len(t))
+    s, native = _stream_noise(t, x, 50.0)
+    assert native == pytest.approx(20.0)
+    assert s == pytest.approx(0.3 * np.sqrt(50 / 20), rel=0.05)
+    # the same estimator on the interpolated signal sees a fraction of the noise
+    fine = np.arange(0, t[-1], 1 / 50.0)
+    assert _robust_noise(np.interp(fine, t, x)) < 0.3 * 0.3
+
+
+@needs_fm
+@pytest.mark.parametrize("run", ["DS1", "DS3", "DS5"])
+def test_frictionmaps_pose_velocity_and_native_noise(run):
+    d = read_drive(FM / run, format="frictionmaps")
+    vx, vy = d.data["vx_pose"].to_numpy(), d.data["vy_pose"].to_numpy()
+    ok = np.isfinite(vx)
+    assert ok.mean() > 0.8
+    assert np.all(np.isnan(vx[d.data["pose_jump"].to_numpy() > 0]))
+    # the pose speed agrees with the odometry (DS4 aside, module docstring)
+    moving = ok & (d.col("vx") > 1.0)
+    assert np.median(vx[moving] / d.col("vx")[moving]) == pytest.approx(1.0, abs=0.1)
+    # at low lateral acceleration the pose vy is the kinematic d r with d about lr (pose near the CG)
+    calm = moving & (np.abs(d.col("ay")) < 1.0) & (np.abs(d.col("yaw_rate")) > 0.3)
+    d_fit = _slope(vy[calm], d.col("yaw_rate")[calm])
+    assert 0.05 < d_fit < 0.3
+    noise = d.meta.extra["sensor_noise"]
+    assert 15.0 < noise["imu_rate_hz"] < 35.0
+    assert noise["accel_std"] > 0.3 and noise["gyro_std"] > 0.01
