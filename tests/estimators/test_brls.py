@@ -396,8 +396,11 @@ def test_dart_calibrate_first_halves_classify_second_halves(tmp_path):
         table = result.table
         acc = excited_accuracy(table, label)
         assert result.meta["summary"]["MostProbable"] == (0.85 if label == "high" else 0.35)
+        t = table["t"].to_numpy() - table["t"].iloc[0]
+        theta = np.median(table["theta_lat"].to_numpy()[table["excited"].to_numpy() & (t > SETTLING_S)])
         print(f"bRLS {label:4s} {Path(drive.meta.source).name}: excited {table['excited'].mean():.2f}, "
-              f"correct {acc:.3f} of excited time after {SETTLING_S:.0f} s")
+              f"correct {acc:.3f} of excited time after {SETTLING_S:.0f} s; median theta_lat "
+              f"{theta:.1f} (threshold {cal.brls.lat.threshold:.1f})")
         accs[Path(drive.meta.source).name] = acc
     # acceptance: every test half is classified correctly for at least 90 % of its
     # excited time after the settling period

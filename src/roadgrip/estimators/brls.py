@@ -1009,20 +1009,32 @@ def calibrate(
        ``ref_high > ref_low``);
     2. memory = ``base.memory_s`` times one of ``memories``; plain RLS is run
        over each drive; the threshold candidates are the midpoint of the
-       references and the value that maximises the balanced accuracy of
-       ``theta > thr -> high`` on the excited samples.
+       references, the value that maximises the balanced accuracy of
+       ``theta > thr -> high`` on the excited settled samples
+       (:func:`settled`), and the largest margin between the drives: halfway
+       between the lowest median estimate of a 'high' drive and the highest
+       median of a 'low' drive (when these are ordered).
 
     Both steps run on the prefiltered signals, for each prefilter time constant
     in ``prefilters`` [s] and each lateral regressor in ``lateral_regressors``
-    (with slip angles or theoretical slips, ``theoretical_slips``).
-    For every lateral regressor, prefilter, memory and error clip, each
-    channel's candidates are run alone, and the best two of each channel
-    together, as the full classifier over each labelled drive,
+    (with slip angles or theoretical slips, ``theoretical_slips``); the
+    lateral acceleration is ``base.lateral_acceleration``'s (a sensor choice,
+    not learned). For every lateral regressor, prefilter, memory and error
+    clip, each channel's candidates are run alone, and the best two of each
+    channel together, as the full classifier over each labelled drive,
     starting in the *other* state (so that it must detect the labelled class),
-    and scored by the mean fraction of time spent in the labelled class minus
-    ``SWITCH_PENALTY`` per class switch beyond the first (a labelled drive has
-    one true class, so every further switch is false); the best wins.
-    The calibration drives should therefore each contain some excitation.
+    and scored over the settled moving samples (from
+    :data:`CALIBRATION_SETTLING_S` after the drive first moves) by the mean
+    fraction of time spent in the labelled class minus ``SWITCH_PENALTY`` per
+    class switch beyond the first (a labelled drive has one true class, so
+    every further switch is false). Among the candidates within
+    :data:`SCORE_TOLERANCE` of the best score, the one with the largest margin
+    wins: the median distance of the estimates from the threshold on the
+    labelled side, in units of the reference gap, on the worst drive (see
+    ``_score``). A few labelled drives do not rank near-equal candidates
+    reliably by accuracy alone; the margin prefers the threshold that keeps
+    both classes farthest from it. The calibration drives should each contain
+    some excitation.
 
     Parameters
     ----------

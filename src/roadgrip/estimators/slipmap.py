@@ -479,6 +479,7 @@ def _run_table(drive: Drive, config: SlipMapConfig, kin_cfg: KinematicConfig,
         "ax_ref": ev.ax_ref,
         "ay_ref": ev.ay_ref,
         "kappa_used": ev.kappa,
+        "ay_used": drive_lateral_acceleration(drive, kin, config.lateral_acceleration, kin_cfg),
         "alpha_f_hat": kin.alpha_f,
         "alpha_r_hat": kin.alpha_r,
         "vx_hat": kin.vx,
@@ -502,7 +503,8 @@ def calibrate_section(
     (0.5-4 s) and the hysteresis (0.1-0.3) are chosen by running the
     classifier over each labelled drive and scoring the fraction of its moving
     time after the settling period
-    (:data:`roadgrip.estimators.brls.CALIBRATION_SETTLING_S`) spent in the
+    (:data:`roadgrip.estimators.brls.CALIBRATION_SETTLING_S`, counted from the
+    first moving sample, :func:`roadgrip.estimators.brls.settled`) spent in the
     labelled class, minus ``SWITCH_PENALTY`` per class switch beyond the first.
 
     The lateral acceleration is ``base.lateral_acceleration``'s.

@@ -28,7 +28,8 @@ def plot_classification(
 ) -> None:
     """Write a PNG: accelerations, slips, the channel estimates, and the class trace.
 
-    Panels (time on the shared axis): measured ``ax``/``ay`` with the excited
+    Panels (time on the shared axis): measured ``ax``/``ay`` (and the kinematic
+    lateral acceleration where the classifier used it) with the excited
     samples shaded; the slip regressors; for bRLS the two stiffness estimates
     (``theta_long``, ``theta_lat``), for slipmap the reliability weights; the
     grip index with the class (high = 1, low = 0, unknown = 0.5) and, for
@@ -59,6 +60,10 @@ def plot_classification(
         a0.plot(t, drive.col("ax"), lw=0.6, label="ax")
     if drive.has("ay"):
         a0.plot(t, drive.col("ay"), lw=0.6, label="ay")
+    if "ay_used" in table.columns and drive.has("ay") and not np.allclose(
+        table["ay_used"].to_numpy(float), drive.col("ay")
+    ):
+        a0.plot(t, table["ay_used"].to_numpy(float), lw=0.8, label="ay used (r vx + dvy/dt)")
     _shade(a0, t, exc, "tab:orange", "excited")
     a0.set_ylabel("acceleration [m/s²]")
     a0.legend(loc="upper right", fontsize=8)
