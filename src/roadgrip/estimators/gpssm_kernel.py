@@ -73,7 +73,7 @@ def basis_tables(basis) -> tuple[bool, int, np.ndarray, np.ndarray, np.ndarray]:
     return False, nf, fidx, ridx, np.ascontiguousarray(np.stack([w, w]))
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True, fastmath=True, inline="always")
 def _sines(a, L, nf, out):  # pragma: no cover - compiled
     """``out[j] = sin(pi (j + 1) (a + L) / (2 L)) / sqrt(L)``, ``a`` clipped to [-L, L]."""
     if a > L:
@@ -89,13 +89,13 @@ def _sines(a, L, nf, out):  # pragma: no cover - compiled
         s, c = s * c1 + c * s1, c * c1 - s * s1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _mf(a, B, C, D, E):  # pragma: no cover - compiled
     bs = B * a
     return D * math.sin(C * math.atan(bs - E * (bs - math.atan(bs))))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _sym_pd(S, floor):  # pragma: no cover - compiled
     """In place: symmetrise a (d, d) matrix, floor its diagonal, keep a 2 x 2 one PD."""
     d = S.shape[0]
@@ -113,7 +113,7 @@ def _sym_pd(S, floor):  # pragma: no cover - compiled
         S[1, 0] = v
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True, fastmath=True, inline="always")
 def _mv3(P, src, o, dst, fac):  # pragma: no cover - compiled
     """``dst[o:o+3] = fac P src[o:o+3]`` (rows are vectors), four rows of ``P`` at a time."""
     m = P.shape[0]
@@ -141,7 +141,7 @@ def _mv3(P, src, o, dst, fac):  # pragma: no cover - compiled
             dst[r, i] = fac * acc
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True, fastmath=True, inline="always")
 def _mv2(P, src, o, dst, fac):  # pragma: no cover - compiled
     """``dst[o:o+2] = fac P src[o:o+2]``, four rows of ``P`` at a time."""
     m = P.shape[0]
@@ -166,7 +166,7 @@ def _mv2(P, src, o, dst, fac):  # pragma: no cover - compiled
             dst[r, i] = fac * acc
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True, fastmath=True, inline="always")
 def _mv1(P, src, o, dst, fac):  # pragma: no cover - compiled
     """``dst[o] = fac P src[o]``, four rows of ``P`` at a time."""
     m = P.shape[0]
@@ -187,7 +187,7 @@ def _mv1(P, src, o, dst, fac):  # pragma: no cover - compiled
         dst[o, i] = fac * acc
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _mv(P, src, nrhs, dst, fac):  # pragma: no cover - compiled
     """``dst[:nrhs] = fac P src[:nrhs]`` in register-blocked chunks of up to three vectors."""
     o = 0
@@ -204,7 +204,7 @@ def _mv(P, src, nrhs, dst, fac):  # pragma: no cover - compiled
             o += 1
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True, fastmath=True, inline="always")
 def _solve(P, p_scale, delta, R, nr, n_exact, tol, max_terms, X, pb, cur, nxt):  # pragma: no cover
     """``X[:nr] = H^{-1} R[:nr]`` (rows are right-hand sides) by the Neumann series
     ``sum_n (-delta)^n P_B^{n+1}`` with ``P_B = p_scale P``. Rows below ``n_exact`` get
