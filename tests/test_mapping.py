@@ -149,6 +149,39 @@ def test_observations_use_axle_positions_and_only_excited_samples():
         M.observations_from_estimates(tab.drop(columns=["x", "y"]))
 
 
+def test_observations_below_the_grip_used_in_their_cell_are_dropped():
+    """A peak-friction observation below the friction a tire demonstrably used in the same cell is dropped."""
+    n = 8
+    x = np.array([0.2, 0.3, 0.7, 1.2, 1.3, 1.4, 2.6, 2.7])  # cells [0, 0.5), [0.5, 1), [1, 1.5), [2.5, 3)
+    tab = pd.DataFrame({
+        "t": np.arange(n, dtype=float), "x": x, "y": np.full(n, 0.25), "x_front": x, "y_front": np.full(n, 0.25),
+        "x_rear": x, "y_rear": np.full(n, 0.25),
+        "excited_front": [True, False, True, True, False, False, True, False],
+        "excited_rear": np.zeros(n, bool),
+        "mu_front_obs": [0.30, np.nan, 0.30, 0.80, np.nan, np.nan, 0.50, np.nan],
+        "mu_front_obs_std": [0.05, np.inf, 0.05, 0.05, np.inf, np.inf, 0.05, np.inf],
+        "mu_rear_obs": np.nan, "mu_rear_obs_std": np.inf,
+        # forces: (|F| - 2 std) / Fz is the friction used for sure
+        "Fyf": [2.0, -9.0, 2.0, 3.0, 14.0, 1.0, 4.0, 4.0], "Fyf_std": np.full(n, 0.5), "Fzf": np.full(n, 20.0),
+        "Fyr": [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, -8.0], "Fyr_std": np.full(n, 1.0), "Fzr": np.full(n, 10.0),
+    })
+    ix, iy, bound = M.grip_used_bound(tab, 0.5)
+    got = dict(zip(zip(ix.tolist(), iy.tolist(), strict=True), bound.tolist(), strict=True))
+    assert got[(0, 0)] == pytest.approx((9.0 - 1.0) / 20.0)  # 0.40 from the second sample's front axle
+    assert got[(1, 0)] == pytest.approx(0.05)
+    assert got[(2, 0)] == pytest.approx(0.65)
+    assert got[(5, 0)] == pytest.approx(0.60)  # rear axle: (8 - 2) / 10
+    obs = M.observations_from_estimates(tab, 0.5)
+    # dropped: 0.30 in cell 0 (used 0.40) and 0.50 in cell 5 (used 0.60); kept: 0.30 in cell 1, 0.80 in cell 2
+    np.testing.assert_allclose(np.sort(obs.mu), [0.30, 0.80])
+    np.testing.assert_allclose(np.sort(obs.x), [0.7, 1.2])
+    assert len(M.observations_from_estimates(tab).mu) == 4  # without a cell size: no check
+    no_forces = tab.drop(columns=["Fyf", "Fyr"])
+    assert M.grip_used_bound(no_forces, 0.5) is None
+    assert len(M.observations_from_estimates(no_forces, 0.5).mu) == 4
+    assert int(M.grid_from_estimates(tab, 0.5).n_obs.sum()) == 2
+
+
 def test_files_and_command_line(tmp_path):
     from roadgrip.estimators.base import EstimateResult
 
@@ -200,7 +233,7 @@ def test_acceptance_f1tenth_patches_two_laps(seed):
     # true friction of a cell: the patch field at the observations fused into it, with
     # their weights (a cell on a patch edge holds what was observed on its two sides)
     ff = drive.meta.truth["friction_field"]
-    obs = M.observations_from_estimates(res.table)
+    obs = M.observations_from_estimates(res.table, 0.5)  # the ones the grid fused
     truth_grid = M.fuse(M.empty_grid(0.5), obs.x, obs.y, _field_mu(ff, obs.x, obs.y), obs.var)
     truth = truth_grid.s1 / np.where(truth_grid.s0 > 0, truth_grid.s0, 1.0)
     truth = truth[truth_grid.n_obs >= 10]

@@ -37,6 +37,17 @@ samples flagged ``excited`` (per axle where the estimator reports axles
 separately) and places front- and rear-axle observations at the axle positions
 (``x_front, y_front``, ``x_rear, y_rear``) where the estimates carry them.
 
+The peak friction of a surface is at least the friction a tire used on it.
+Where the estimates carry the axle forces (``Fyf, Fyr`` with ``Fyf_std,
+Fyr_std`` and the loads ``Fzf, Fzr``, as the cascade's do) and a cell size is
+given, an observation is dropped when it lies below the friction demonstrably
+used in its cell during the same drive: the largest lower confidence bound
+``(|Fy| - 2 std(Fy)) / Fz`` over the samples of either axle in that cell. Such
+an observation cannot be the peak; it is the force of a tire that was not
+saturated, read as saturated because its slip angle was overestimated (on the
+F1/10 run DS5, 63 % of the remaining excited samples were of that kind). The
+bound needs no slip angle, only the accelerations that give the forces.
+
 Cells are aligned to multiples of the cell size (cell ``(i, j)`` covers
 ``[i c, (i+1) c) x [j c, (j+1) c)``), so grids of the same cell size always
 share cell boundaries.
@@ -62,6 +73,7 @@ __all__ = [
     "empty_grid",
     "fuse",
     "grid_from_estimates",
+    "grip_used_bound",
     "map_cli",
     "merge",
     "observations_from_estimates",
@@ -458,7 +470,56 @@ def merge(*grids: FrictionGrid) -> FrictionGrid:
 # -- from estimates --------------------------------------------------------------------
 
 
-def observations_from_estimates(table: pd.DataFrame) -> Observations:
+def grip_used_bound(table: pd.DataFrame, cell: float) -> tuple[NDArray[np.int64], NDArray[np.int64],
+                                                                NDArray[np.float64]] | None:
+    """Per cell, the largest friction demonstrably used: ``max (|Fy| - 2 std(Fy)) / Fz`` over both axles.
+
+    Parameters
+    ----------
+    table : DataFrame
+        Estimates with ``Fy<f|r>``, ``Fy<f|r>_std``, ``Fz<f|r>`` and positions
+        (``x_<axle>, y_<axle>`` or ``x, y``).
+    cell : float
+        Cell size [m].
+
+    Returns
+    -------
+    (ix, iy, bound) or None
+        Global cell indices and the bound [-] of every cell with a usable
+        sample; ``None`` when the table has no axle forces.
+    """
+    parts = []
+    for axle, f, fz in (("front", "Fyf", "Fzf"), ("rear", "Fyr", "Fzr")):
+        if not {f, f"{f}_std", fz} <= set(table.columns):
+            continue
+        xc, yc = (f"x_{axle}", f"y_{axle}") if f"x_{axle}" in table.columns else ("x", "y")
+        load = table[fz].to_numpy(float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            used = (np.abs(table[f].to_numpy(float)) - 2.0 * table[f"{f}_std"].to_numpy(float)) / load
+        x, y = table[xc].to_numpy(float), table[yc].to_numpy(float)
+        ok = np.isfinite(used) & (load > 0) & np.isfinite(x) & np.isfinite(y)
+        parts.append((np.floor(x[ok] / cell).astype(np.int64), np.floor(y[ok] / cell).astype(np.int64), used[ok]))
+    if not parts:
+        return None
+    ix, iy, used = (np.concatenate([p[i] for p in parts]) for i in range(3))
+    frame = pd.DataFrame({"ix": ix, "iy": iy, "used": used}).groupby(["ix", "iy"], sort=False)["used"].max()
+    return (frame.index.get_level_values(0).to_numpy(np.int64), frame.index.get_level_values(1).to_numpy(np.int64),
+            frame.to_numpy(float))
+
+
+def _above_grip_used(obs: Observations, table: pd.DataFrame, cell: float) -> NDArray[np.bool_]:
+    """Observations not below the friction used in their cell (module docstring)."""
+    bound = grip_used_bound(table, cell)
+    keep = np.ones(len(obs.mu), bool)
+    if bound is None or len(obs.mu) == 0:
+        return keep
+    lut = pd.Series(bound[2], index=pd.MultiIndex.from_arrays([bound[0], bound[1]]))
+    key = pd.MultiIndex.from_arrays([np.floor(obs.x / cell).astype(np.int64), np.floor(obs.y / cell).astype(np.int64)])
+    lb = lut.reindex(key).to_numpy(float)
+    return ~(np.isfinite(lb) & (obs.mu < lb))
+
+
+def observations_from_estimates(table: pd.DataFrame, cell: float | None = None) -> Observations:
     """Excited friction observations of an estimates table, at the axle positions.
 
     Uses, per axle, the single-sample observation ``mu_<axle>_obs`` with
@@ -467,6 +528,8 @@ def observations_from_estimates(table: pd.DataFrame) -> Observations:
     that remember earlier cells), else the posterior ``mu_<axle>`` with the
     standard deviation implied by its 95 % band and the shared ``excited`` flag.
     Positions are ``x_<axle>, y_<axle>`` when present, else ``x, y``.
+    With a cell size [m], observations below the friction used in their cell
+    (:func:`grip_used_bound`; module docstring) are dropped.
 
     Raises
     ------
@@ -498,15 +561,19 @@ def observations_from_estimates(table: pd.DataFrame) -> Observations:
         parts.append((x[ok], y[ok], mu[ok], sd[ok] ** 2, t_all[ok], b[ok]))
     if not parts:
         raise ValueError("estimates have no friction columns (mu_front / mu_rear)")
-    return Observations(*(np.concatenate([p[i] for p in parts]) for i in range(6)))
+    obs = Observations(*(np.concatenate([p[i] for p in parts]) for i in range(6)))
+    if cell is not None:
+        keep = _above_grip_used(obs, table, float(cell))
+        obs = Observations(*(a[keep] for a in obs))
+    return obs
 
 
 def grid_from_estimates(table: pd.DataFrame, cell: float = 0.5, **grid_options: Any) -> FrictionGrid:
-    """Grid of one estimates table (see :func:`observations_from_estimates`).
+    """Grid of one estimates table (see :func:`observations_from_estimates`, with the grip-used check).
 
     ``grid_options`` go to :func:`empty_grid` (prior, forgetting, overdispersion).
     """
-    obs = observations_from_estimates(table)
+    obs = observations_from_estimates(table, cell)
     xy = table[["x", "y"]].to_numpy(float)
     step = max(1, len(xy) // 5000)
     g = empty_grid(cell, **grid_options)
