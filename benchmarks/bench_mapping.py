@@ -117,7 +117,7 @@ def frictionmaps(outdir: str, calibrate: bool = False, steer_delay: float = 0.0,
         grids[ds] = g
         g.to_npz(out / f"{ds}_map.npz")
         g.to_csv(out / f"{ds}_cells.csv")
-        plot_grid(g, out / f"{ds}_map.png", title=f"frictionmaps {ds}: cascade friction map")
+        plot_grid(g, out / f"{ds}_map.png", title=f"frictionmaps {ds}: cascade friction map", vmin=0.0, vmax=1.2)
         c = g.cells_frame(10)
         q = np.quantile(c["mu_mean"], [0.1, 0.5, 0.9]) if len(c) else [np.nan] * 3
         tab = res.table
@@ -137,7 +137,7 @@ def frictionmaps(outdir: str, calibrate: bool = False, steer_delay: float = 0.0,
             _print_compare("/".join(names), [grids[k] for k in names], min_obs)
     merged = M.merge(*(grids[k] for k in ("DS3", "DS4", "DS5")))
     merged.to_npz(out / "DS3-DS5_map.npz")
-    plot_grid(merged, out / "DS3-DS5_map.png", title="frictionmaps DS3+DS4+DS5 merged")
+    plot_grid(merged, out / "DS3-DS5_map.png", title="frictionmaps DS3+DS4+DS5 merged", vmin=0.0, vmax=1.2)
 
 
 if __name__ == "__main__":

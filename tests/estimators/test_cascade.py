@@ -326,7 +326,7 @@ def test_frictionmaps_run_gives_finite_estimates_and_a_map():
     assert diag["covariance repairs"] == 0
     # standstills in the run switch the accelerometer bias states on
     assert res.meta["config"]["accel_bias_std"] > 0
-    # the noise measured on the native streams (not the 20x smaller estimate from the
+    # the noise measured on the native streams (not the 10x smaller estimate from the
     # resampled signals) makes stage 2 consistent: mean NIS near its 5 degrees of freedom
     assert diag["accel noise std [m/s2]"] > 0.3
     assert diag["mean NIS stage 2 (5 dof)"] < 7.5

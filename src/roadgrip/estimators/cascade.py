@@ -48,9 +48,11 @@ The pose error is correlated over the differentiation window
 (``pose_velocity_corr_time``), so each sample's variance is inflated by
 ``corr_time / T``: a window counts as one independent measurement. This bounds
 the drift of the integrated ``vy`` in cornering, where the straight-driving
-pseudo-measurement is off: on the F1/10 run DS5 the root-mean-square
-difference between the stage-1 ``vy`` and the pose ``vy`` falls from 0.36 to
-0.18 m/s (the pose's own noise is about 0.1 m/s), on DS4 from 0.98 to 0.42 m/s.
+pseudo-measurement is off. On the F1/10 run DS5 the root-mean-square
+difference between the stage-1 ``vy`` and the pose ``vy`` is 0.37 m/s with the
+noise estimated from the resampled signals, 0.24 m/s with the native noise
+(see *Sensor noise*) and 0.18 m/s with the pose velocity as well (the pose's
+own scatter is about 0.1 m/s); on DS4 1.01, 0.72 and 0.42 m/s.
 
 The inputs ``u = [ax, ay, r]`` are measured, so the state noise follows from the
 sensor noise: ``Q1 = T² (diag(sa², sa²) + sr² g gᵀ)`` with ``g = [vy, -vx]``
@@ -167,7 +169,7 @@ upsampled by linear interpolation the second differences vanish between
 native samples, so the estimate from the drive is far too small: on the F1/10
 runs (IMU at 18-30 Hz resampled to 50 Hz) 0.05 m/s² and 0.003 rad/s instead of
 about 1 m/s² and 0.04-0.15 rad/s, which made the filters overconfident (mean
-stage-2 NIS 20 for 5 degrees of freedom on DS5; 2.6 with the native noise).
+stage-2 NIS 126 for 5 degrees of freedom on DS5; 2.8 with the native noise).
 """
 
 from __future__ import annotations
@@ -1173,7 +1175,7 @@ def _resolve_noise(cfg: CascadeConfig, drive: Drive | None, speed: NDArray[np.fl
     ``gyro_std``, and ``speed_std`` of the ``vx`` column), per tick of the
     drive's clock; :func:`noise_from_drive` on an upsampled, linearly
     interpolated signal would report a fraction of it (the frictionmaps runs:
-    0.05 m/s² instead of about 1 m/s², mean stage-2 NIS 20 instead of 5).
+    0.05 m/s² instead of about 1.9 m/s² on DS5, mean stage-2 NIS 126 instead of 2.8 for 5 dof).
     """
     given = {k: getattr(cfg, k) for k in _NOISE_FLOORS}
     if all(v is not None for v in given.values()):
