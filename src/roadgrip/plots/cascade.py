@@ -16,7 +16,7 @@ __all__ = ["plot_cascade"]
 def plot_cascade(result: EstimateResult, drive: Drive, path: str | Path) -> None:
     """Write a PNG with the three stages' estimates over time (truth where simulated).
 
-    Panels: ``vx, vy`` [m/s]; axle lateral forces ``Fyf, Fyr`` [N]; slip angles
+    Panels: ``vx, vy`` [m/s] (with ``vy_pose`` where the drive has a pose velocity); axle lateral forces ``Fyf, Fyr`` [N]; slip angles
     [deg]; friction ``mu_front, mu_rear`` [-] in absolute units with their 95 %
     bands, the excited samples marked, and ``mu_true`` when the drive has it.
     """
@@ -31,6 +31,8 @@ def plot_cascade(result: EstimateResult, drive: Drive, path: str | Path) -> None
     for col, c in (("vx_true", "C0"), ("vy_true", "C1")):
         if col in df.columns:
             ax.plot(t, df[col], color=c, ls="--", lw=0.8, label=col)
+    if "vy_pose" in df.columns:  # from the localisation (real data)
+        ax.plot(t, df["vy_pose"], color="C1", ls=":", lw=0.8, label="vy_pose")
     ax.set_ylabel("velocity [m/s]")
     ax.legend(loc="upper right", ncol=4, fontsize=8)
 
