@@ -777,9 +777,11 @@ def _step_compiled(
     munow = np.empty((N, 2))
     e = np.empty(gk.EST.SIZE)
     logw = state.logw
+    pend_new = np.empty((N, G, m))
+    pgain_new = np.empty((N, G))
     gk.particle_pass(
-        state.x, state.mu, logw, lin.pinv.reshape(N * G, m, m),
-        lin.hist.reshape(N * G, lin.hist.shape[2], m), lin.nhist, state.Psi, state.Phi,
+        state.x, state.mu, logw, lin.pinv.reshape(N * G, m, m), lin.spare.reshape(N * G, m, m),
+        lin.panc, lin.pend, lin.pgain, pend_new, pgain_new, lin.hist, lin.nhist, state.Psi, state.Phi,
         propagate, float(dt), float(state.u[0]), float(state.u[1]), float(sample.steer),
         float(sample.vx), float(sample.ay), float(sample.yaw_rate), learn,
         kc["veh"], kc["mf"], lam, nu, kc["Lambda0"], config.sigma_ay, config.sigma_yaw_rate, vy_max,
@@ -788,8 +790,11 @@ def _step_compiled(
         gdraw, zdraw, config.proposal == "conditional",
         alpha, M, Lam, vpk, munow, e,
     )
+    lin = lin._replace(pinv=lin.spare, spare=lin.pinv, pend=pend_new, pgain=pgain_new,
+                       panc=np.arange(N))
     if learn:
         lin.hcoef[lin.nhist] = 1.0 / lin.sigma_scale
+        lin.hanc[lin.nhist] = lin.panc
         lin = lin._replace(nhist=lin.nhist + 1)
         nu = nu + 1.0
     af_m, ar_m = float(e[gk.EST.ALPHA_F]), float(e[gk.EST.ALPHA_R])

@@ -244,7 +244,7 @@ def _solve(P, p_scale, delta, R, nr, n_exact, tol, max_terms, X, pb, cur, nxt): 
 
 @numba.njit(cache=True, fastmath=True)
 def particle_pass(
-    x, mu, logw, pinv, hist, hslot, Psi, Phi,
+    x, mu, logw, pinv, spare, panc, pend, pgain, pend_new, pgain_new, hist, hslot, Psi, Phi,
     propagate, dt, steer_prev, vx_prev, steer, vx, ay, yaw_rate, learn,
     veh, mf, lam, nu, Lambda0, sigma_ay, sigma_r, vy_max,
     p_scale, delta, tol, max_terms,
@@ -258,7 +258,11 @@ def particle_pass(
     ----------------------------------------------------------
     x, mu : (N, 2) in/out (state; friction sample, front/rear)
     logw : (N,) in/out (normalised log weights)
-    pinv : (N·G, m, m) in/out;  hist : (N·G, J, m), row ``hslot`` written when ``learn``
+    pinv : (N·G, m, m) slots of ``P_B / p_scale``, particle ``n`` reads slot ``panc[n]``
+        minus that slot's pending term ``pgain pend pend^T`` (``pend`` (N, G, m), ``pgain``
+        (N, G)) and writes the result to ``spare[n]``; its own update of this step is
+        left pending in ``pend_new``, ``pgain_new`` (:mod:`roadgrip.estimators.gpssm_linalg`)
+    hist : (J, N, G, m), row ``hslot`` written when ``learn``
     Psi : (N, G, d, m), Phi : (N, G, d, d) in/out (forgotten when ``propagate``, then
         updated when ``learn``)
     veh : (VEH.SIZE,);  mf : (4,) prior Magic Formula ``B, C, D, E``
@@ -357,7 +361,22 @@ def particle_pass(
                     R[1 + a, k] = Psi[n, g, a, k]
                 for p in range(npk):
                     R[1 + d + p, k] = fpk[g, k, p]
-            _solve(pinv[b], p_scale, delta, R, nr, 1 + d, tol, max_terms, X, pbv, cur, nxt)
+            # this particle's P_B: its ancestor's slot minus the pending rank-1 term
+            kb = panc[n] * G + g
+            src = pinv[kb]
+            dst = spare[b]
+            gain = pgain[panc[n], g]
+            if gain != 0.0:
+                pv = pend[panc[n], g]
+                for i in range(m):
+                    ui = pv[i] * gain
+                    for j in range(m):
+                        dst[i, j] = src[i, j] - ui * pv[j]
+            else:
+                for i in range(m):
+                    for j in range(m):
+                        dst[i, j] = src[i, j]
+            _solve(dst, p_scale, delta, R, nr, 1 + d, tol, max_terms, X, pbv, cur, nxt)
             s = 0.0
             for k in range(m):
                 U[g, k] = X[0, k]
@@ -451,17 +470,14 @@ def particle_pass(
             s = s_g[g]
             if learn:
                 inv1s = 1.0 / (1.0 + s)
+                # Sherman-Morrison on P_B (eq. 28b), left pending for the next step
                 sB = 0.0
                 for k in range(m):
                     sB += phi[g, k] * PB[g, k]
-                gg = 1.0 / ((1.0 + sB) * p_scale)
-                P = pinv[b]
-                for i in range(m):
-                    ui = PB[g, i] * gg
-                    for j in range(m):
-                        P[i, j] -= ui * PB[g, j]
+                pgain_new[n, g] = 1.0 / ((1.0 + sB) * p_scale)
                 for k in range(m):
-                    hist[b, hslot, k] = phi[g, k]
+                    pend_new[n, g, k] = PB[g, k]
+                    hist[hslot, n, g, k] = phi[g, k]
                 for a in range(d):
                     za = zeta[g, a]
                     coef = (loc[g, a] + za * s) * inv1s
@@ -481,6 +497,7 @@ def particle_pass(
                         fp += fpk[g, k, p] * K[g, p, k]
                     out_vpk[n, g, p] = fp - up * up * inv1s
             else:
+                pgain_new[n, g] = 0.0
                 for a in range(d):
                     for k in range(m):
                         out_M[n, g, a, k] = Y[g, a, k]

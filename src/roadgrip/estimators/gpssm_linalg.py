@@ -24,18 +24,28 @@ Three interchangeable backends (``GPSSMConfig.linalg``):
     fall below ``1e-13`` of the sum. Every ``refactor_every`` steps ``P_B`` is recomputed
     from ``Sigma`` (Cholesky of ``Sigma + I``, ``c = 1``), which also removes rounding
     drift of the rank-1 updates. ``O(N m²)`` per step, exact to rounding.
-    The rank-1 terms of ``Sigma`` are not added to the stored matrix every step: their
-    feature vectors are kept in a short history (one row per data update since the last
-    refactorisation, with its scale) and folded into ``Sigma`` with one matrix product
-    per particle at the refactorisation, so a step touches ``P_B`` only.
+
+    Nothing of size ``m²`` is copied or written twice per step:
+
+    * ``Sigma`` is not updated per step: the feature vectors are kept in a short history
+      (one row per data update since the last refactorisation, with its scale) and
+      folded in, with one matrix product per particle, at the refactorisation;
+    * resampling copies no matrix: each particle keeps the index of its ancestor's
+      ``P_B`` (``panc``), ``Sigma`` slot (``sanc``) and history rows (``hanc``);
+    * the Sherman-Morrison update is deferred: a particle's own ``P_B`` is written once
+      per step, into a second buffer, as its ancestor's ``P_B`` minus the ancestor's
+      pending rank-1 term (``pend``, ``pgain``), by the compiled step
+      (:mod:`roadgrip.estimators.gpssm_kernel`).
+
+    :func:`settle` writes the pending terms out (for the NumPy path and for checks).
 ``'fast'``
     As ``'exact'`` with ``Sigma`` and ``P_B`` stored in single precision, a single
     Neumann correction term and a refactorisation in double precision every
     ``refactor_every`` steps. ``O(N m²)`` with half the memory traffic.
 
 All arrays are indexed ``(N, G, ...)``: particles, basis groups. The state is consumed by
-each call (buffers are updated in place and returned); :func:`take` copies rows on
-resampling.
+each call (buffers are updated in place and returned); :func:`take` records the
+ancestors on resampling ('direct' copies rows).
 """
 
 from __future__ import annotations
@@ -46,34 +56,46 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["LINALG_MODES", "LinAlgState", "flush", "forget", "init", "refactor", "reserve", "solve", "take",
-           "update"]
+__all__ = ["LINALG_MODES", "LinAlgState", "flush", "forget", "init", "inverse", "refactor", "reserve",
+           "settle", "solve", "take", "update"]
 
 LINALG_MODES = ("exact", "fast", "direct")
 
 
 class LinAlgState(NamedTuple):
-    """Per-particle information matrices.
+    """Per-particle information matrices (``'exact'``, ``'fast'``; see the module docstring).
 
     Attributes
     ----------
     mode : str
         ``'exact'``, ``'fast'`` or ``'direct'``.
     sigma : ndarray, shape (N, G, m, m)
-        ``Sigma / sigma_scale`` (``Sigma`` itself for ``'direct'``).
-    pinv : ndarray, shape (N, G, m, m) or (0,)
-        ``P_B / p_scale`` with ``P_B = (Sigma + c I)^{-1}`` (``'exact'``, ``'fast'``).
+        Slots of ``Sigma / sigma_scale`` without the buffered terms (``Sigma`` itself for
+        ``'direct'``); particle ``i`` uses slot ``sanc[i]``.
+    pinv : ndarray, shape (N, G, m, m)
+        Slots of ``P_B / p_scale`` with ``P_B = (Sigma + c I)^{-1}`` before the pending
+        term; particle ``i`` uses slot ``panc[i]``.
+    spare, sigma_spare : ndarray
+        Second buffers of ``pinv`` and ``sigma``.
+    pend : ndarray, shape (N, G, m)
+        Pending Sherman-Morrison vector ``P_B phi`` of each ``pinv`` slot.
+    pgain : ndarray, shape (N, G)
+        Its gain: the slot's matrix is ``pinv - pgain pend pend^T`` (0: nothing pending).
+    panc, sanc : ndarray of int, shape (N,)
+        ``pinv`` and ``sigma`` slot of each particle.
     sigma_scale, p_scale : float
         Global scalar factors (forgetting is applied to them, not to the arrays).
     c : float
         Prior weight currently inside ``P_B``.
     since_refactor : int
         Steps since the last refactorisation.
-    hist : ndarray, shape (N, G, J, m)
-        Feature vectors of the data updates not yet folded into ``sigma``
-        (``'exact'``, ``'fast'``; empty for ``'direct'``).
+    hist : ndarray, shape (J, N, G, m)
+        Feature vectors of the data updates not yet folded into ``sigma``.
+    hanc : ndarray of int, shape (J, N)
+        Row of ``hist[j]`` that belongs to each particle.
     hcoef : ndarray, shape (J,)
-        Their scales: ``Sigma = sigma_scale (sigma + sum_j hcoef_j h_j h_j^T)``.
+        Their scales: ``Sigma_i = sigma_scale (sigma[sanc_i] + sum_j hcoef_j h h^T)`` with
+        ``h = hist[j, hanc[j, i]]``.
     nhist : int
         Rows of ``hist`` in use.
     """
@@ -88,6 +110,13 @@ class LinAlgState(NamedTuple):
     hist: NDArray
     hcoef: NDArray
     nhist: int
+    spare: NDArray
+    sigma_spare: NDArray
+    pend: NDArray
+    pgain: NDArray
+    panc: NDArray
+    sanc: NDArray
+    hanc: NDArray
 
 
 def init(mode: str, n: int, groups: int, m: int, history: int = 64) -> LinAlgState:
@@ -96,37 +125,55 @@ def init(mode: str, n: int, groups: int, m: int, history: int = 64) -> LinAlgSta
         raise ValueError(f"unknown linear-algebra mode {mode!r}; expected one of {LINALG_MODES}")
     dtype = np.float32 if mode == "fast" else np.float64
     sigma = np.zeros((n, groups, m, m), dtype=dtype)
+    ar = np.arange(n)
     if mode == "direct":
-        return LinAlgState(mode, sigma, np.zeros(0), 1.0, 1.0, 1.0, 0, np.zeros((n, groups, 0, m)),
-                           np.zeros(0), 0)
+        e = np.zeros(0)
+        return LinAlgState(mode, sigma, e, 1.0, 1.0, 1.0, 0, np.zeros((0, n, groups, m)), e, 0,
+                           e, e, np.zeros((n, groups, 0)), np.zeros((n, groups)), ar, ar,
+                           np.zeros((0, n), np.int64))
     pinv = np.broadcast_to(np.eye(m, dtype=dtype), (n, groups, m, m)).copy()
-    hist = np.zeros((n, groups, max(int(history), 1), m), dtype=dtype)
-    return LinAlgState(mode, sigma, pinv, 1.0, 1.0, 1.0, 0, hist, np.zeros(hist.shape[2]), 0)
+    J = max(int(history), 1)
+    return LinAlgState(
+        mode, sigma, pinv, 1.0, 1.0, 1.0, 0, np.zeros((J, n, groups, m), dtype=dtype), np.zeros(J), 0,
+        np.empty_like(pinv), np.empty_like(sigma), np.zeros((n, groups, m)), np.zeros((n, groups)),
+        ar.copy(), ar.copy(), np.zeros((J, n), np.int64),
+    )
 
 
 def flush(st: LinAlgState) -> LinAlgState:
-    """Fold the buffered rank-1 terms into ``sigma`` (``sigma += sum_j hcoef_j h_j h_j^T``)."""
+    """Fold the buffered rank-1 terms into ``sigma`` (one slot per particle)."""
     if st.mode == "direct" or st.nhist == 0:
         return st
-    N, G, J, m = st.hist.shape
-    _fold(st.sigma.reshape(N * G, m, m), st.hist.reshape(N * G, J, m),
-          st.hcoef.astype(st.hist.dtype), st.nhist)
-    return st._replace(nhist=0)
+    N = st.hist.shape[1]
+    _fold(st.sigma, st.sigma_spare, st.sanc, st.hist, st.hanc, st.hcoef, st.nhist)
+    return st._replace(sigma=st.sigma_spare, sigma_spare=st.sigma, sanc=np.arange(N), nhist=0)
 
 
 def reserve(st: LinAlgState) -> LinAlgState:
     """Make room for one more buffered rank-1 term."""
-    if st.mode != "direct" and st.nhist >= st.hist.shape[2]:
+    if st.mode != "direct" and st.nhist >= st.hist.shape[0]:
         return flush(st)
     return st
 
 
-@numba.njit(cache=True)
-def _fold(sigma, hist, hcoef, n):  # pragma: no cover - compiled
-    for b in range(hist.shape[0]):
-        H = hist[b, :n]
-        Hw = H * hcoef[:n].reshape(n, 1)
-        sigma[b] += np.dot(Hw.T, H)
+@numba.njit(cache=True, fastmath=True)
+def _fold(sigma, out, sanc, hist, hanc, hcoef, n):  # pragma: no cover - compiled
+    """``out[i] = sigma[sanc[i]] + sum_j hcoef_j h h^T``, ``h = hist[j, hanc[j, i]]``."""
+    N, G, m, _ = out.shape
+    for i in range(N):
+        for g in range(G):
+            Out = out[i, g]
+            S = sigma[sanc[i], g]
+            for a in range(m):
+                for b in range(m):
+                    Out[a, b] = S[a, b]
+            for j in range(n):
+                h = hist[j, hanc[j, i], g]
+                c = hcoef[j]
+                for a in range(m):
+                    w = c * h[a]
+                    for b in range(m):
+                        Out[a, b] += w * h[b]
 
 
 def forget(st: LinAlgState, lam: float, refactor_every: int) -> LinAlgState:
@@ -145,27 +192,138 @@ def forget(st: LinAlgState, lam: float, refactor_every: int) -> LinAlgState:
 
 
 def refactor(st: LinAlgState) -> LinAlgState:
-    """Recompute ``P_B = (Sigma + I)^{-1}`` from ``Sigma``, ``c = 1`` (one LAPACK inverse per
-    particle inside a compiled loop)."""
+    """Recompute ``P_B = (Sigma + I)^{-1}`` from ``Sigma`` (slot plus buffered terms),
+    ``c = 1``: a Cholesky inverse per particle inside a compiled loop. Nothing is pending
+    afterwards and every particle owns its slots."""
     if st.mode == "direct":
         return st
-    st = flush(st)
-    _refactor(st.sigma.reshape((-1, *st.sigma.shape[-2:])),
-              st.pinv.reshape((-1, *st.pinv.shape[-2:])), st.sigma_scale)
-    return st._replace(sigma_scale=1.0, p_scale=1.0, c=1.0, since_refactor=0)
+    N = st.hist.shape[1]
+    _rebuild(st.sigma, st.sanc, st.hist, st.hanc, st.hcoef, st.nhist, st.sigma_scale,
+             st.sigma_spare, st.pinv)
+    st.pgain[:] = 0.0
+    return st._replace(sigma=st.sigma_spare, sigma_spare=st.sigma, sigma_scale=1.0, p_scale=1.0,
+                       c=1.0, since_refactor=0, panc=np.arange(N), sanc=np.arange(N), nhist=0)
 
 
 @numba.njit(cache=True)
-def _refactor(sigma, pinv, sigma_scale):  # pragma: no cover - compiled
-    """In place: sigma <- sym(sigma_scale sigma); pinv <- (sigma + I)^{-1} (LAPACK)."""
-    B, m, _ = sigma.shape
-    eye = np.eye(m)
-    for b in range(B):
-        S = sigma[b].astype(np.float64)
-        S = 0.5 * sigma_scale * (S + S.T)
-        P = np.linalg.inv(S + eye)
-        sigma[b] = S
-        pinv[b] = 0.5 * (P + P.T)
+def _rebuild(sigma, sanc, hist, hanc, hcoef, n, sigma_scale, out, pinv):  # pragma: no cover
+    """``out[i] = sigma_scale sym(sigma[sanc[i]] + sum_j hcoef_j h h^T)`` (``h = hist[j,
+    hanc[j, i]]``, the sum as one matrix product) and ``pinv[i] = (out[i] + I)^{-1}``."""
+    N, G, m, _ = out.shape
+    A = np.empty((m, m))
+    Li = np.empty((m, m))
+    P = np.empty((m, m))
+    H = np.zeros((max(n, 1), m))
+    HH = np.zeros((m, m))
+    for i in range(N):
+        for g in range(G):
+            S = sigma[sanc[i], g]
+            if n > 0:
+                for j in range(n):
+                    c = np.sqrt(hcoef[j])
+                    row = hist[j, hanc[j, i], g]
+                    for k in range(m):
+                        H[j, k] = c * row[k]
+                np.dot(H.T, H, HH)
+            for a in range(m):
+                for b in range(a, m):
+                    v = 0.5 * sigma_scale * (np.float64(S[a, b]) + np.float64(S[b, a]) + 2.0 * HH[a, b])
+                    A[a, b] = v
+                    A[b, a] = v
+            for a in range(m):
+                for b in range(m):
+                    out[i, g, a, b] = A[a, b]
+                A[a, a] += 1.0
+            _spd_inverse(A, Li, P)
+            for a in range(m):
+                for b in range(m):
+                    pinv[i, g, a, b] = P[a, b]
+
+
+@numba.njit(cache=True, fastmath=True)
+def _spd_inverse(A, Li, P):  # pragma: no cover - compiled
+    """``P = A^{-1}`` for SPD ``A`` (m, m): Cholesky (LAPACK), then ``L^{-1}`` row by row
+    and ``P = L^{-T} L^{-1}`` as a sum of outer products (about ``m³ / 2`` multiply-adds
+    after the factorisation, against ``4 m³ / 3`` for the LU inverse)."""
+    m = A.shape[0]
+    L = np.linalg.cholesky(A)
+    for i in range(m):
+        for j in range(m):
+            Li[i, j] = 0.0
+            P[i, j] = 0.0
+    for i in range(m):
+        d = 1.0 / L[i, i]
+        for k in range(i):
+            c = -L[i, k] * d
+            for j in range(k + 1):
+                Li[i, j] += c * Li[k, j]
+        Li[i, i] = d
+    for k in range(m):
+        for a in range(k + 1):
+            w = Li[k, a]
+            for b in range(k + 1):
+                P[a, b] += w * Li[k, b]
+
+
+def settle(st: LinAlgState) -> LinAlgState:
+    """Write the ancestors' matrices and the pending rank-1 terms out, in place: afterwards
+    ``pinv[i]`` is particle ``i``'s own ``P_B / p_scale`` (``panc`` the identity)."""
+    if st.mode == "direct":
+        return st
+    N = st.pinv.shape[0]
+    if np.array_equal(st.panc, np.arange(N)) and not st.pgain.any():
+        return st
+    _settle(st.pinv, st.spare, st.panc, st.pend, st.pgain)
+    st.pinv[...] = st.spare
+    st.panc[:] = np.arange(N)
+    st.pgain[:] = 0.0
+    return st
+
+
+@numba.njit(cache=True, fastmath=True)
+def _settle(pinv, out, panc, pend, pgain):  # pragma: no cover - compiled
+    N, G, m, _ = out.shape
+    for i in range(N):
+        k = panc[i]
+        for g in range(G):
+            gk = pgain[k, g]
+            for a in range(m):
+                ua = pend[k, g, a] * gk
+                for b in range(m):
+                    out[i, g, a, b] = pinv[k, g, a, b] - ua * pend[k, g, b]
+
+
+def inverse(st: LinAlgState) -> NDArray:
+    """``P_B`` of every particle, shape (N, G, m, m) (``'exact'``, ``'fast'``; for checks)."""
+    return settle(st).pinv.astype(np.float64) * st.p_scale
+
+
+def solve(st: LinAlgState, R: NDArray, n_exact: int | None = None) -> tuple[NDArray, NDArray | None]:
+    """``H^{-1} R`` for ``R`` of shape (N, G, m, nr), ``H = Sigma + I``.
+
+    With ``n_exact`` only the first ``n_exact`` columns are solved to rounding precision
+    by ``'exact'``; the rest to ``O((1 - c)²)`` relative (used for the band of the peak).
+
+    Returns
+    -------
+    X : ndarray, shape (N, G, m, nr)
+    pb_phi : ndarray, shape (N, G, m) or None
+        ``P_B R[..., 0]``, needed by :func:`update` (``None`` for ``'direct'``).
+    """
+    N, G, m, nr = R.shape
+    if st.mode == "direct":
+        H = st.sigma + np.eye(m)
+        return np.linalg.solve(H, R), None
+    settle(st)
+    delta = 1.0 - st.c
+    if st.mode == "fast":
+        tol, max_terms = 1.0, 1
+    else:
+        tol, max_terms = 1e-13, 60
+    n_exact = nr if n_exact is None else n_exact
+    Rt = np.ascontiguousarray(np.swapaxes(R, -1, -2).reshape(N * G, nr, m), dtype=st.pinv.dtype)
+    Xt, pb = _neumann(st.pinv.reshape(N * G, m, m), st.p_scale, delta, Rt, n_exact, tol, max_terms)
+    return np.swapaxes(Xt.reshape(N, G, nr, m), -1, -2), pb.reshape(N, G, m)
 
 
 @numba.njit(cache=True, fastmath=True)
@@ -244,33 +402,6 @@ def _rank1(pinv, phi, pb_phi, p_scale):  # pragma: no cover - compiled
                 Pr[j] -= ui * pb[j]
 
 
-def solve(st: LinAlgState, R: NDArray, n_exact: int | None = None) -> tuple[NDArray, NDArray | None]:
-    """``H^{-1} R`` for ``R`` of shape (N, G, m, nr), ``H = Sigma + I``.
-
-    With ``n_exact`` only the first ``n_exact`` columns are solved to rounding precision
-    by ``'exact'``; the rest to ``O((1 - c)²)`` relative (used for the band of the peak).
-
-    Returns
-    -------
-    X : ndarray, shape (N, G, m, nr)
-    pb_phi : ndarray, shape (N, G, m) or None
-        ``P_B R[..., 0]``, needed by :func:`update` (``None`` for ``'direct'``).
-    """
-    N, G, m, nr = R.shape
-    if st.mode == "direct":
-        H = st.sigma + np.eye(m)
-        return np.linalg.solve(H, R), None
-    delta = 1.0 - st.c
-    if st.mode == "fast":
-        tol, max_terms = 1.0, 1
-    else:
-        tol, max_terms = 1e-13, 60
-    n_exact = nr if n_exact is None else n_exact
-    Rt = np.ascontiguousarray(np.swapaxes(R, -1, -2).reshape(N * G, nr, m), dtype=st.pinv.dtype)
-    Xt, pb = _neumann(st.pinv.reshape(N * G, m, m), st.p_scale, delta, Rt, n_exact, tol, max_terms)
-    return np.swapaxes(Xt.reshape(N, G, nr, m), -1, -2), pb.reshape(N, G, m)
-
-
 def update(st: LinAlgState, phi: NDArray, pb_phi: NDArray | None) -> LinAlgState:
     """Data update ``Sigma <- Sigma + phi phi^T`` (eq. 28b); ``phi`` (N, G, m)."""
     N, G, m = phi.shape
@@ -278,8 +409,9 @@ def update(st: LinAlgState, phi: NDArray, pb_phi: NDArray | None) -> LinAlgState
         sig = st.sigma
         sig += phi[..., :, None] * phi[..., None, :]
         return st
-    st = reserve(st)
-    st.hist[:, :, st.nhist] = phi
+    st = reserve(settle(st))
+    st.hist[st.nhist] = phi
+    st.hanc[st.nhist] = np.arange(N)
     st.hcoef[st.nhist] = 1.0 / st.sigma_scale
     _rank1(
         st.pinv.reshape(N * G, m, m),
@@ -289,14 +421,17 @@ def update(st: LinAlgState, phi: NDArray, pb_phi: NDArray | None) -> LinAlgState
 
 
 def take(st: LinAlgState, idx: NDArray) -> LinAlgState:
-    """Rows ``idx`` (resampling): each particle keeps its own matrices.
+    """Particles ``idx`` (resampling): each keeps its ancestor's matrices.
 
-    The buffers of ``st`` are consumed (rows are moved in place when ``idx`` is sorted).
+    ``'direct'`` copies rows (in place for sorted ``idx``); the other modes only compose
+    the ancestor indices.
     """
     if st.mode == "direct":
         return st._replace(sigma=take_rows(st.sigma, idx))
-    return st._replace(sigma=take_rows(st.sigma, idx), pinv=take_rows(st.pinv, idx),
-                       hist=take_rows(st.hist, idx))
+    idx = np.asarray(idx, dtype=np.int64)
+    hanc = st.hanc
+    hanc[:st.nhist] = hanc[:st.nhist, idx]
+    return st._replace(panc=st.panc[idx], sanc=st.sanc[idx])
 
 
 def take_rows(a: NDArray, idx: NDArray) -> NDArray:
@@ -333,14 +468,18 @@ def _gather_sorted(a, idx):  # pragma: no cover - compiled
 
 def copy(st: LinAlgState) -> LinAlgState:
     return st._replace(sigma=st.sigma.copy(), pinv=st.pinv.copy(), hist=st.hist.copy(),
-                       hcoef=st.hcoef.copy())
+                       hcoef=st.hcoef.copy(), spare=st.spare.copy(), sigma_spare=st.sigma_spare.copy(),
+                       pend=st.pend.copy(), pgain=st.pgain.copy(), panc=st.panc.copy(),
+                       sanc=st.sanc.copy(), hanc=st.hanc.copy())
 
 
 def information(st: LinAlgState) -> NDArray:
-    """``H = Sigma + I`` in double precision, shape (N, G, m, m) (for checks)."""
+    """``H = Sigma + I`` of every particle in double precision, shape (N, G, m, m) (checks)."""
     m = st.sigma.shape[-1]
-    S = st.sigma.astype(np.float64)
+    S = st.sigma[st.sanc].astype(np.float64)
     if st.mode != "direct" and st.nhist:
-        h = st.hist[:, :, :st.nhist].astype(np.float64)
+        N = len(st.sanc)
+        h = np.stack([st.hist[j, st.hanc[j]] for j in range(st.nhist)], axis=2).astype(np.float64)
         S = S + np.einsum("ngjm,j,ngjk->ngmk", h, st.hcoef[:st.nhist], h)
+        assert S.shape[0] == N
     return S * st.sigma_scale + np.eye(m)
