@@ -709,9 +709,23 @@ def step_reference(
     return new, est
 
 
-@lru_cache(maxsize=16)
+_KERNEL_CONSTANTS: dict[int, tuple[GPSSMConfig, dict[str, Any]]] = {}
+
+
 def _kernel_constants(config: GPSSMConfig) -> dict[str, Any]:
-    """Packed arrays of :mod:`roadgrip.estimators.gpssm_kernel` for a configuration."""
+    """Packed arrays of :mod:`roadgrip.estimators.gpssm_kernel` for a configuration,
+    cached by identity (hashing the configuration every step costs more than the lookup)."""
+    hit = _KERNEL_CONSTANTS.get(id(config))
+    if hit is not None and hit[0] is config:
+        return hit[1]
+    if len(_KERNEL_CONSTANTS) >= 16:
+        _KERNEL_CONSTANTS.pop(next(iter(_KERNEL_CONSTANTS)))
+    kc = _make_kernel_constants(config)
+    _KERNEL_CONSTANTS[id(config)] = (config, kc)
+    return kc
+
+
+def _make_kernel_constants(config: GPSSMConfig) -> dict[str, Any]:
     veh = config.vehicle
     vp = np.zeros(gk.VEH.SIZE)
     vp[gk.VEH.MASS], vp[gk.VEH.FZF], vp[gk.VEH.FZR] = veh.mass, veh.fz_front, veh.fz_rear
