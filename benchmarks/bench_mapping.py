@@ -124,8 +124,11 @@ def frictionmaps(outdir: str, calibrate: bool = False, steer_delay: float = 0.0,
         dg = res.meta["diagnostics"]
         ok = np.isfinite(drive.data["vy_pose"]).to_numpy() & (drive.data["vx"].to_numpy() > 1.0)
         vy_rms = float(np.sqrt(np.mean((tab["vy_ekf"].to_numpy()[ok] - drive.data["vy_pose"].to_numpy()[ok]) ** 2)))
+        obs = M.observations_from_estimates(tab, cell)
+        med = f"{np.median(obs.mu):.2f}" if len(obs.mu) else "-"
         print(f"{ds}: {drive.n} samples, {drive.duration:.0f} s, excited front {100 * tab['excited_front'].mean():.1f} % "
-              f"rear {100 * tab['excited_rear'].mean():.1f} %, {len(c)} cells with >= 10 observations, "
+              f"rear {100 * tab['excited_rear'].mean():.1f} %, {len(obs.mu)} observations fused (median {med}) "
+              f"in {int((g.n_obs > 0).sum())} cells, {len(c)} cells with >= 10 observations, "
               f"mu p10/p50/p90 {q[0]:.2f}/{q[1]:.2f}/{q[2]:.2f}, {res.meta['timing']['samples_per_s']:,.0f} samples/s")
         print(f"     ay/(vx r) {chk.get('ay_over_vx_yaw_rate', np.nan):.2f}, pose speed/vx "
               f"{chk.get('pose_speed_over_vx', np.nan):.2f}, |ay| p99 {np.quantile(np.abs(drive.data['ay']), 0.99):.1f} m/s2, "
