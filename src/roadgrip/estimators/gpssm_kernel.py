@@ -218,7 +218,7 @@ def _solve(P, p_scale, delta, R, nr, n_exact, tol, max_terms, X, pb, cur, nxt): 
             X[r, i] = cur[r, i]
     for i in range(m):
         pb[i] = cur[0, i]
-    if delta > 0.0 and max_terms > 0:
+    if delta != 0.0 and max_terms > 0:
         xmax = 0.0
         for r in range(n_exact):
             for i in range(m):

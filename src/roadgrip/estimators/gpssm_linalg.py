@@ -15,15 +15,17 @@ Three interchangeable backends (``GPSSMConfig.linalg``):
     Stores ``Sigma`` and calls ``numpy.linalg.solve`` on the stack ``(N, G, m, m)`` every
     step. The reference, and the baseline of the benchmark.
 ``'exact'``
-    Deferred forgetting of the prior. With ``c = lam^j`` (``j`` steps since the last
+    Deferred forgetting of the prior. With ``c = c0 lam^j`` (``j`` steps since the last
     refactorisation) the stored matrix is ``B = Sigma + c I``: forgetting scales ``B`` by
     ``lam`` (a scalar on its inverse, ``O(1)``) and the data update is rank 1
     (Sherman-Morrison on ``P_B = B^{-1}``, ``O(m²)``). The exact ``H = B + (1 - c) I`` is
     solved by the Neumann series ``H^{-1} = sum_n (-(1 - c))^n P_B^{n+1}``, which converges
-    geometrically because ``P_B <= I / c`` and ``1 - c << c``; terms are added until they
-    fall below ``1e-13`` of the sum. Every ``refactor_every`` steps ``P_B`` is recomputed
-    from ``Sigma`` (Cholesky of ``Sigma + I``, ``c = 1``), which also removes rounding
-    drift of the rank-1 updates. ``O(N m²)`` per step, exact to rounding.
+    geometrically because ``P_B <= I / c`` and ``|1 - c| << c``; terms are added until they
+    fall below ``1e-13`` of the sum. Every ``refactor_every = J`` steps ``P_B`` is
+    recomputed from ``Sigma`` (Cholesky of ``Sigma + c0 I``, ``c0 = lam^{-J/2}`` so that
+    ``1 - c`` runs from about ``-J (1 - lam) / 2`` to ``+J (1 - lam) / 2``), which also
+    removes rounding drift of the rank-1 updates. ``O(N m²)`` per step, exact to
+    rounding.
 
     Nothing of size ``m²`` is copied or written twice per step:
 
@@ -187,28 +189,35 @@ def forget(st: LinAlgState, lam: float, refactor_every: int) -> LinAlgState:
         since_refactor=st.since_refactor + 1,
     )
     if st.since_refactor >= refactor_every:
-        st = refactor(st)
+        st = refactor(st, lam ** (-0.5 * refactor_every))
     return st
 
 
-def refactor(st: LinAlgState) -> LinAlgState:
-    """Recompute ``P_B = (Sigma + I)^{-1}`` from ``Sigma`` (slot plus buffered terms),
-    ``c = 1``: a Cholesky inverse per particle inside a compiled loop. Nothing is pending
-    afterwards and every particle owns its slots."""
+def refactor(st: LinAlgState, c0: float = 1.0) -> LinAlgState:
+    """Recompute ``P_B = (Sigma + c0 I)^{-1}`` from ``Sigma`` (slot plus buffered terms),
+    ``c = c0``: a Cholesky inverse per particle inside a compiled loop. Nothing is pending
+    afterwards and every particle owns its slots.
+
+    :func:`forget` passes ``c0 = lam^{-J/2}`` (``J`` the refactorisation period): over the
+    period ``c`` falls from ``lam^{-J/2}`` to ``lam^{J/2}``, so the Neumann parameter
+    ``1 - c`` is centred on zero and half as large at worst as when starting from 1.
+    """
     if st.mode == "direct":
         return st
+    if not 0.5 < c0 < 2.0:
+        raise ValueError(f"prior weight at refactorisation must be near 1, got {c0!r}")
     N = st.hist.shape[1]
-    _rebuild(st.sigma, st.sanc, st.hist, st.hanc, st.hcoef, st.nhist, st.sigma_scale,
+    _rebuild(st.sigma, st.sanc, st.hist, st.hanc, st.hcoef, st.nhist, st.sigma_scale, c0,
              st.sigma_spare, st.pinv)
     st.pgain[:] = 0.0
     return st._replace(sigma=st.sigma_spare, sigma_spare=st.sigma, sigma_scale=1.0, p_scale=1.0,
-                       c=1.0, since_refactor=0, panc=np.arange(N), sanc=np.arange(N), nhist=0)
+                       c=float(c0), since_refactor=0, panc=np.arange(N), sanc=np.arange(N), nhist=0)
 
 
 @numba.njit(cache=True)
-def _rebuild(sigma, sanc, hist, hanc, hcoef, n, sigma_scale, out, pinv):  # pragma: no cover
+def _rebuild(sigma, sanc, hist, hanc, hcoef, n, sigma_scale, c0, out, pinv):  # pragma: no cover
     """``out[i] = sigma_scale sym(sigma[sanc[i]] + sum_j hcoef_j h h^T)`` (``h = hist[j,
-    hanc[j, i]]``, the sum as one matrix product) and ``pinv[i] = (out[i] + I)^{-1}``."""
+    hanc[j, i]]``, the sum as one matrix product) and ``pinv[i] = (out[i] + c0 I)^{-1}``."""
     N, G, m, _ = out.shape
     A = np.empty((m, m))
     Li = np.empty((m, m))
@@ -233,7 +242,7 @@ def _rebuild(sigma, sanc, hist, hanc, hcoef, n, sigma_scale, out, pinv):  # prag
             for a in range(m):
                 for b in range(m):
                     out[i, g, a, b] = A[a, b]
-                A[a, a] += 1.0
+                A[a, a] += c0
             _spd_inverse(A, Li, P)
             for a in range(m):
                 for b in range(m):
@@ -353,7 +362,7 @@ def _neumann(pinv, p_scale, delta, Rt, n_exact, tol, max_terms):  # pragma: no c
         for r in range(nr):
             for i in range(m):
                 Xt[b, r, i] = term[r, i]
-        if delta > 0.0:
+        if delta != 0.0:
             xmax = 0.0
             for r in range(n_exact):
                 for i in range(m):
