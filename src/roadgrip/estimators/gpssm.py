@@ -660,7 +660,8 @@ def step_reference(
         MT = PPsiT + uvec[..., None] * zeta[..., None, :]
         MT -= uvec[..., None] * ((loc + zeta * s[..., None]) * inv1s[..., None])[..., None, :]
         Lam_post = _sym_pd(Lam_star + e[..., :, None] * e[..., None, :] * inv1s[..., None, None], 1e-12)
-        upk = np.einsum("ngm,ngmp->ngp", uvec, Ppk)
+        # f^T (H + phi phi^T)^{-1} f = f^T H^{-1} f - (f^T H^{-1} phi)^2 / (1 + s)
+        upk = np.einsum("gmp,ngm->ngp", fpk_g, uvec)
         vpk = np.einsum("gmp,ngmp->ngp", fpk_g, Ppk) - upk**2 * inv1s[..., None]  # (N, G, np)
     else:
         # below min_speed the slip angles carry no friction information: no update
@@ -793,6 +794,9 @@ def _step_compiled(
     logw = state.logw
     pend_new = np.empty((N, G, m))
     pgain_new = np.empty((N, G))
+    fresh = lin.pkf is None or lin.pkf.shape != fpk_g.shape or not np.array_equal(lin.pkf, fpk_g)
+    wold = lin.pkw if lin.pkw is not None else np.zeros((N, G, fpk_g.shape[2], m))
+    wnew = np.empty((N, G, fpk_g.shape[2], m))
     gk.particle_pass(
         state.x, state.mu, logw, lin.pinv.reshape(N * G, m, m), lin.spare.reshape(N * G, m, m),
         lin.panc, lin.pend, lin.pgain, pend_new, pgain_new, lin.hist, lin.nhist, state.Psi, state.Phi,
@@ -800,12 +804,12 @@ def _step_compiled(
         float(sample.vx), float(sample.ay), float(sample.yaw_rate), learn,
         kc["veh"], kc["mf"], lam, nu, kc["Lambda0"], config.sigma_ay, config.sigma_yaw_rate, vy_max,
         lin.p_scale, 1.0 - lin.c, kc["tol"], kc["max_terms"],
-        kc["tensor"], kc["nf"], kc["fidx"], kc["ridx"], kc["wgt"], b.L, fpk_g,
+        kc["tensor"], kc["nf"], kc["fidx"], kc["ridx"], kc["wgt"], b.L, fpk_g, wold, wnew, fresh,
         gdraw, zdraw, config.proposal == "conditional",
         alpha, M, Lam, vpk, munow, e,
     )
     lin = lin._replace(pinv=lin.spare, spare=lin.pinv, pend=pend_new, pgain=pgain_new,
-                       panc=np.arange(N))
+                       panc=np.arange(N), pkw=wnew, pkf=fpk_g)
     if learn:
         lin.hcoef[lin.nhist] = 1.0 / lin.sigma_scale
         lin.hanc[lin.nhist] = lin.panc

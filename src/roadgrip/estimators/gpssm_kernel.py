@@ -248,7 +248,7 @@ def particle_pass(
     propagate, dt, steer_prev, vx_prev, steer, vx, ay, yaw_rate, learn,
     veh, mf, lam, nu, Lambda0, sigma_ay, sigma_r, vy_max,
     p_scale, delta, tol, max_terms,
-    tensor, nf, fidx, ridx, wgt, L, fpk,
+    tensor, nf, fidx, ridx, wgt, L, fpk, wold, wnew, fresh,
     gdraw, zdraw, conditional,
     out_alpha, out_M, out_Lam, out_vpk, out_munow, est,
 ):  # pragma: no cover - compiled
@@ -269,7 +269,12 @@ def particle_pass(
     vy_max : float, negative for no bound
     gdraw : (N, G) chi-square draws with ``nu - d + 1`` degrees of freedom
     zdraw : (N, 1, 2) standard normals (conditional proposal) or (N, G, d) (bootstrap)
-    fpk : (G, m, np) odd-part features at the peak slip angles
+    fpk : (G, m, np) odd-part features ``f`` at the peak slip angles
+    wold, wnew : (N, G, np, m) ``P_B f / p_scale`` per ``pinv`` slot, before (read through
+        ``panc`` and corrected by the pending term, like ``pinv``) and after this step;
+        ``fresh`` recomputes it with a product (new ``f`` or a refactorised ``P_B``).
+        The peak band needs ``f^T H^{-1} f = f^T P_B f - (1 - c) |P_B f|² + O((1 - c)²)``
+        (eq. 25), so ``f`` never enters the Neumann series.
     out_alpha : (N, 2) slip angles;  out_M : (N, G, d, m) posterior mean ``M`` (eq. 28a);
     out_Lam : (N, G, d, d) posterior ``Lambda``;  out_vpk : (N, G, np) ``f^T H^{-1} f``
     of the peak features after the update;  out_munow : (N, 2) ``mu_prior + M phi``;
@@ -280,7 +285,7 @@ def particle_pass(
     d = Psi.shape[2]
     m = Psi.shape[3]
     npk = fpk.shape[2]
-    nr = 1 + d + npk
+    nr = 1 + d
     R = np.zeros((nr, m), dtype=pinv.dtype)
     X = np.zeros((nr, m), dtype=pinv.dtype)
     cur = np.zeros((nr, m), dtype=pinv.dtype)
@@ -290,7 +295,13 @@ def particle_pass(
     U = np.zeros((G, m))
     PB = np.zeros((G, m))
     Y = np.zeros((G, d, m))
-    K = np.zeros((G, npk, m))
+    FT = np.empty((G, npk, m), dtype=pinv.dtype)
+    for g in range(G):
+        for p in range(npk):
+            for k in range(m):
+                FT[g, p, k] = fpk[g, k, p]
+    Wt = np.zeros((max(npk, 1), m), dtype=pinv.dtype)
+    vpk0 = np.zeros((G, npk))
     ef = np.empty(nf)
     er = np.empty(nf)
     loc = np.zeros((G, d))
@@ -359,8 +370,6 @@ def particle_pass(
                 R[0, k] = phi[g, k]
                 for a in range(d):
                     R[1 + a, k] = Psi[n, g, a, k]
-                for p in range(npk):
-                    R[1 + d + p, k] = fpk[g, k, p]
             # this particle's P_B: its ancestor's slot minus the pending rank-1 term
             kb = panc[n] * G + g
             src = pinv[kb]
@@ -384,9 +393,27 @@ def particle_pass(
                 s += phi[g, k] * U[g, k]
                 for a in range(d):
                     Y[g, a, k] = X[1 + a, k]
-                for p in range(npk):
-                    K[g, p, k] = X[1 + d + p, k]
             s_g[g] = s
+            # P_B f of the peak features (stored units) and f^T H^{-1} f to first order
+            if fresh:
+                _mv(dst, FT[g], npk, Wt, Wt[0, 0] - Wt[0, 0] + 1.0)
+            else:
+                for p in range(npk):
+                    c = 0.0
+                    for k in range(m):
+                        c += pend[panc[n], g, k] * fpk[g, k, p]
+                    c *= gain
+                    for k in range(m):
+                        Wt[p, k] = wold[panc[n], g, p, k] - c * pend[panc[n], g, k]
+            for p in range(npk):
+                fw = 0.0
+                ww = 0.0
+                for k in range(m):
+                    wk = np.float64(Wt[p, k])
+                    wnew[n, g, p, k] = wk
+                    fw += fpk[g, k, p] * wk
+                    ww += wk * wk
+                vpk0[g, p] = p_scale * fw - delta * p_scale * p_scale * ww
             for a in range(d):
                 acc = 0.0
                 for k in range(m):
@@ -490,12 +517,11 @@ def particle_pass(
                                                + (za - loc[g, a]) * (zeta[g, c] - loc[g, c]) * inv1s)
                 _sym_pd(out_Lam[n, g], 1e-12)
                 for p in range(npk):
+                    # f^T (H + phi phi^T)^{-1} f = f^T H^{-1} f - (f^T H^{-1} phi)² / (1 + s)
                     up = 0.0
-                    fp = 0.0
                     for k in range(m):
-                        up += U[g, k] * K[g, p, k]
-                        fp += fpk[g, k, p] * K[g, p, k]
-                    out_vpk[n, g, p] = fp - up * up * inv1s
+                        up += fpk[g, k, p] * U[g, k]
+                    out_vpk[n, g, p] = vpk0[g, p] - up * up * inv1s
             else:
                 pgain_new[n, g] = 0.0
                 for a in range(d):
@@ -504,10 +530,7 @@ def particle_pass(
                     for c in range(d):
                         out_Lam[n, g, a, c] = lam_star[g, a, c]
                 for p in range(npk):
-                    fp = 0.0
-                    for k in range(m):
-                        fp += fpk[g, k, p] * K[g, p, k]
-                    out_vpk[n, g, p] = fp
+                    out_vpk[n, g, p] = vpk0[g, p]
         # mu_prior + M phi at the particle's slip angles (Algorithm 1, line 12)
         for ax in range(2):
             out_munow[n, ax] = mu_pr[ax]

@@ -95,6 +95,9 @@ class LinAlgState(NamedTuple):
         Feature vectors of the data updates not yet folded into ``sigma``.
     hanc : ndarray of int, shape (J, N)
         Row of ``hist[j]`` that belongs to each particle.
+    pkw : ndarray, shape (N, G, np, m)
+        ``P_B f / p_scale`` for the features ``pkf`` (G, m, np) of the peak slip angles,
+        per ``pinv`` slot (kept by the compiled step; ``pkf`` None when stale).
     hcoef : ndarray, shape (J,)
         Their scales: ``Sigma_i = sigma_scale (sigma[sanc_i] + sum_j hcoef_j h h^T)`` with
         ``h = hist[j, hanc[j, i]]``.
@@ -119,6 +122,8 @@ class LinAlgState(NamedTuple):
     panc: NDArray
     sanc: NDArray
     hanc: NDArray
+    pkw: NDArray | None = None
+    pkf: NDArray | None = None
 
 
 def init(mode: str, n: int, groups: int, m: int, history: int = 64) -> LinAlgState:
@@ -211,7 +216,8 @@ def refactor(st: LinAlgState, c0: float = 1.0) -> LinAlgState:
              st.sigma_spare, st.pinv)
     st.pgain[:] = 0.0
     return st._replace(sigma=st.sigma_spare, sigma_spare=st.sigma, sigma_scale=1.0, p_scale=1.0,
-                       c=float(c0), since_refactor=0, panc=np.arange(N), sanc=np.arange(N), nhist=0)
+                       c=float(c0), since_refactor=0, panc=np.arange(N), sanc=np.arange(N), nhist=0,
+                       pkf=None)
 
 
 @numba.njit(cache=True)
@@ -286,7 +292,7 @@ def settle(st: LinAlgState) -> LinAlgState:
     st.pinv[...] = st.spare
     st.panc[:] = np.arange(N)
     st.pgain[:] = 0.0
-    return st
+    return st._replace(pkf=None)
 
 
 @numba.njit(cache=True, fastmath=True)
@@ -479,7 +485,9 @@ def copy(st: LinAlgState) -> LinAlgState:
     return st._replace(sigma=st.sigma.copy(), pinv=st.pinv.copy(), hist=st.hist.copy(),
                        hcoef=st.hcoef.copy(), spare=st.spare.copy(), sigma_spare=st.sigma_spare.copy(),
                        pend=st.pend.copy(), pgain=st.pgain.copy(), panc=st.panc.copy(),
-                       sanc=st.sanc.copy(), hanc=st.hanc.copy())
+                       sanc=st.sanc.copy(), hanc=st.hanc.copy(),
+                       pkw=None if st.pkw is None else st.pkw.copy(),
+                       pkf=None if st.pkf is None else st.pkf.copy())
 
 
 def information(st: LinAlgState) -> NDArray:
