@@ -66,16 +66,20 @@ def test_same_seed_same_result_other_seed_differs(snow20):
     assert not np.allclose(a["vy"], c["vy"])
 
 
-@pytest.mark.parametrize(("basis", "proposal"), [
-    ("tensor:4x4", "conditional"), ("separable-odd:6", "conditional"),
-    ("tensor-odd:5x5", "prior"), ("separable:5", "prior"),
+@pytest.mark.parametrize(("basis", "proposal", "measured_vy"), [
+    ("tensor:4x4", "conditional", False), ("separable-odd:6", "conditional", False),
+    ("tensor-odd:5x5", "prior", False), ("separable:5", "prior", False),
+    ("separable-odd:6", "conditional", True),
 ])
-def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal):
+def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measured_vy):
     # the compiled kernel and the array implementation draw the same random numbers; a
-    # stop at walking pace (no learning, vy pinned to 0) and the sideslip bound included
+    # stop at walking pace (no learning, vy pinned to 0), the sideslip bound and a
+    # measured lateral velocity included
     d = snow20.slice_time(0.0, 8.0)
     cfg = _cfg(d, basis, n=24, proposal=proposal, max_sideslip=math.radians(3.0))
     rows = drive_inputs(d)
+    if measured_vy:
+        rows[100:, 5] = d.col("vy_true")[100:]
     rows[40:48, 4] = 0.3  # below min_speed
     a_state = b_state = None
     a_rows, b_rows = [], []
@@ -289,3 +293,24 @@ def test_sideslip_bound_holds_where_the_unbounded_estimate_exceeds_it():
     assert free["vy"].abs().max() > 1.5 * math.tan(beta) * 19.6  # the bound is active
     with pytest.raises(ValueError, match="max_sideslip"):
         _cfg(d, max_sideslip=2.0)
+
+
+def test_pose_lateral_velocity_is_measured_and_taken_by_every_particle(snow20):
+    from roadgrip.estimators.gpssm import drive_vy
+
+    d = snow20.slice_time(0.0, 8.0)
+    vy = drive_vy(d)
+    # the simulated pose is exact: its derivative is the lateral velocity to discretisation
+    assert np.sqrt(np.mean((vy - d.col("vy_true")) ** 2)) < 0.005
+    cfg = _cfg(d, "separable-odd:6", n=24, vy_source="pose", ay_source="kinematic")
+    table, _ = GPSSM(cfg, seed=1).run(d)
+    moving = d.col("vx") >= cfg.min_speed
+    np.testing.assert_allclose(table["vy"].to_numpy()[moving], vy[moving], atol=1e-12)
+    assert table["vy_std"].to_numpy()[moving].max() < 1e-12
+    # the kinematic lateral acceleration r vx + dvy/dt is the measured one here
+    ay = drive_inputs(d, "auto", "pose", "kinematic")[:, 1]
+    assert np.sqrt(np.mean((ay - d.col("ay")) ** 2)) < 0.2
+    with pytest.raises(ValueError, match="vy_source"):
+        _cfg(d, ay_source="kinematic")
+    with pytest.raises(ValueError, match="vy_source"):
+        _cfg(d, vy_source="gps")

@@ -114,6 +114,7 @@ from roadgrip.estimators import gpssm_kernel as gk
 from roadgrip.estimators import gpssm_linalg as la
 from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
 from roadgrip.estimators.basis import SeparableBasis, TensorBasis, make_basis
+from roadgrip.estimators.kinematic import kinematic_lateral_acceleration
 from roadgrip.tire import SURFACES, MagicFormula
 from roadgrip.vehicle.lateral import LateralState, lateral_discrete, lateral_measurement
 from roadgrip.vehicle.params import VehicleParams
@@ -195,6 +196,17 @@ class GPSSMConfig:
     min_speed : float
         Below this speed [m/s] the statistics are not updated (slip angles carry no
         friction information near standstill) and the lateral velocity is set to zero.
+    vy_source : {'none', 'pose'}
+        ``'pose'``: the lateral velocity is measured (the body-axis projection of the
+        pose derivative, :func:`drive_vy`, e.g. from motion capture) and every particle
+        takes it instead of its propagated value. The slip angles are then measured
+        rather than inferred; the friction is learned from the lateral acceleration and
+        the yaw dynamics against them.
+    ay_source : {'imu', 'kinematic'}
+        The lateral acceleration measured: the accelerometer, or ``r vx + dvy/dt`` from
+        the gyro and the measured velocity (:func:`roadgrip.estimators.kinematic.
+        kinematic_lateral_acceleration`; needs ``vy_source='pose'``), which on a small car
+        with a hobby-grade IMU and motion capture is about ten times less noisy.
     vx_source : {'auto', 'wheels', 'column', 'pose'}
         Where :meth:`GPSSM.run` takes the longitudinal speed from (:func:`drive_vx`).
     max_dt : float
@@ -240,6 +252,8 @@ class GPSSMConfig:
     max_dt: float = 0.04
     min_speed: float = 0.5
     vx_source: str = "auto"
+    vy_source: str = "none"
+    ay_source: str = "imu"
     slip_sigma: float = math.radians(0.25)
     curve_sigma_floor: float = 0.005
     max_sideslip: float | None = None
@@ -265,6 +279,12 @@ class GPSSMConfig:
             raise ValueError(f"ess_threshold must be in (0, 1], got {self.ess_threshold!r}")
         if self.linalg not in la.LINALG_MODES:
             raise ValueError(f"linalg must be one of {la.LINALG_MODES}, got {self.linalg!r}")
+        if self.vy_source not in ("none", "pose"):
+            raise ValueError(f"vy_source must be 'none' or 'pose', got {self.vy_source!r}")
+        if self.ay_source not in ("imu", "kinematic"):
+            raise ValueError(f"ay_source must be 'imu' or 'kinematic', got {self.ay_source!r}")
+        if self.ay_source == "kinematic" and self.vy_source == "none":
+            raise ValueError("ay_source='kinematic' needs a measured lateral velocity (vy_source='pose')")
         if self.vx_source not in ("auto", "wheels", "column", "pose"):
             raise ValueError(f"vx_source must be auto, wheels, column or pose, got {self.vx_source!r}")
         if self.proposal not in ("conditional", "prior"):
@@ -288,43 +308,50 @@ runs about ten times faster.
 """
 
 DART_OPTIONS: dict[str, Any] = {
-    "sigma_ay": 1.0,
+    "sigma_ay": 0.3,
     "sigma_yaw_rate": 0.05,
     "sigma_w0": 0.05,
     "nu0": 50.0,
     "max_dt": 0.02,
     "vx_source": "pose",
+    "vy_source": "pose",
+    "ay_source": "kinematic",
     "max_sideslip": math.radians(20.0),
 }
 """Configuration overrides for the DART JetRacer recordings (``format='dart'``).
 
-The hobby-grade IMU is far noisier than an automotive one (``R``); the rear-driven
-encoder speed includes up to 30 % wheel spin, so ``vx`` comes from the motion-capture pose;
-the 10 Hz sensor rate is too slow for a forward-Euler step of this small, stiff car
-(``max_dt``); and a larger, firmer prior on the process noise (``sigma_w0``, ``nu0``) keeps
-the filter from collapsing ``Q`` during the long standstill at the start of each file.
-``max_sideslip`` (20 deg) bounds the lateral velocity: with the low-friction prior mean
-(0.05) the model's lateral force early in a run is far below the ``m vx r`` the car
-demonstrably produces (0.6 g on the rubbery floor), so ``vy`` integrates the difference,
-several m/s², a sideslip rate above 1 rad/s at 2 m/s, faster than the basis weights learn
-at the new slip angles; the estimate then chases into slip angles nothing was learned
-at and, beyond the basis domain, runs away (hundreds of m/s). The bound stops that; the
-learned peak nevertheless still varies with the random seed on these recordings: they are
-steady turns in one direction at constant steering, so a common shift of both axles'
-slip angles (the lateral velocity) is not identified by the data, not even with an odd
-basis.
+The recordings are steady turns in one direction at constant steering. From the IMU alone
+a common shift of both axles' slip angles (the lateral velocity) is not identified by such
+data, not even with an odd basis, and the learned peak then depends on the random seed
+(0.23-0.65 on the rubbery floor over seeds 0-5). The motion-capture pose measures the
+velocity, so these options take it:
+
+* ``vy_source='pose'``: the lateral velocity, and with it the slip angles, is measured;
+* ``ay_source='kinematic'``: the lateral acceleration ``r vx + dvy/dt`` from the gyro and
+  the pose, whose noise on these files is 0.17-0.30 m/s² per sample against 2-3 m/s² for
+  the hobby-grade accelerometer (``sigma_ay`` accordingly);
+* ``vx_source='pose'``: the rear-driven encoder speed includes up to 30 % wheel spin.
+
+The 10 Hz sensor rate is too slow for a forward-Euler step of this small, stiff car
+(``max_dt``); a larger, firmer prior on the process noise (``sigma_w0``, ``nu0``) keeps the
+filter from collapsing ``Q`` during the long standstill at the start of each file;
+``max_sideslip`` (20 deg) bounds the lateral velocity of runs without a measured one (with
+the low-friction prior mean, 0.05, the model's early lateral force is far below the
+``m vx r`` the car produces, and ``vy`` would integrate the difference and run away).
 :func:`run_cli` applies them to drives read with ``format='dart'``.
 """
 
 
 class Sample(NamedTuple):
-    """One time sample of the filter's inputs (SI units)."""
+    """One time sample of the filter's inputs (SI units); ``vy`` is a measured lateral
+    velocity (NaN: none, :attr:`GPSSMConfig.vy_source`)."""
 
     t: float
     ay: float
     yaw_rate: float
     steer: float
     vx: float
+    vy: float = math.nan
 
 
 class GPSSMState(NamedTuple):
@@ -354,7 +381,10 @@ class GPSSMState(NamedTuple):
         Histogram of ``|alpha|`` of the state estimate, per axle.
     slip_moments : ndarray, shape (2,)
         ``[sum alpha_f², sum alpha_f alpha_r]`` (tensor-basis manifold ratio).
-    peak_alpha : ndarray, shape (2,)
+    peak_alpha : ndarray, shape (2, 2)
+        Row 0: argmax of the last posterior mean curve, per axle [rad]; row 1: the slip
+        angle of the reported peak (the argmax inside the visited range while the peak is
+        not observed). The peak band uses the function variance at both.
         Argmax of the last posterior mean curve, per axle [rad].
     rng : numpy.random.Generator
         The filter's random stream (advanced in place by :func:`step`, like the other
@@ -527,15 +557,16 @@ def init(config: GPSSMConfig, sample: Sample, seed: int = 0) -> GPSSMState:
         nu=float(config.nu0),
         visits=np.zeros((2, _n_bins(config)), dtype=np.int64),
         slip_moments=np.zeros(2),
-        peak_alpha=np.full(2, config.prior_tire.peak()[0]),
+        peak_alpha=np.full((2, 2), config.prior_tire.peak()[0]),
         rng=rng,
     )
 
 
 def _check_sample(sample: Sample) -> None:
     vals = np.array([sample.t, sample.ay, sample.yaw_rate, sample.steer, sample.vx], float)
-    if not np.all(np.isfinite(vals)):
-        names = [n for n, v in zip(Sample._fields, vals, strict=True) if not np.isfinite(v)]
+    if not np.all(np.isfinite(vals)) or math.isinf(sample.vy):
+        names = [n for n, v in zip(Sample._fields, [*vals, sample.vy], strict=True)
+                 if not np.isfinite(v) and not (n == "vy" and math.isnan(v))]
         raise ValueError(f"GP-SSM sample at t = {sample.t} has non-finite input(s) {names}")
 
 
@@ -595,6 +626,8 @@ def step_reference(
 
     u = np.array([sample.steer, sample.vx], dtype=float)
     learn = bool(sample.vx >= config.min_speed)
+    if not math.isnan(sample.vy):
+        x[:, LateralState.VY] = sample.vy  # measured (GPSSMConfig.vy_source)
     if not learn:
         x[:, LateralState.VY] = 0.0  # (nearly) at rest: no lateral sliding
     # 2. slips and features
@@ -604,16 +637,10 @@ def step_reference(
     mu_prior = np.stack([config.prior_tire.mu(alpha_f), config.prior_tire.mu(alpha_r)], axis=1)
 
     ratio = _manifold_ratio(state)
-    pk_args = (float(state.peak_alpha[0]), float(state.peak_alpha[1]))
-    if b.kind == "tensor":  # at the manifold ratio to 1e-3, as the peak grid
-        fpk, where = _peak_features(config, round(ratio, 3), *pk_args)
-    else:
-        fpk, where = _peak_features(config, 1.0, *pk_args)
+    fpk_g = _peak_rhs(config, ratio, state.peak_alpha)  # (G, m, np)
+    where = _axle_rows(config)
     # right-hand sides: phi, Psi^T, peak features of the groups
-    if b.kind == "tensor":
-        rp = np.broadcast_to(fpk.T[None, None], (N, 1, b.m, 2))
-    else:
-        rp = np.broadcast_to(fpk[None, :, :, None], (N, 2, b.m, 1))
+    rp = np.broadcast_to(fpk_g[None], (N, *fpk_g.shape))
     R = np.concatenate([phi[..., None], np.swapaxes(Psi, -1, -2), rp], axis=-1)
     X, pb_phi = la.solve(lin, R, n_exact=1 + d)
     uvec = X[..., 0]                      # H^{-1} phi          (N, G, m)
@@ -689,7 +716,7 @@ def step_reference(
         k=state.k + 1,
         t=float(sample.t), u=u, x=x, mu=mu, logw=np.log(np.maximum(w, 1e-300)), lin=lin,
         Psi=Psi, Phi=Phi, nu=float(nu), visits=visits, slip_moments=moments,
-        peak_alpha=np.array([peak["alpha"][0], peak["alpha"][1]]),
+        peak_alpha=np.array([peak["alpha"], peak["alpha_band"]]),
         rng=rng,
     )
     if idx is not None:
@@ -740,8 +767,8 @@ def _make_kernel_constants(config: GPSSMConfig) -> dict[str, Any]:
         "tensor": tensor, "nf": nf, "fidx": fidx, "ridx": ridx, "wgt": wgt,
         "Lambda0": np.ascontiguousarray(config.Lambda0),
         "tol": 1e-13 if exact else 1.0, "max_terms": 60 if exact else 1,
-        "where": np.array([[0, 0], [0, 1]] if tensor else [[0, 0], [1, 0]], np.int64),
-        "col": np.array([0, 1] if tensor else [0, 0], np.int64),
+        "where": _axle_rows(config),
+        "col": _peak_cols(config),
     }
 
 
@@ -768,13 +795,7 @@ def _step_compiled(
         lin = la.reserve(lin)
     rng = state.rng
     ratio = _manifold_ratio(state)
-    pk_args = (float(state.peak_alpha[0]), float(state.peak_alpha[1]))
-    if b.kind == "tensor":
-        fpk, _ = _peak_features(config, round(ratio, 3), *pk_args)
-        fpk_g = np.ascontiguousarray(fpk.T[None])        # (1, m, 2)
-    else:
-        fpk, _ = _peak_features(config, 1.0, *pk_args)
-        fpk_g = np.ascontiguousarray(fpk[:, :, None])    # (2, m, 1)
+    fpk_g = _peak_rhs(config, ratio, state.peak_alpha)  # (G, m, np)
     dof = nu - d + 1.0
     if config.proposal == "conditional":
         gdraw = rng.chisquare(dof, size=(N, G))
@@ -801,7 +822,8 @@ def _step_compiled(
         state.x, state.mu, logw, lin.pinv.reshape(N * G, m, m), lin.spare.reshape(N * G, m, m),
         lin.panc, lin.pend, lin.pgain, pend_new, pgain_new, lin.hist, lin.nhist, state.Psi, state.Phi,
         propagate, float(dt), float(state.u[0]), float(state.u[1]), float(sample.steer),
-        float(sample.vx), float(sample.ay), float(sample.yaw_rate), learn,
+        float(sample.vx), float(sample.ay), float(sample.yaw_rate), not math.isnan(sample.vy),
+        0.0 if math.isnan(sample.vy) else float(sample.vy), learn,
         kc["veh"], kc["mf"], lam, nu, kc["Lambda0"], config.sigma_ay, config.sigma_yaw_rate, vy_max,
         lin.p_scale, 1.0 - lin.c, kc["tol"], kc["max_terms"],
         kc["tensor"], kc["nf"], kc["fidx"], kc["ridx"], kc["wgt"], b.L, fpk_g, wold, wnew, fresh,
@@ -828,7 +850,7 @@ def _step_compiled(
     for ax in range(2):
         vb = np.flatnonzero(visits[ax] >= config.peak_visits)
         a_vis[ax] = (vb[-1] + 1) * config.bin_width if len(vb) else 0.0
-    pk = np.empty((2, 5))
+    pk = np.empty((2, 6))
     gk.peak_summary(M, Lam, max(nu - d - 1.0, 1.0), logw, vpk, feats, prior, grid, kc["where"],
                     kc["col"], a_vis, b.ell, _Z95, pk)
     ess = float(e[gk.EST.ESS])
@@ -836,7 +858,7 @@ def _step_compiled(
     new = GPSSMState(
         k=state.k + 1, t=float(sample.t), u=np.array([sample.steer, sample.vx], dtype=float),
         x=state.x, mu=state.mu, logw=logw, lin=lin, Psi=state.Psi, Phi=state.Phi, nu=float(nu),
-        visits=visits, slip_moments=moments, peak_alpha=pk[:, 3].copy(), rng=rng,
+        visits=visits, slip_moments=moments, peak_alpha=pk[:, [3, 5]].T.copy(), rng=rng,
     )
     if resampled:
         new = resample(new, _systematic(rng, np.exp(logw)))
@@ -907,6 +929,27 @@ def _zeta_mean(config: GPSSMConfig, MT: NDArray, phi: NDArray) -> NDArray:
     return _zeta_to_axles(config, z)
 
 
+def _axle_rows(config: GPSSMConfig) -> NDArray[np.int64]:
+    """(group, row) of each axle's friction, shape (2, 2)."""
+    return np.array([[0, 0], [0, 1]] if config.basis.kind == "tensor" else [[0, 0], [1, 0]], np.int64)
+
+
+def _peak_cols(config: GPSSMConfig) -> NDArray[np.int64]:
+    """Columns of :func:`_peak_rhs` per axle, shape (2, 2): (unrestricted peak, band point)."""
+    return np.array([[0, 2], [1, 3]] if config.basis.kind == "tensor" else [[0, 1], [0, 1]], np.int64)
+
+
+def _peak_rhs(config: GPSSMConfig, ratio: float, peak_alpha: NDArray) -> NDArray:
+    """Odd-part features at the two peak slip angles of each axle (``GPSSMState.peak_alpha``),
+    by group: shape (G, m, np) with the columns of :func:`_peak_cols`."""
+    r = round(ratio, 3) if config.basis.kind == "tensor" else 1.0  # as the peak grid
+    f0, _ = _peak_features(config, r, float(peak_alpha[0, 0]), float(peak_alpha[0, 1]))
+    f1, _ = _peak_features(config, r, float(peak_alpha[1, 0]), float(peak_alpha[1, 1]))
+    if config.basis.kind == "tensor":
+        return np.stack([f0[0], f0[1], f1[0], f1[1]], axis=-1)[None]
+    return np.stack([np.stack([f0[0], f1[0]], axis=-1), np.stack([f0[1], f1[1]], axis=-1)])
+
+
 @lru_cache(maxsize=64)
 def _peak_features(config: GPSSMConfig, ratio: float, a_front: float, a_rear: float) -> tuple[NDArray, NDArray]:
     """Odd-part features of the front curve at ``a_front`` and the rear at ``a_rear``,
@@ -936,16 +979,17 @@ def _peak_estimates(
     d = config.basis.outputs
     grid, feats, prior = _peak_grid(config, round(ratio, 3))
     qdof = max(nu - d - 1.0, 1.0)
-    out: dict[str, list] = {"mu": [], "lo": [], "hi": [], "alpha": [], "obs": []}
+    out: dict[str, list] = {"mu": [], "lo": [], "hi": [], "alpha": [], "alpha_band": [], "obs": []}
+    cols = _peak_cols(config)
     for ax in range(2):
         g, r = where[ax]
         curves = MT[:, g, :, r] @ feats[ax].T + prior  # (N, n)
         mean = w @ curves
         j = int(np.argmax(mean))
         a_pk = float(grid[j])
-        # within-particle variance at the previous argmax (column ax of the peak features)
-        col = ax if config.basis.kind == "tensor" else 0
-        var_in = np.maximum(vpk[:, g, col], 0.0) * Lam[:, g, r, r] / qdof
+        # within-particle variances at the previous step's two peak slip angles
+        var_in = np.maximum(vpk[:, g, cols[ax, 0]], 0.0) * Lam[:, g, r, r] / qdof
+        var_band = np.maximum(vpk[:, g, cols[ax, 1]], 0.0) * Lam[:, g, r, r] / qdof
         peaks = curves.max(axis=1)
         pm = float(w @ peaks)
         pv = float(w @ ((peaks - pm) ** 2 + var_in))
@@ -954,6 +998,7 @@ def _peak_estimates(
         vb = np.flatnonzero(visits[ax] >= config.peak_visits)
         a_vis = (vb[-1] + 1) * config.bin_width if len(vb) else 0.0
         observed = bool(a_vis >= a_pk + config.basis.ell and a_pk > 0.0 and j < len(grid) - 1)
+        a_band = a_pk
         if observed:
             mu_hat, lo = pm, pm - _Z95 * math.sqrt(max(pv, 0.0))
         else:
@@ -964,12 +1009,14 @@ def _peak_estimates(
                 ci = curves[:, inside]
                 vis_peaks = ci.max(axis=1)
                 mu_hat = float(w @ vis_peaks)
-                vv = float(w @ ((vis_peaks - mu_hat) ** 2 + var_in))
+                vv = float(w @ ((vis_peaks - mu_hat) ** 2 + var_band))
                 lo = mu_hat - _Z95 * math.sqrt(max(vv, 0.0))
+                a_band = float(grid[int(np.argmax(mean[inside]))])
         out["mu"].append(float(mu_hat))
         out["lo"].append(float(max(lo, 0.0)))
         out["hi"].append(float(max(hi, mu_hat)))
         out["alpha"].append(a_pk)
+        out["alpha_band"].append(a_band)
         out["obs"].append(observed)
     return out
 
@@ -1138,11 +1185,38 @@ def drive_vx(drive: Any, source: str = "auto") -> NDArray[np.float64]:
     raise ValueError(f"vx source must be 'auto', 'wheels', 'column' or 'pose', got {source!r}")
 
 
-def drive_inputs(drive: Any, vx_source: str = "auto") -> NDArray[np.float64]:
-    """Columns ``t, ay, yaw_rate, steer, vx`` of a drive as an array (n, 5)."""
-    drive.require("t", "ay", "yaw_rate", "steer", why="inputs of the GP-SSM filter")
-    return np.column_stack([drive.col("t"), drive.col("ay"), drive.col("yaw_rate"),
-                            drive.col("steer"), drive_vx(drive, vx_source)])
+def drive_vy(drive: Any, source: str = "pose") -> NDArray[np.float64]:
+    """Measured body lateral velocity [m/s] (``GPSSMConfig.vy_source``).
+
+    ``'pose'``: ``-sin(psi) dx/dt + cos(psi) dy/dt`` (central differences of the pose);
+    ``'none'``: NaN, no measurement.
+    """
+    if source == "none":
+        return np.full(drive.n, np.nan)
+    if source != "pose":
+        raise ValueError(f"vy source must be 'none' or 'pose', got {source!r}")
+    drive.require("x", "y", "psi", why="the lateral velocity from the pose")
+    t = drive.t
+    psi = np.unwrap(drive.col("psi"))
+    return -np.sin(psi) * np.gradient(drive.col("x"), t) + np.cos(psi) * np.gradient(drive.col("y"), t)
+
+
+def drive_inputs(
+    drive: Any, vx_source: str = "auto", vy_source: str = "none", ay_source: str = "imu"
+) -> NDArray[np.float64]:
+    """Columns ``t, ay, yaw_rate, steer, vx, vy`` of a drive as an array (n, 6), the
+    fields of :class:`Sample` (``vy`` NaN unless ``vy_source`` measures it; ``ay`` the
+    accelerometer or, with ``ay_source='kinematic'``, ``r vx + dvy/dt``)."""
+    drive.require("t", "yaw_rate", "steer", why="inputs of the GP-SSM filter")
+    vx, vy = drive_vx(drive, vx_source), drive_vy(drive, vy_source)
+    if ay_source == "kinematic":
+        if np.isnan(vy).all():
+            raise ValueError("the kinematic lateral acceleration needs a measured lateral velocity")
+        ay = kinematic_lateral_acceleration(drive.t, vx, vy, drive.col("yaw_rate"))
+    else:
+        drive.require("ay", why="the lateral acceleration of the GP-SSM filter")
+        ay = drive.col("ay")
+    return np.column_stack([drive.col("t"), ay, drive.col("yaw_rate"), drive.col("steer"), vx, vy])
 
 
 def upsample_inputs(data: NDArray, max_dt: float) -> tuple[NDArray, NDArray, int]:
@@ -1220,7 +1294,9 @@ class GPSSM:
             Requested time -> :class:`CurvePosterior` at the first sample at or after it
             (the last sample for times beyond the end).
         """
-        data, keep, k = upsample_inputs(drive_inputs(drive, self.config.vx_source), self.config.max_dt)
+        data, keep, k = upsample_inputs(
+            drive_inputs(drive, self.config.vx_source, self.config.vy_source, self.config.ay_source),
+            self.config.max_dt)
         if k > 1 and self.state_ is None:
             # each recorded sample is processed k times: spread its information over them
             self.config = replace(self.config, sigma_ay=self.config.sigma_ay * math.sqrt(k),

@@ -245,7 +245,7 @@ def _solve(P, p_scale, delta, R, nr, n_exact, tol, max_terms, X, pb, cur, nxt): 
 @numba.njit(cache=True, fastmath=True)
 def particle_pass(
     x, mu, logw, pinv, spare, panc, pend, pgain, pend_new, pgain_new, hist, hslot, Psi, Phi,
-    propagate, dt, steer_prev, vx_prev, steer, vx, ay, yaw_rate, learn,
+    propagate, dt, steer_prev, vx_prev, steer, vx, ay, yaw_rate, has_vy, vy_meas, learn,
     veh, mf, lam, nu, Lambda0, sigma_ay, sigma_r, vy_max,
     p_scale, delta, tol, max_terms,
     tensor, nf, fidx, ridx, wgt, L, fpk, wold, wnew, fresh,
@@ -266,6 +266,7 @@ def particle_pass(
     Psi : (N, G, d, m), Phi : (N, G, d, d) in/out (forgotten when ``propagate``, then
         updated when ``learn``)
     veh : (VEH.SIZE,);  mf : (4,) prior Magic Formula ``B, C, D, E``
+    has_vy, vy_meas : a measured lateral velocity [m/s] that replaces every particle's
     vy_max : float, negative for no bound
     gdraw : (N, G) chi-square draws with ``nu - d + 1`` degrees of freedom
     zdraw : (N, 1, 2) standard normals (conditional proposal) or (N, G, d) (bootstrap)
@@ -342,6 +343,8 @@ def particle_pass(
                         Phi[n, g, a, b] *= lam
         if vy_max >= 0.0:
             vy = min(max(vy, -vy_max), vy_max)
+        if has_vy:
+            vy = vy_meas
         if not learn:
             vy = 0.0
         x[n, 0] = vy
@@ -585,8 +588,9 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
     logw : (N,) normalised log weights;  vpk : (N, G, np)
     feats : (2, ng, m) odd-part features of each axle's curve on ``grid`` (ng,) [rad]
     prior : (ng,) prior mean curve;  where : (2, 2) (group, row) per axle
-    col : (2,) column of ``vpk`` per axle;  a_vis : (2,) visited slip range [rad]
-    out : (2, 5) rows front/rear: ``mu, lower, upper, alpha_peak, observed``
+    col : (2, 2) columns of ``vpk`` per axle: at the unrestricted peak and at the band point
+    a_vis : (2,) visited slip range [rad]
+    out : (2, 6) rows front/rear: ``mu, lower, upper, alpha_peak, observed, alpha_band``
     """  # pragma: no cover - compiled
     N = M.shape[0]
     m = M.shape[3]
@@ -631,10 +635,11 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
             pm += w[n] * peaks[n]
         pv = 0.0
         for n in range(N):
-            var_in = max(vpk[n, g, col[ax]], 0.0) * Lam[n, g, r, r] / qdof
+            var_in = max(vpk[n, g, col[ax, 0]], 0.0) * Lam[n, g, r, r] / qdof
             pv += w[n] * ((peaks[n] - pm) ** 2 + var_in)
         hi = pm + z95 * math.sqrt(max(pv, 0.0))
         observed = a_vis[ax] >= a_pk + ell and a_pk > 0.0 and jmax < ng - 1
+        a_band = a_pk
         if observed:
             mu_hat = pm
             lo = pm - z95 * math.sqrt(max(pv, 0.0))
@@ -647,11 +652,17 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
                 mu_hat += w[n] * vis[n]
             vv = 0.0
             for n in range(N):
-                var_in = max(vpk[n, g, col[ax]], 0.0) * Lam[n, g, r, r] / qdof
+                var_in = max(vpk[n, g, col[ax, 1]], 0.0) * Lam[n, g, r, r] / qdof
                 vv += w[n] * ((vis[n] - mu_hat) ** 2 + var_in)
             lo = mu_hat - z95 * math.sqrt(max(vv, 0.0))
+            jb = 0
+            for k in range(1, ng):
+                if grid[k] <= a_vis[ax] and mean[k] > mean[jb]:
+                    jb = k
+            a_band = grid[jb]
         out[ax, 0] = mu_hat
         out[ax, 1] = max(lo, 0.0)
         out[ax, 2] = max(hi, mu_hat)
         out[ax, 3] = a_pk
         out[ax, 4] = 1.0 if observed else 0.0
+        out[ax, 5] = a_band
