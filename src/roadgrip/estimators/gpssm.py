@@ -766,7 +766,7 @@ def _make_kernel_constants(config: GPSSMConfig) -> dict[str, Any]:
         "veh": vp, "mf": np.array([pt.B, pt.C, pt.D, pt.E], float),
         "tensor": tensor, "nf": nf, "fidx": fidx, "ridx": ridx, "wgt": wgt,
         "Lambda0": np.ascontiguousarray(config.Lambda0),
-        "tol": 1e-13 if exact else 1.0, "max_terms": 60 if exact else 1,
+        "tol": la.EXACT_TOL if exact else 1.0, "max_terms": 60 if exact else 1,
         "where": _axle_rows(config),
         "col": _peak_cols(config),
     }
@@ -815,7 +815,10 @@ def _step_compiled(
     logw = state.logw
     pend_new = np.empty((N, G, m))
     pgain_new = np.empty((N, G))
-    fresh = lin.pkf is None or lin.pkf.shape != fpk_g.shape or not np.array_equal(lin.pkf, fpk_g)
+    if lin.pkf is None or lin.pkf.shape != fpk_g.shape:
+        fresh = np.ones((G, fpk_g.shape[2]), dtype=np.bool_)
+    else:
+        fresh = np.any(lin.pkf != fpk_g, axis=1)  # (G, np): columns whose features moved
     wold = lin.pkw if lin.pkw is not None else np.zeros((N, G, fpk_g.shape[2], m))
     wnew = np.empty((N, G, fpk_g.shape[2], m))
     gk.particle_pass(
@@ -845,7 +848,7 @@ def _step_compiled(
             visits[ax, min(int(abs(a_) / config.bin_width), nb - 1)] += 1
     moments = state.slip_moments + learn * np.array([af_m * af_m, af_m * ar_m])
     excited = learn and bool(max(abs(af_m), abs(ar_m)) > config.excitation_slip)
-    grid, feats, prior = _peak_grid(config, round(ratio, 3))
+    grid, feats, prior = _peak_grid(config, round(ratio, 2))
     a_vis = np.zeros(2)
     for ax in range(2):
         vb = np.flatnonzero(visits[ax] >= config.peak_visits)
@@ -942,7 +945,9 @@ def _peak_cols(config: GPSSMConfig) -> NDArray[np.int64]:
 def _peak_rhs(config: GPSSMConfig, ratio: float, peak_alpha: NDArray) -> NDArray:
     """Odd-part features at the two peak slip angles of each axle (``GPSSMState.peak_alpha``),
     by group: shape (G, m, np) with the columns of :func:`_peak_cols`."""
-    r = round(ratio, 3) if config.basis.kind == "tensor" else 1.0  # as the peak grid
+    # the manifold ratio to 1 %, as the peak grid (0.05 deg at 10 deg of slip, far below
+    # the length scale): the features change only when the ratio or a peak point moves
+    r = round(ratio, 2) if config.basis.kind == "tensor" else 1.0
     f0, _ = _peak_features(config, r, float(peak_alpha[0, 0]), float(peak_alpha[0, 1]))
     f1, _ = _peak_features(config, r, float(peak_alpha[1, 0]), float(peak_alpha[1, 1]))
     if config.basis.kind == "tensor":
@@ -977,7 +982,7 @@ def _peak_estimates(
 ) -> dict[str, list]:
     """Peak friction per axle with band and observability (module docstring)."""
     d = config.basis.outputs
-    grid, feats, prior = _peak_grid(config, round(ratio, 3))
+    grid, feats, prior = _peak_grid(config, round(ratio, 2))
     qdof = max(nu - d - 1.0, 1.0)
     out: dict[str, list] = {"mu": [], "lo": [], "hi": [], "alpha": [], "alpha_band": [], "obs": []}
     cols = _peak_cols(config)

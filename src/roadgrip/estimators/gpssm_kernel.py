@@ -273,7 +273,8 @@ def particle_pass(
     fpk : (G, m, np) odd-part features ``f`` at the peak slip angles
     wold, wnew : (N, G, np, m) ``P_B f / p_scale`` per ``pinv`` slot, before (read through
         ``panc`` and corrected by the pending term, like ``pinv``) and after this step;
-        ``fresh`` recomputes it with a product (new ``f`` or a refactorised ``P_B``).
+        ``fresh`` (G, np) marks the columns recomputed with a product (their ``f`` moved,
+        or ``P_B`` was refactorised).
         The peak band needs ``f^T H^{-1} f = f^T P_B f - (1 - c) |P_B f|² + O((1 - c)²)``
         (eq. 25), so ``f`` never enters the Neumann series.
     out_alpha : (N, 2) slip angles;  out_M : (N, G, d, m) posterior mean ``M`` (eq. 28a);
@@ -398,10 +399,10 @@ def particle_pass(
                     Y[g, a, k] = X[1 + a, k]
             s_g[g] = s
             # P_B f of the peak features (stored units) and f^T H^{-1} f to first order
-            if fresh:
-                _mv(dst, FT[g], npk, Wt, Wt[0, 0] - Wt[0, 0] + 1.0)
-            else:
-                for p in range(npk):
+            for p in range(npk):
+                if fresh[g, p]:
+                    _mv1(dst, FT[g], p, Wt, Wt[0, 0] - Wt[0, 0] + 1.0)
+                else:
                     c = 0.0
                     for k in range(m):
                         c += pend[panc[n], g, k] * fpk[g, k, p]

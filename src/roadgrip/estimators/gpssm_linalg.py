@@ -21,7 +21,8 @@ Three interchangeable backends (``GPSSMConfig.linalg``):
     (Sherman-Morrison on ``P_B = B^{-1}``, ``O(m²)``). The exact ``H = B + (1 - c) I`` is
     solved by the Neumann series ``H^{-1} = sum_n (-(1 - c))^n P_B^{n+1}``, which converges
     geometrically because ``P_B <= I / c`` and ``|1 - c| << c``; terms are added until they
-    fall below ``1e-13`` of the sum. Every ``refactor_every = J`` steps ``P_B`` is
+    fall below ``EXACT_TOL = 1e-12`` of the sum (the level of the rounding error that
+    ``P_B`` itself carries after a Cholesky inverse and rank-1 updates). Every ``refactor_every = J`` steps ``P_B`` is
     recomputed from ``Sigma`` (Cholesky of ``Sigma + c0 I``, ``c0 = lam^{-J/2}`` so that
     ``1 - c`` runs from about ``-J (1 - lam) / 2`` to ``+J (1 - lam) / 2``), which also
     removes rounding drift of the rank-1 updates. ``O(N m²)`` per step, exact to
@@ -62,6 +63,9 @@ __all__ = ["LINALG_MODES", "LinAlgState", "flush", "forget", "init", "inverse", 
            "settle", "solve", "take", "update"]
 
 LINALG_MODES = ("exact", "fast", "direct")
+
+EXACT_TOL = 1e-12
+"""Relative size of the last Neumann term of the ``'exact'`` mode."""
 
 
 class LinAlgState(NamedTuple):
@@ -334,7 +338,7 @@ def solve(st: LinAlgState, R: NDArray, n_exact: int | None = None) -> tuple[NDAr
     if st.mode == "fast":
         tol, max_terms = 1.0, 1
     else:
-        tol, max_terms = 1e-13, 60
+        tol, max_terms = EXACT_TOL, 60
     n_exact = nr if n_exact is None else n_exact
     Rt = np.ascontiguousarray(np.swapaxes(R, -1, -2).reshape(N * G, nr, m), dtype=st.pinv.dtype)
     Xt, pb = _neumann(st.pinv.reshape(N * G, m, m), st.p_scale, delta, Rt, n_exact, tol, max_terms)
