@@ -386,3 +386,32 @@ def test_real_estimators_are_reproducible_by_seed():
     b = suite.bench_table(suite.run_suite(cases, settings, seed=4)).drop(columns=speed)
     assert (a["status"] == "ok").all(), a["status"].tolist()
     pd.testing.assert_frame_equal(a, b)
+
+
+def test_cell_truth_is_the_field_at_the_observations_the_grid_fused():
+    # against an independent computation: the true field fused into a grid with the
+    # observations' own precisions (the value each cell's estimate converges to)
+    from roadgrip.estimators import cascade as C
+    from roadgrip.evaluate.maps import cells_from_result, true_cell_friction
+    from roadgrip.mapping import empty_grid, fuse, observations_from_estimates
+    from roadgrip.sim.friction import mu_at
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    drive = simulate_scenario("f1tenth-patches", 0, duration=30.0)
+    res = C.run_cli(drive, C.EstimateRequest())
+    cells, cell, _ = cells_from_result(res, drive)
+    truth = true_cell_friction(drive, cells, cell, table=res.table)
+    area = true_cell_friction(drive, cells, cell)
+    field = drive.meta.truth["friction_field"]
+    obs = observations_from_estimates(res.table, cell)
+    tg = fuse(empty_grid(cell), obs.x, obs.y, mu_at(field, obs.t, obs.x, obs.y), obs.var)
+    X, Y = tg.centres()
+    seen = tg.n_obs > 0
+    expect = {(round(a, 6), round(b, 6)): s1 / s0
+              for a, b, s1, s0 in zip(X[seen], Y[seen], tg.s1[seen], tg.s0[seen], strict=True)}
+    observed = cells["n_obs"].to_numpy() > 0
+    assert observed.sum() >= 10
+    for (xc, yc), got in zip(cells[["x", "y"]].to_numpy()[observed], truth[observed], strict=True):
+        assert got == pytest.approx(expect[(round(xc, 6), round(yc, 6))], abs=1e-12)
+    # cells without observations keep the area average
+    np.testing.assert_allclose(truth[~observed], area[~observed])

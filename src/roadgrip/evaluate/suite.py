@@ -606,7 +606,7 @@ def _score_map(rec: RunRecord) -> None:
             f"(5-95 %), median std {np.median(sd):.3f}"
         )
     if drive.has_truth:
-        truth = true_cell_friction(drive, cells, cell_size)
+        truth = true_cell_friction(drive, cells, cell_size, table=rec.result.table)
         mm = M.map_metrics(cells["mu_mean"], cells["mu_std"], cells["n_obs"], truth, min_obs=10)
         m["map_cells"] = float(mm.n_cells)
         m["map_mae"] = mm.mae
