@@ -87,6 +87,7 @@ def estimate(
     particles: Annotated[int | None, typer.Option(help="gpssm: number of particles.")] = None,
     basis: Annotated[str | None, typer.Option(help="gpssm: tensor:10x10 (paper), separable:20, or their -odd variants (default separable-odd:20).")] = None,
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    linalg: Annotated[str | None, typer.Option(help="gpssm: exact (default) or fast linear algebra (docs/gpssm.md).")] = None,
     calibration: Annotated[str | None, typer.Option(help="brls/slipmap: calibration YAML.")] = None,
     curves: Annotated[Path | None, typer.Option(help="gpssm: write posterior curves here.")] = None,
     curve_times: Annotated[str | None, typer.Option(help="gpssm: comma-separated times [s].")] = None,
@@ -111,6 +112,7 @@ def estimate(
         curve_times=times,
         plot_path=str(plot) if plot else None,
         progress=True,
+        options={"linalg": linalg} if linalg is not None else {},
     )
     result = run_estimator(method, drive, request)
     result.to_parquet(output)

@@ -314,3 +314,22 @@ def test_pose_lateral_velocity_is_measured_and_taken_by_every_particle(snow20):
         _cfg(d, ay_source="kinematic")
     with pytest.raises(ValueError, match="vy_source"):
         _cfg(d, vy_source="gps")
+
+
+def test_command_chooses_the_linear_algebra(snow20, tmp_path):
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+
+    src = tmp_path / "drive.parquet"
+    snow20.slice_time(0.0, 3.0).to_parquet(src)
+    runner = CliRunner()
+    out = tmp_path / "est.parquet"
+    base = ["estimate", str(src), "--method", "gpssm", "-o", str(out), "--particles", "20"]
+    r = runner.invoke(app, [*base, "--linalg", "fast"])
+    assert r.exit_code == 0, r.output
+    assert "fast" in r.output and len(pd.read_parquet(out)) == snow20.slice_time(0.0, 3.0).n
+    r = runner.invoke(app, [*base, "--linalg", "quick"])
+    assert r.exit_code != 0 and "linalg" in r.output + str(r.exception)
+    r = runner.invoke(app, ["estimate", str(src), "--method", "brls", "-o", str(out), "--linalg", "fast"])
+    assert r.exit_code != 0 and "linalg" in r.output + str(r.exception)
