@@ -286,17 +286,32 @@ def _spd_inverse(A, Li, P):  # pragma: no cover - compiled
 
 def settle(st: LinAlgState) -> LinAlgState:
     """Write the ancestors' matrices and the pending rank-1 terms out, in place: afterwards
-    ``pinv[i]`` is particle ``i``'s own ``P_B / p_scale`` (``panc`` the identity)."""
+    ``pinv[i]`` is particle ``i``'s own ``P_B / p_scale`` (``panc`` the identity), and the
+    carried ``P_B f`` of the peak features (``pkw``) likewise."""
     if st.mode == "direct":
         return st
     N = st.pinv.shape[0]
     if np.array_equal(st.panc, np.arange(N)) and not st.pgain.any():
         return st
     _settle(st.pinv, st.spare, st.panc, st.pend, st.pgain)
+    if st.pkw is not None and st.pkf is not None:
+        pe = st.pend[st.panc]                                              # (N, G, m)
+        c = np.einsum("ngm,gmp->ngp", pe, st.pkf) * st.pgain[st.panc][..., None]
+        st.pkw[...] = st.pkw[st.panc] - c[..., None] * pe[:, :, None, :]
     st.pinv[...] = st.spare
     st.panc[:] = np.arange(N)
     st.pgain[:] = 0.0
-    return st._replace(pkf=None)
+    return st
+
+
+def _settled_pinv(st: LinAlgState) -> NDArray:
+    """Every particle's own ``P_B / p_scale`` without changing ``st`` (written to the spare
+    buffer, which is free between steps, when anything is pending)."""
+    N = st.pinv.shape[0]
+    if np.array_equal(st.panc, np.arange(N)) and not st.pgain.any():
+        return st.pinv
+    _settle(st.pinv, st.spare, st.panc, st.pend, st.pgain)
+    return st.spare
 
 
 @numba.njit(cache=True, fastmath=True)
@@ -333,7 +348,7 @@ def solve(st: LinAlgState, R: NDArray, n_exact: int | None = None) -> tuple[NDAr
     if st.mode == "direct":
         H = st.sigma + np.eye(m)
         return np.linalg.solve(H, R), None
-    settle(st)
+    pinv = _settled_pinv(st)
     delta = 1.0 - st.c
     if st.mode == "fast":
         tol, max_terms = 1.0, 1
@@ -341,7 +356,7 @@ def solve(st: LinAlgState, R: NDArray, n_exact: int | None = None) -> tuple[NDAr
         tol, max_terms = EXACT_TOL, 60
     n_exact = nr if n_exact is None else n_exact
     Rt = np.ascontiguousarray(np.swapaxes(R, -1, -2).reshape(N * G, nr, m), dtype=st.pinv.dtype)
-    Xt, pb = _neumann(st.pinv.reshape(N * G, m, m), st.p_scale, delta, Rt, n_exact, tol, max_terms)
+    Xt, pb = _neumann(pinv.reshape(N * G, m, m), st.p_scale, delta, Rt, n_exact, tol, max_terms)
     return np.swapaxes(Xt.reshape(N, G, nr, m), -1, -2), pb.reshape(N, G, m)
 
 
