@@ -384,7 +384,8 @@ class GPSSMState(NamedTuple):
     peak_alpha : ndarray, shape (2, 2)
         Row 0: argmax of the last posterior mean curve, per axle [rad]; row 1: the slip
         angle of the reported peak (the argmax inside the visited range while the peak is
-        not observed). The peak band uses the function variance at both.
+        not observed). The peak band uses the function variance at both (the lower band
+        of an unobserved peak the larger one).
         Argmax of the last posterior mean curve, per axle [rad].
     rng : numpy.random.Generator
         The filter's random stream (advanced in place by :func:`step`, like the other
@@ -994,7 +995,10 @@ def _peak_estimates(
         a_pk = float(grid[j])
         # within-particle variances at the previous step's two peak slip angles
         var_in = np.maximum(vpk[:, g, cols[ax, 0]], 0.0) * Lam[:, g, r, r] / qdof
-        var_band = np.maximum(vpk[:, g, cols[ax, 1]], 0.0) * Lam[:, g, r, r] / qdof
+        # at the reported point of an unobserved peak, but never below the variance at the
+        # unrestricted peak: a demonstrated maximum can carry a bias of the lateral
+        # velocity (non-odd bases) that its own variance does not show
+        var_band = np.maximum(np.maximum(vpk[:, g, cols[ax, 1]], 0.0) * Lam[:, g, r, r] / qdof, var_in)
         peaks = curves.max(axis=1)
         pm = float(w @ peaks)
         pv = float(w @ ((peaks - pm) ** 2 + var_in))

@@ -590,6 +590,7 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
     feats : (2, ng, m) odd-part features of each axle's curve on ``grid`` (ng,) [rad]
     prior : (ng,) prior mean curve;  where : (2, 2) (group, row) per axle
     col : (2, 2) columns of ``vpk`` per axle: at the unrestricted peak and at the band point
+        (the lower band of an unobserved peak uses the larger of the two variances)
     a_vis : (2,) visited slip range [rad]
     out : (2, 6) rows front/rear: ``mu, lower, upper, alpha_peak, observed, alpha_band``
     """  # pragma: no cover - compiled
@@ -653,7 +654,8 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
                 mu_hat += w[n] * vis[n]
             vv = 0.0
             for n in range(N):
-                var_in = max(vpk[n, g, col[ax, 1]], 0.0) * Lam[n, g, r, r] / qdof
+                var_in = max(max(vpk[n, g, col[ax, 1]], 0.0), max(vpk[n, g, col[ax, 0]], 0.0))
+                var_in *= Lam[n, g, r, r] / qdof
                 vv += w[n] * ((vis[n] - mu_hat) ** 2 + var_in)
             lo = mu_hat - z95 * math.sqrt(max(vv, 0.0))
             jb = 0
