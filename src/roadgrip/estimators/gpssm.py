@@ -242,7 +242,7 @@ class GPSSMConfig:
     prior_tire: MagicFormula = DEFAULT_PRIOR_TIRE
     ess_threshold: float = 0.5
     linalg: str = "exact"
-    refactor_every: int = 40
+    refactor_every: int = 80
     peak_grid: int = 41
     peak_range: float = math.radians(20.0)
     bin_width: float = math.radians(0.5)
