@@ -701,13 +701,7 @@ def step_reference(
     xs = np.sqrt(np.maximum(w @ (x - xm) ** 2, 0.0))
     af_m, ar_m = float(w @ alpha_f), float(w @ alpha_r)
     mu_now = w @ (mu_prior + _zeta_mean(config, MT, phi))
-    visits = state.visits
-    nb = visits.shape[1]
-    if learn:
-        for ax, a_ in enumerate((af_m, ar_m)):
-            visits[ax, min(int(abs(a_) / config.bin_width), nb - 1)] += 1
-    moments = state.slip_moments + learn * np.array([af_m * af_m, af_m * ar_m])
-    excited = learn and bool(max(abs(af_m), abs(ar_m)) > config.excitation_slip)
+    visits, moments, excited = _slip_statistics(config, state, af_m, ar_m, learn)
 
     peak = _peak_estimates(config, ratio, MT, Lam_post, nu, w, vpk, visits, where)
 
@@ -842,18 +836,9 @@ def _step_compiled(
         lin = lin._replace(nhist=lin.nhist + 1)
         nu = nu + 1.0
     af_m, ar_m = float(e[gk.EST.ALPHA_F]), float(e[gk.EST.ALPHA_R])
-    visits = state.visits
-    nb = visits.shape[1]
-    if learn:
-        for ax, a_ in enumerate((af_m, ar_m)):
-            visits[ax, min(int(abs(a_) / config.bin_width), nb - 1)] += 1
-    moments = state.slip_moments + learn * np.array([af_m * af_m, af_m * ar_m])
-    excited = learn and bool(max(abs(af_m), abs(ar_m)) > config.excitation_slip)
+    visits, moments, excited = _slip_statistics(config, state, af_m, ar_m, learn)
     grid, feats, prior = _peak_grid(config, round(ratio, 2))
-    a_vis = np.zeros(2)
-    for ax in range(2):
-        vb = np.flatnonzero(visits[ax] >= config.peak_visits)
-        a_vis[ax] = (vb[-1] + 1) * config.bin_width if len(vb) else 0.0
+    a_vis = np.array([_visited_range(config, visits[ax]) for ax in range(2)])
     pk = np.empty((2, 6))
     gk.peak_summary(M, Lam, max(nu - d - 1.0, 1.0), logw, vpk, feats, prior, grid, kc["where"],
                     kc["col"], a_vis, b.ell, _Z95, pk)
@@ -933,6 +918,28 @@ def _zeta_mean(config: GPSSMConfig, MT: NDArray, phi: NDArray) -> NDArray:
     return _zeta_to_axles(config, z)
 
 
+def _slip_statistics(
+    config: GPSSMConfig, state: GPSSMState, af_m: float, ar_m: float, learn: bool
+) -> tuple[NDArray, NDArray, bool]:
+    """Histogram of ``|alpha|`` (updated in place), slip moments and the excitation flag
+    after a step with estimated slip angles ``af_m``, ``ar_m`` [rad]."""
+    visits = state.visits
+    nb = visits.shape[1]
+    if learn:
+        for ax, a_ in enumerate((af_m, ar_m)):
+            visits[ax, min(int(abs(a_) / config.bin_width), nb - 1)] += 1
+    moments = state.slip_moments + learn * np.array([af_m * af_m, af_m * ar_m])
+    excited = learn and bool(max(abs(af_m), abs(ar_m)) > config.excitation_slip)
+    return visits, moments, excited
+
+
+def _visited_range(config: GPSSMConfig, visits: NDArray) -> float:
+    """Largest ``|alpha|`` [rad] up to which the histogram of one axle has a bin with at
+    least ``peak_visits`` samples (its upper edge); 0 when none has."""
+    vb = np.flatnonzero(visits >= config.peak_visits)
+    return float((vb[-1] + 1) * config.bin_width) if len(vb) else 0.0
+
+
 def _axle_rows(config: GPSSMConfig) -> NDArray[np.int64]:
     """(group, row) of each axle's friction, shape (2, 2)."""
     return np.array([[0, 0], [0, 1]] if config.basis.kind == "tensor" else [[0, 0], [1, 0]], np.int64)
@@ -1003,9 +1010,7 @@ def _peak_estimates(
         pm = float(w @ peaks)
         pv = float(w @ ((peaks - pm) ** 2 + var_in))
         hi = pm + _Z95 * math.sqrt(max(pv, 0.0))
-        # visited range: largest bin edge with enough samples
-        vb = np.flatnonzero(visits[ax] >= config.peak_visits)
-        a_vis = (vb[-1] + 1) * config.bin_width if len(vb) else 0.0
+        a_vis = _visited_range(config, visits[ax])
         observed = bool(a_vis >= a_pk + config.basis.ell and a_pk > 0.0 and j < len(grid) - 1)
         a_band = a_pk
         if observed:
