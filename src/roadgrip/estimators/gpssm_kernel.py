@@ -34,7 +34,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["EST", "VEH", "basis_tables", "particle_pass", "peak_summary"]
+__all__ = ["EST", "VEH", "basis_tables", "neumann_solve", "particle_pass", "peak_summary"]
 
 
 class VEH:
@@ -205,7 +205,7 @@ def _mv(P, src, nrhs, dst, fac):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
-def _solve(P, p_scale, delta, R, nr, n_exact, tol, max_terms, X, pb, cur, nxt):  # pragma: no cover
+def neumann_solve(P, p_scale, delta, R, nr, n_exact, tol, max_terms, X, pb, cur, nxt):  # pragma: no cover
     """``X[:nr] = H^{-1} R[:nr]`` (rows are right-hand sides) by the Neumann series
     ``sum_n (-delta)^n P_B^{n+1}`` with ``P_B = p_scale P``. Rows below ``n_exact`` get
     terms until one falls below ``tol`` of the sum (at most ``max_terms``); the others one
@@ -389,7 +389,7 @@ def particle_pass(
                 for i in range(m):
                     for j in range(m):
                         dst[i, j] = src[i, j]
-            _solve(dst, p_scale, delta, R, nr, 1 + d, tol, max_terms, X, pbv, cur, nxt)
+            neumann_solve(dst, p_scale, delta, R, nr, 1 + d, tol, max_terms, X, pbv, cur, nxt)
             s = 0.0
             for k in range(m):
                 U[g, k] = X[0, k]

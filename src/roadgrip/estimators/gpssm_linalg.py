@@ -59,6 +59,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from roadgrip.estimators.gpssm_kernel import neumann_solve
+
 __all__ = ["LINALG_MODES", "LinAlgState", "flush", "forget", "init", "inverse", "refactor", "reserve",
            "settle", "solve", "take", "update"]
 
@@ -167,24 +169,38 @@ def reserve(st: LinAlgState) -> LinAlgState:
     return st
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True)
+def _folded(sigma, sanc, hist, hanc, hcoef, n, i, g, H, S):  # pragma: no cover - compiled
+    """``S = sigma[sanc[i], g] + sum_j hcoef_j h h^T`` in double precision (``h = hist[j,
+    hanc[j, i], g]``; the sum as one matrix product, ``H`` (n, m) scratch)."""
+    m = S.shape[0]
+    if n > 0:
+        for j in range(n):
+            c = np.sqrt(hcoef[j])
+            row = hist[j, hanc[j, i], g]
+            for k in range(m):
+                H[j, k] = c * row[k]
+        np.dot(H[:n].T, H[:n], S)
+    else:
+        S[:] = 0.0
+    slot = sigma[sanc[i], g]
+    for a in range(m):
+        for b in range(m):
+            S[a, b] += slot[a, b]
+
+
+@numba.njit(cache=True)
 def _fold(sigma, out, sanc, hist, hanc, hcoef, n):  # pragma: no cover - compiled
     """``out[i] = sigma[sanc[i]] + sum_j hcoef_j h h^T``, ``h = hist[j, hanc[j, i]]``."""
     N, G, m, _ = out.shape
+    H = np.zeros((max(n, 1), m))
+    S = np.empty((m, m))
     for i in range(N):
         for g in range(G):
-            Out = out[i, g]
-            S = sigma[sanc[i], g]
+            _folded(sigma, sanc, hist, hanc, hcoef, n, i, g, H, S)
             for a in range(m):
                 for b in range(m):
-                    Out[a, b] = S[a, b]
-            for j in range(n):
-                h = hist[j, hanc[j, i], g]
-                c = hcoef[j]
-                for a in range(m):
-                    w = c * h[a]
-                    for b in range(m):
-                        Out[a, b] += w * h[b]
+                    out[i, g, a, b] = S[a, b]
 
 
 def forget(st: LinAlgState, lam: float, refactor_every: int) -> LinAlgState:
@@ -227,26 +243,19 @@ def refactor(st: LinAlgState, c0: float = 1.0) -> LinAlgState:
 @numba.njit(cache=True)
 def _rebuild(sigma, sanc, hist, hanc, hcoef, n, sigma_scale, c0, out, pinv):  # pragma: no cover
     """``out[i] = sigma_scale sym(sigma[sanc[i]] + sum_j hcoef_j h h^T)`` (``h = hist[j,
-    hanc[j, i]]``, the sum as one matrix product) and ``pinv[i] = (out[i] + c0 I)^{-1}``."""
+    hanc[j, i]]``, :func:`_folded`) and ``pinv[i] = (out[i] + c0 I)^{-1}``."""
     N, G, m, _ = out.shape
     A = np.empty((m, m))
     Li = np.empty((m, m))
     P = np.empty((m, m))
     H = np.zeros((max(n, 1), m))
-    HH = np.zeros((m, m))
+    S = np.empty((m, m))
     for i in range(N):
         for g in range(G):
-            S = sigma[sanc[i], g]
-            if n > 0:
-                for j in range(n):
-                    c = np.sqrt(hcoef[j])
-                    row = hist[j, hanc[j, i], g]
-                    for k in range(m):
-                        H[j, k] = c * row[k]
-                np.dot(H.T, H, HH)
+            _folded(sigma, sanc, hist, hanc, hcoef, n, i, g, H, S)
             for a in range(m):
                 for b in range(a, m):
-                    v = 0.5 * sigma_scale * (np.float64(S[a, b]) + np.float64(S[b, a]) + 2.0 * HH[a, b])
+                    v = 0.5 * sigma_scale * (S[a, b] + S[b, a])
                     A[a, b] = v
                     A[b, a] = v
             for a in range(m):
@@ -362,59 +371,17 @@ def solve(st: LinAlgState, R: NDArray, n_exact: int | None = None) -> tuple[NDAr
 
 @numba.njit(cache=True, fastmath=True)
 def _neumann(pinv, p_scale, delta, Rt, n_exact, tol, max_terms):  # pragma: no cover - compiled
-    """Per batch element: X = sum_n (-delta)^n P_B^{n+1} R, with ``Rt = R^T`` (B, nr, m).
-
-    The first ``n_exact`` right-hand sides get terms until they fall below ``tol`` of the
-    sum; the others get the first two terms (error ``O(delta²)``). Also returns
-    ``P_B R[:, 0]``.
-    """
+    """Per batch element: X = sum_n (-delta)^n P_B^{n+1} R, with ``Rt = R^T`` (B, nr, m),
+    by the compiled step's :func:`roadgrip.estimators.gpssm_kernel.neumann_solve` (the first
+    ``n_exact`` right-hand sides to ``tol``, the others one correction term). Also returns
+    ``P_B R[:, 0]``."""
     B, nr, m = Rt.shape
     Xt = np.zeros((B, nr, m))
     PB0 = np.zeros((B, m))
-    term = np.empty((nr, m))
-    nxt = np.empty((nr, m))
+    cur = np.empty((nr, m), dtype=pinv.dtype)
+    nxt = np.empty((nr, m), dtype=pinv.dtype)
     for b in range(B):
-        P = pinv[b]
-        for i in range(m):
-            Pi = P[i]
-            for r in range(nr):
-                acc = 0.0
-                for j in range(m):
-                    acc += Pi[j] * Rt[b, r, j]
-                term[r, i] = p_scale * acc
-        for i in range(m):
-            PB0[b, i] = term[0, i]
-        for r in range(nr):
-            for i in range(m):
-                Xt[b, r, i] = term[r, i]
-        if delta != 0.0:
-            xmax = 0.0
-            for r in range(n_exact):
-                for i in range(m):
-                    v = abs(term[r, i])
-                    if v > xmax:
-                        xmax = v
-            fac = -delta * p_scale
-            n_rhs = nr
-            for _it in range(max_terms):
-                tmax = 0.0
-                for i in range(m):
-                    Pi = P[i]
-                    for r in range(n_rhs):
-                        acc = 0.0
-                        for j in range(m):
-                            acc += Pi[j] * term[r, j]
-                        nxt[r, i] = fac * acc
-                for r in range(n_rhs):
-                    for i in range(m):
-                        v = nxt[r, i]
-                        term[r, i] = v
-                        Xt[b, r, i] += v
-                        if r < n_exact and abs(v) > tmax:
-                            tmax = abs(v)
-                n_rhs = n_exact
-                if tmax <= tol * xmax:
-                    break
+        neumann_solve(pinv[b], p_scale, delta, Rt[b], nr, n_exact, tol, max_terms, Xt[b], PB0[b], cur, nxt)
     return Xt, PB0
 
 
