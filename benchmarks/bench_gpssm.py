@@ -51,6 +51,17 @@ def timed_run(drive, basis: str, n: int, mode: str, steps: int | None = None, cu
     return d, table, cv, wall
 
 
+def curve_difference(a, b, acc) -> list[tuple[float, float]]:
+    """Largest and mean |posterior mean difference| of two curve sets over each axle's
+    visited range (``acc`` from :func:`curve_accuracy`), front then rear."""
+    out = []
+    for ax, axle in enumerate(("front", "rear")):
+        sel = (a.alpha >= acc[axle]["alpha_min"]) & (a.alpha <= acc[axle]["alpha_max"])
+        dd = np.abs(a.mean[ax, sel] - b.mean[ax, sel])
+        out.append((float(dd.max()), float(dd.mean())))
+    return out
+
+
 def accuracy() -> None:
     for seed in (0, 1):
         drive = simulate_scenario("snow-slalom", seed=seed)
@@ -100,11 +111,7 @@ def main() -> None:
     ce = next(iter(res["exact"][2].values()))
     cf = next(iter(res["fast"][2].values()))
     acc = curve_accuracy(ce, d)
-    diff = []
-    for ax, axle in enumerate(("front", "rear")):
-        sel = (ce.alpha >= acc[axle]["alpha_min"]) & (ce.alpha <= acc[axle]["alpha_max"])
-        dd = np.abs(ce.mean[ax, sel] - cf.mean[ax, sel])
-        diff.append((dd.max(), dd.mean()))
+    diff = curve_difference(ce, cf, acc)
     print(f"fast vs exact (same seed): |posterior mean difference| over the visited range, largest / mean: "
           f"front {diff[0][0]:.4f} / {diff[0][1]:.4f}, rear {diff[1][0]:.4f} / {diff[1][1]:.4f}")
     te, tf = res["exact"][1], res["fast"][1]
@@ -117,11 +124,7 @@ def main() -> None:
     _, cv1 = GPSSM(cfg1, seed=1).run(d, curve_times=(1e9,),
                                      curve_alpha=np.radians(np.linspace(-20, 20, 161)))
     c1 = next(iter(cv1.values()))
-    mc = []
-    for ax, axle in enumerate(("front", "rear")):
-        sel = (ce.alpha >= acc[axle]["alpha_min"]) & (ce.alpha <= acc[axle]["alpha_max"])
-        dd = np.abs(ce.mean[ax, sel] - c1.mean[ax, sel])
-        mc.append((dd.max(), dd.mean()))
+    mc = curve_difference(ce, c1, acc)
     print(f"exact seed 0 vs exact seed 1 (Monte Carlo spread), largest / mean: "
           f"front {mc[0][0]:.4f} / {mc[0][1]:.4f}, rear {mc[1][0]:.4f} / {mc[1][1]:.4f}")
     n_direct = 150 if args.quick else 400
