@@ -137,6 +137,31 @@ def test_take_rows_equals_fancy_indexing(seed):
         np.testing.assert_array_equal(got, expect)
 
 
+@pytest.mark.parametrize("seed", range(5))
+def test_slot_plan_updates_in_place_only_after_the_copies_have_read(seed):
+    from roadgrip.estimators.gpssm_kernel import slot_plan
+
+    rng = np.random.default_rng(seed)
+    N = 12
+    for panc in (np.sort(rng.integers(0, N, N)), rng.permutation(N)[rng.integers(0, N, N)], rng.permutation(N)):
+        pdst, order = slot_plan(panc.astype(np.int64))
+        assert sorted(pdst) == list(range(N)) and sorted(order) == list(range(N))
+        # replay the step on labelled slots: every particle must read its ancestor's content
+        slots = np.arange(N) * 10
+        got = np.empty(N, np.int64)
+        for n in order:
+            got[n] = slots[panc[n]]
+            slots[pdst[n]] = -1 - n  # overwritten with the particle's own update
+        np.testing.assert_array_equal(got, panc * 10)
+        assert np.array_equal(np.sort(slots), np.sort(-1 - np.arange(N)))
+        # the first reader of a slot keeps it (in place), the others go to unread slots
+        for n in range(N):
+            if n == np.flatnonzero(panc == panc[n])[0]:
+                assert pdst[n] == panc[n]
+            else:
+                assert pdst[n] not in set(panc)
+
+
 def test_resampling_keeps_statistics_attached_to_particles(snow20):
     d = snow20.slice_time(0.0, 3.0)
     cfg = _cfg(d, n=10, linalg="direct")

@@ -816,9 +816,9 @@ def _step_compiled(
         fresh = np.any(lin.pkf != fpk_g, axis=1)  # (G, np): columns whose features moved
     wold = lin.pkw if lin.pkw is not None else np.zeros((N, G, fpk_g.shape[2], m))
     wnew = np.empty((N, G, fpk_g.shape[2], m))
+    pdst, order = gk.slot_plan(lin.panc)
     gk.particle_pass(
-        state.x, state.mu, logw, lin.pinv.reshape(N * G, m, m), lin.spare.reshape(N * G, m, m),
-        lin.panc, lin.pend, lin.pgain, pend_new, pgain_new, lin.hist, lin.nhist, state.Psi, state.Phi,
+        state.x, state.mu, logw, lin.pinv.reshape(N * G, m, m), lin.panc, pdst, order, lin.pend, lin.pgain, pend_new, pgain_new, lin.hist, lin.nhist, state.Psi, state.Phi,
         propagate, float(dt), float(state.u[0]), float(state.u[1]), float(sample.steer),
         float(sample.vx), float(sample.ay), float(sample.yaw_rate), not math.isnan(sample.vy),
         0.0 if math.isnan(sample.vy) else float(sample.vy), learn,
@@ -828,11 +828,10 @@ def _step_compiled(
         gdraw, zdraw, config.proposal == "conditional",
         alpha, M, Lam, vpk, munow, e,
     )
-    lin = lin._replace(pinv=lin.spare, spare=lin.pinv, pend=pend_new, pgain=pgain_new,
-                       panc=np.arange(N), pkw=wnew, pkf=fpk_g)
+    lin = lin._replace(pend=pend_new, pgain=pgain_new, panc=pdst, pkw=wnew, pkf=fpk_g)
     if learn:
         lin.hcoef[lin.nhist] = 1.0 / lin.sigma_scale
-        lin.hanc[lin.nhist] = lin.panc
+        lin.hanc[lin.nhist] = np.arange(N)
         lin = lin._replace(nhist=lin.nhist + 1)
         nu = nu + 1.0
     af_m, ar_m = float(e[gk.EST.ALPHA_F]), float(e[gk.EST.ALPHA_R])

@@ -34,7 +34,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["EST", "VEH", "basis_tables", "neumann_solve", "particle_pass", "peak_summary"]
+__all__ = ["EST", "VEH", "basis_tables", "neumann_solve", "particle_pass", "peak_summary", "slot_plan"]
 
 
 class VEH:
@@ -242,9 +242,45 @@ def neumann_solve(P, p_scale, delta, R, nr, n_exact, tol, max_terms, X, pb, cur,
                 break
 
 
+@numba.njit(cache=True)
+def slot_plan(panc):  # pragma: no cover - compiled
+    """Destination slot and processing order for :func:`particle_pass`, shape (N,) each.
+
+    ``panc[n]`` is the slot particle ``n`` reads. The first particle reading a slot keeps
+    it and updates it in place; the others (copies of a resampled particle) are given
+    the slots nobody reads and are processed first, while their source is intact.
+    ``pdst`` is a permutation of the slots.
+    """
+    N = panc.shape[0]
+    first = np.full(N, -1, np.int64)
+    for n in range(N):
+        if first[panc[n]] < 0:
+            first[panc[n]] = n
+    pdst = np.empty(N, np.int64)
+    order = np.empty(N, np.int64)
+    free = 0
+    k = 0
+    for n in range(N):
+        s = panc[n]
+        if first[s] == n:
+            pdst[n] = s
+        else:
+            while first[free] >= 0:
+                free += 1
+            pdst[n] = free
+            free += 1
+            order[k] = n
+            k += 1
+    for n in range(N):
+        if first[panc[n]] == n:
+            order[k] = n
+            k += 1
+    return pdst, order
+
+
 @numba.njit(cache=True, fastmath=True)
 def particle_pass(
-    x, mu, logw, pinv, spare, panc, pend, pgain, pend_new, pgain_new, hist, hslot, Psi, Phi,
+    x, mu, logw, pinv, panc, pdst, order, pend, pgain, pend_new, pgain_new, hist, hslot, Psi, Phi,
     propagate, dt, steer_prev, vx_prev, steer, vx, ay, yaw_rate, has_vy, vy_meas, learn,
     veh, mf, lam, nu, Lambda0, sigma_ay, sigma_r, vy_max,
     p_scale, delta, tol, max_terms,
@@ -260,8 +296,11 @@ def particle_pass(
     logw : (N,) in/out (normalised log weights)
     pinv : (N·G, m, m) slots of ``P_B / p_scale``, particle ``n`` reads slot ``panc[n]``
         minus that slot's pending term ``pgain pend pend^T`` (``pend`` (N, G, m), ``pgain``
-        (N, G)) and writes the result to ``spare[n]``; its own update of this step is
-        left pending in ``pend_new``, ``pgain_new`` (:mod:`roadgrip.estimators.gpssm_linalg`)
+        (N, G), by slot) and writes the result to slot ``pdst[n]``, in place when ``pdst[n]
+        == panc[n]``; particles are processed in the order ``order`` (:func:`slot_plan`:
+        the copies before the slot they read is overwritten). Its own update of this step
+        is left pending in ``pend_new``, ``pgain_new``, by slot ``pdst[n]``
+        (:mod:`roadgrip.estimators.gpssm_linalg`)
     hist : (J, N, G, m), row ``hslot`` written when ``learn``
     Psi : (N, G, d, m), Phi : (N, G, d, d) in/out (forgotten when ``propagate``, then
         updated when ``learn``)
@@ -272,7 +311,8 @@ def particle_pass(
     zdraw : (N, 1, 2) standard normals (conditional proposal) or (N, G, d) (bootstrap)
     fpk : (G, m, np) odd-part features ``f`` at the peak slip angles
     wold, wnew : (N, G, np, m) ``P_B f / p_scale`` per ``pinv`` slot, before (read through
-        ``panc`` and corrected by the pending term, like ``pinv``) and after this step;
+        ``panc`` and corrected by the pending term, like ``pinv``) and after this step
+        (written through ``pdst``);
         ``fresh`` (G, np) marks the columns recomputed with a product (their ``f`` moved,
         or ``P_B`` was refactorised).
         The peak band needs ``f^T H^{-1} f = f^T P_B f - (1 - c) |P_B f|² + O((1 - c)²)``
@@ -328,7 +368,8 @@ def particle_pass(
     ureg = math.sqrt(vx * vx + v_eps * v_eps)
     if vx < 0.0:
         ureg = -ureg
-    for n in range(N):
+    for ii in range(N):
+        n = order[ii]
         # 1. propagate (eq. 7), forget (eq. 29)
         vy = x[n, 0]
         r = x[n, 1]
@@ -377,9 +418,16 @@ def particle_pass(
             # this particle's P_B: its ancestor's slot minus the pending rank-1 term
             kb = panc[n] * G + g
             src = pinv[kb]
-            dst = spare[b]
+            dst = pinv[pdst[n] * G + g]
             gain = pgain[panc[n], g]
-            if gain != 0.0:
+            if pdst[n] == panc[n]:
+                if gain != 0.0:
+                    pv = pend[panc[n], g]
+                    for i in range(m):
+                        ui = pv[i] * gain
+                        for j in range(m):
+                            dst[i, j] -= ui * pv[j]
+            elif gain != 0.0:
                 pv = pend[panc[n], g]
                 for i in range(m):
                     ui = pv[i] * gain
@@ -414,7 +462,7 @@ def particle_pass(
                 ww = 0.0
                 for k in range(m):
                     wk = np.float64(Wt[p, k])
-                    wnew[n, g, p, k] = wk
+                    wnew[pdst[n], g, p, k] = wk
                     fw += fpk[g, k, p] * wk
                     ww += wk * wk
                 vpk0[g, p] = p_scale * fw - delta * p_scale * p_scale * ww
@@ -505,9 +553,9 @@ def particle_pass(
                 sB = 0.0
                 for k in range(m):
                     sB += phi[g, k] * PB[g, k]
-                pgain_new[n, g] = 1.0 / ((1.0 + sB) * p_scale)
+                pgain_new[pdst[n], g] = 1.0 / ((1.0 + sB) * p_scale)
                 for k in range(m):
-                    pend_new[n, g, k] = PB[g, k]
+                    pend_new[pdst[n], g, k] = PB[g, k]
                     hist[hslot, n, g, k] = phi[g, k]
                 for a in range(d):
                     za = zeta[g, a]
@@ -527,7 +575,7 @@ def particle_pass(
                         up += fpk[g, k, p] * U[g, k]
                     out_vpk[n, g, p] = vpk0[g, p] - up * up * inv1s
             else:
-                pgain_new[n, g] = 0.0
+                pgain_new[pdst[n], g] = 0.0
                 for a in range(d):
                     for k in range(m):
                         out_M[n, g, a, k] = Y[g, a, k]

@@ -36,9 +36,12 @@ Three interchangeable backends (``GPSSMConfig.linalg``):
     * resampling copies no matrix: each particle keeps the index of its ancestor's
       ``P_B`` (``panc``), ``Sigma`` slot (``sanc``) and history rows (``hanc``);
     * the Sherman-Morrison update is deferred: a particle's own ``P_B`` is written once
-      per step, into a second buffer, as its ancestor's ``P_B`` minus the ancestor's
-      pending rank-1 term (``pend``, ``pgain``), by the compiled step
-      (:mod:`roadgrip.estimators.gpssm_kernel`).
+      per step as its ancestor's ``P_B`` minus the ancestor's pending rank-1 term
+      (``pend``, ``pgain``), by the compiled step (:mod:`roadgrip.estimators.gpssm_kernel`):
+      in place in the ancestor's slot for the first particle that reads it, into a slot
+      that nobody reads for the other copies of a resampled particle
+      (:func:`roadgrip.estimators.gpssm_kernel.slot_plan`), so one buffer serves and a
+      step without resampling moves no matrix between buffers.
 
     :func:`settle` writes the pending terms out (for the NumPy path and for checks).
 ``'fast'``
@@ -84,9 +87,9 @@ class LinAlgState(NamedTuple):
         Slots of ``P_B / p_scale`` with ``P_B = (Sigma + c I)^{-1}`` before the pending
         term; particle ``i`` uses slot ``panc[i]``.
     spare, sigma_spare : ndarray
-        Second buffers of ``pinv`` and ``sigma``.
+        Second buffers of ``pinv`` (for :func:`settle`) and ``sigma`` (refactorisation).
     pend : ndarray, shape (N, G, m)
-        Pending Sherman-Morrison vector ``P_B phi`` of each ``pinv`` slot.
+        Pending Sherman-Morrison vector ``P_B phi`` of each ``pinv`` slot (by slot).
     pgain : ndarray, shape (N, G)
         Its gain: the slot's matrix is ``pinv - pgain pend pend^T`` (0: nothing pending).
     panc, sanc : ndarray of int, shape (N,)
