@@ -564,8 +564,8 @@ def init(config: GPSSMConfig, sample: Sample, seed: int = 0) -> GPSSMState:
 
 
 def _check_sample(sample: Sample) -> None:
-    vals = np.array([sample.t, sample.ay, sample.yaw_rate, sample.steer, sample.vx], float)
-    if not np.all(np.isfinite(vals)) or math.isinf(sample.vy):
+    vals = (sample.t, sample.ay, sample.yaw_rate, sample.steer, sample.vx)
+    if not all(map(math.isfinite, vals)) or math.isinf(sample.vy):
         names = [n for n, v in zip(Sample._fields, [*vals, sample.vy], strict=True)
                  if not np.isfinite(v) and not (n == "vy" and math.isnan(v))]
         raise ValueError(f"GP-SSM sample at t = {sample.t} has non-finite input(s) {names}")
@@ -764,6 +764,7 @@ def _make_kernel_constants(config: GPSSMConfig) -> dict[str, Any]:
         "tol": la.EXACT_TOL if exact else 1.0, "max_terms": 60 if exact else 1,
         "where": _axle_rows(config),
         "col": _peak_cols(config),
+        "peak_rhs": {},  # (ratio, peak slip angles) -> features, :func:`_peak_rhs`
     }
 
 
@@ -812,6 +813,8 @@ def _step_compiled(
     pgain_new = np.empty((N, G))
     if lin.pkf is None or lin.pkf.shape != fpk_g.shape:
         fresh = np.ones((G, fpk_g.shape[2]), dtype=np.bool_)
+    elif lin.pkf is fpk_g:
+        fresh = np.zeros((G, fpk_g.shape[2]), dtype=np.bool_)
     else:
         fresh = np.any(lin.pkf != fpk_g, axis=1)  # (G, np): columns whose features moved
     wold = lin.pkw if lin.pkw is not None else np.zeros((N, G, fpk_g.shape[2], m))
@@ -935,8 +938,9 @@ def _slip_statistics(
 def _visited_range(config: GPSSMConfig, visits: NDArray) -> float:
     """Largest ``|alpha|`` [rad] up to which the histogram of one axle has a bin with at
     least ``peak_visits`` samples (its upper edge); 0 when none has."""
-    vb = np.flatnonzero(visits >= config.peak_visits)
-    return float((vb[-1] + 1) * config.bin_width) if len(vb) else 0.0
+    hit = visits[::-1] >= config.peak_visits
+    top = int(hit.argmax())
+    return float((len(visits) - top) * config.bin_width) if hit[top] else 0.0
 
 
 def _axle_rows(config: GPSSMConfig) -> NDArray[np.int64]:
@@ -955,11 +959,22 @@ def _peak_rhs(config: GPSSMConfig, ratio: float, peak_alpha: NDArray) -> NDArray
     # the manifold ratio to 1 %, as the peak grid (0.05 deg at 10 deg of slip, far below
     # the length scale): the features change only when the ratio or a peak point moves
     r = round(ratio, 2) if config.basis.kind == "tensor" else 1.0
+    key = (r, *peak_alpha.ravel().tolist())
+    cache = _kernel_constants(config)["peak_rhs"]
+    hit = cache.get(key)
+    if hit is not None:
+        return hit
     f0, _ = _peak_features(config, r, float(peak_alpha[0, 0]), float(peak_alpha[0, 1]))
     f1, _ = _peak_features(config, r, float(peak_alpha[1, 0]), float(peak_alpha[1, 1]))
     if config.basis.kind == "tensor":
-        return np.stack([f0[0], f0[1], f1[0], f1[1]], axis=-1)[None]
-    return np.stack([np.stack([f0[0], f1[0]], axis=-1), np.stack([f0[1], f1[1]], axis=-1)])
+        out = np.stack([f0[0], f0[1], f1[0], f1[1]], axis=-1)[None]
+    else:
+        out = np.stack([np.stack([f0[0], f1[0]], axis=-1), np.stack([f0[1], f1[1]], axis=-1)])
+    out.flags.writeable = False
+    if len(cache) >= 256:
+        cache.pop(next(iter(cache)))
+    cache[key] = out
+    return out
 
 
 @lru_cache(maxsize=64)
