@@ -645,7 +645,9 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
     N = M.shape[0]
     m = M.shape[3]
     ng = grid.shape[0]
-    curve = np.empty(ng)
+    Mr = np.empty((N, m))
+    fT = np.empty((m, ng))
+    C = np.empty((N, ng))
     mean = np.empty(ng)
     peaks = np.empty(N)
     vis = np.empty(N)
@@ -660,14 +662,19 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
             mean[k] = 0.0
             if grid[k] <= a_vis[ax]:
                 n_in += 1
+        # every particle's curve on the grid as one matrix product (BLAS)
+        for n in range(N):
+            for j in range(m):
+                Mr[n, j] = M[n, g, r, j]
+        for j in range(m):
+            for k in range(ng):
+                fT[j, k] = feats[ax, k, j]
+        np.dot(Mr, fT, C)
         for n in range(N):
             best = -np.inf
             best_in = -np.inf
             for k in range(ng):
-                acc = prior[k]
-                for j in range(m):
-                    acc += M[n, g, r, j] * feats[ax, k, j]
-                curve[k] = acc
+                acc = prior[k] + C[n, k]
                 mean[k] += w[n] * acc
                 if acc > best:
                     best = acc
