@@ -813,15 +813,14 @@ def _step_compiled(
     pgain_new = np.empty((N, G))
     if lin.pkf is None or lin.pkf.shape != fpk_g.shape:
         fresh = np.ones((G, fpk_g.shape[2]), dtype=np.bool_)
-    elif lin.pkf is fpk_g:
-        fresh = np.zeros((G, fpk_g.shape[2]), dtype=np.bool_)
     else:
         fresh = np.any(lin.pkf != fpk_g, axis=1)  # (G, np): columns whose features moved
     wold = lin.pkw if lin.pkw is not None else np.zeros((N, G, fpk_g.shape[2], m))
     wnew = np.empty((N, G, fpk_g.shape[2], m))
     pdst, order = gk.slot_plan(lin.panc)
     gk.particle_pass(
-        state.x, state.mu, logw, lin.pinv.reshape(N * G, m, m), lin.panc, pdst, order, lin.pend, lin.pgain, pend_new, pgain_new, lin.hist, lin.nhist, state.Psi, state.Phi,
+        state.x, state.mu, logw, lin.pinv.reshape(N * G, m, m), lin.panc, pdst, order,
+        lin.pend, lin.pgain, pend_new, pgain_new, lin.hist, lin.nhist, state.Psi, state.Phi,
         propagate, float(dt), float(state.u[0]), float(state.u[1]), float(sample.steer),
         float(sample.vx), float(sample.ay), float(sample.yaw_rate), not math.isnan(sample.vy),
         0.0 if math.isnan(sample.vy) else float(sample.vy), learn,
