@@ -390,6 +390,11 @@ class GPSSMState(NamedTuple):
     rng : numpy.random.Generator
         The filter's random stream (advanced in place by :func:`step`, like the other
         buffers).
+    M, Lam : ndarray, shape (N, G, d, m) and (N, G, d, d), or None
+        ``'fast'`` mode: each particle's posterior ``M = Psi P_B`` and ``Lambda = Lambda0
+        + Phi - M Psi^T`` (eq. 28 with ``Sigma + c I`` for ``Sigma + I``,
+        :mod:`roadgrip.estimators.gpssm_linalg`), carried by the compiled step instead of
+        solved for; None in the other modes.
     """
 
     k: int
@@ -406,6 +411,8 @@ class GPSSMState(NamedTuple):
     slip_moments: NDArray
     peak_alpha: NDArray
     rng: np.random.Generator
+    M: NDArray | None = None
+    Lam: NDArray | None = None
 
 
 class GPSSMEstimate(NamedTuple):
@@ -560,6 +567,8 @@ def init(config: GPSSMConfig, sample: Sample, seed: int = 0) -> GPSSMState:
         slip_moments=np.zeros(2),
         peak_alpha=np.full((2, 2), config.prior_tire.peak()[0]),
         rng=rng,
+        M=np.zeros((N, G, d, m)) if config.linalg == "fast" else None,
+        Lam=np.broadcast_to(config.Lambda0, (N, G, d, d)).copy() if config.linalg == "fast" else None,
     )
 
 
@@ -712,7 +721,8 @@ def step_reference(
         t=float(sample.t), u=u, x=x, mu=mu, logw=np.log(np.maximum(w, 1e-300)), lin=lin,
         Psi=Psi, Phi=Phi, nu=float(nu), visits=visits, slip_moments=moments,
         peak_alpha=np.array([peak["alpha"], peak["alpha_band"]]),
-        rng=rng,
+        rng=rng, M=None if state.M is None else np.ascontiguousarray(np.swapaxes(MT, -1, -2)),
+        Lam=None if state.M is None else Lam_post,
     )
     if idx is not None:
         new = resample(new, idx)
@@ -761,7 +771,7 @@ def _make_kernel_constants(config: GPSSMConfig) -> dict[str, Any]:
         "veh": vp, "mf": np.array([pt.B, pt.C, pt.D, pt.E], float),
         "tensor": tensor, "nf": nf, "fidx": fidx, "ridx": ridx, "wgt": wgt,
         "Lambda0": np.ascontiguousarray(config.Lambda0),
-        "tol": la.EXACT_TOL if exact else 1.0, "max_terms": 60 if exact else 1,
+        "tol": la.EXACT_TOL if exact else 1.0, "max_terms": 60 if exact else 0,
         "where": _axle_rows(config),
         "col": _peak_cols(config),
         "peak_rhs": {},  # (ratio, peak slip angles) -> features, :func:`_peak_rhs`
@@ -777,6 +787,7 @@ def _step_compiled(
     b = config.basis
     N, G, d, m = config.particles, b.groups, b.outputs, b.m
     lam = config.forgetting
+    carry = config.linalg == "fast"
     if state is None:
         state = init(config, sample, seed)
         lin, nu, propagate, dt = state.lin, state.nu, False, 0.0
@@ -784,8 +795,11 @@ def _step_compiled(
         dt = sample.t - state.t
         if not dt > 0:
             raise ValueError(f"GP-SSM samples must have increasing time: {state.t} then {sample.t}")
+        c_forgotten = state.lin.c * lam
         lin = la.forget(state.lin, lam, config.refactor_every)
         nu, propagate = lam * state.nu, True
+        if carry and lin.since_refactor == 0:
+            _refactored_posterior(state, lam, lin, lin.c - c_forgotten)
     learn = bool(sample.vx >= config.min_speed)
     if learn:
         lin = la.reserve(lin)
@@ -803,8 +817,8 @@ def _step_compiled(
     if config.max_sideslip is not None:
         vy_max = math.tan(config.max_sideslip) * max(float(sample.vx), 0.0)
     alpha = np.empty((N, 2))
-    M = np.empty((N, G, d, m))
-    Lam = np.empty((N, G, d, d))
+    M = state.M if carry else np.empty((N, G, d, m))
+    Lam = state.Lam if carry else np.empty((N, G, d, d))
     vpk = np.empty((N, G, fpk_g.shape[2]))
     munow = np.empty((N, 2))
     e = np.empty(gk.EST.SIZE)
@@ -825,9 +839,9 @@ def _step_compiled(
         float(sample.vx), float(sample.ay), float(sample.yaw_rate), not math.isnan(sample.vy),
         0.0 if math.isnan(sample.vy) else float(sample.vy), learn,
         kc["veh"], kc["mf"], lam, nu, kc["Lambda0"], config.sigma_ay, config.sigma_yaw_rate, vy_max,
-        lin.p_scale, 1.0 - lin.c, kc["tol"], kc["max_terms"],
+        lin.p_scale, 0.0 if carry else 1.0 - lin.c, kc["tol"], kc["max_terms"],
         kc["tensor"], kc["nf"], kc["fidx"], kc["ridx"], kc["wgt"], b.L, fpk_g, wold, wnew, fresh,
-        gdraw, zdraw, config.proposal == "conditional",
+        gdraw, zdraw, config.proposal == "conditional", carry,
         alpha, M, Lam, vpk, munow, e,
     )
     lin = lin._replace(pend=pend_new, pgain=pgain_new, panc=pdst, pkw=wnew, pkf=fpk_g)
@@ -849,6 +863,7 @@ def _step_compiled(
         k=state.k + 1, t=float(sample.t), u=np.array([sample.steer, sample.vx], dtype=float),
         x=state.x, mu=state.mu, logw=logw, lin=lin, Psi=state.Psi, Phi=state.Phi, nu=float(nu),
         visits=visits, slip_moments=moments, peak_alpha=pk[:, [3, 5]].T.copy(), rng=rng,
+        M=state.M, Lam=state.Lam,
     )
     if resampled:
         new = resample(new, _systematic(rng, np.exp(logw)))
@@ -866,6 +881,21 @@ def _step_compiled(
         excited=excited, ess=ess, resampled=bool(resampled),
     )
     return new, est
+
+
+def _refactored_posterior(state: GPSSMState, lam: float, lin: la.LinAlgState, eps: float) -> None:
+    """``'fast'`` mode: the carried ``M`` and ``Lambda`` after a refactorisation in the time
+    update moved the prior weight by ``eps`` (``B' = B + eps I``, nothing pending, every
+    particle owns its slot), in place: ``B'^{-1} = B^{-1} - eps B^{-1} B'^{-1}`` gives
+    ``M' = M (I - eps P_B')`` and ``Lambda' = Lambda + eps M M'^T / lam`` (the compiled step
+    forgets ``Lambda - Lambda0`` by ``lam`` next). Neither is formed from ``Psi``, so
+    nothing cancels."""
+    M, Lam = state.M, state.Lam
+    M0 = M.copy()
+    np.matmul(M0, lin.pinv, out=M)
+    M *= -eps * lin.p_scale
+    M += M0
+    Lam += (eps / lam) * np.matmul(M0, np.swapaxes(M, -1, -2))
 
 
 def _conditional_sample(
@@ -1063,7 +1093,8 @@ def resample(state: GPSSMState, idx: NDArray) -> GPSSMState:
     return state._replace(
         x=state.x[idx], mu=state.mu[idx], lin=la.take(state.lin, idx),
         Psi=la.take_rows(state.Psi, idx), Phi=la.take_rows(state.Phi, idx),
-        logw=np.full(n, -math.log(n)),
+        logw=np.full(n, -math.log(n)), M=None if state.M is None else la.take_rows(state.M, idx),
+        Lam=None if state.Lam is None else la.take_rows(state.Lam, idx),
     )
 
 
@@ -1074,6 +1105,7 @@ def copy_state(state: GPSSMState) -> GPSSMState:
         lin=la.copy(state.lin), Psi=state.Psi.copy(), Phi=state.Phi.copy(),
         visits=state.visits.copy(), slip_moments=state.slip_moments.copy(),
         peak_alpha=state.peak_alpha.copy(), rng=copy.deepcopy(state.rng),
+        M=None if state.M is None else state.M.copy(), Lam=None if state.Lam is None else state.Lam.copy(),
     )
 
 

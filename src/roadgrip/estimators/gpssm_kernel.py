@@ -285,7 +285,7 @@ def particle_pass(
     veh, mf, lam, nu, Lambda0, sigma_ay, sigma_r, vy_max,
     p_scale, delta, tol, max_terms,
     tensor, nf, fidx, ridx, wgt, L, fpk, wold, wnew, fresh,
-    gdraw, zdraw, conditional,
+    gdraw, zdraw, conditional, carry,
     out_alpha, out_M, out_Lam, out_vpk, out_munow, est,
 ):  # pragma: no cover - compiled
     """All per-particle work of one step, in place (module docstring).
@@ -309,6 +309,11 @@ def particle_pass(
     vy_max : float, negative for no bound
     gdraw : (N, G) chi-square draws with ``nu - d + 1`` degrees of freedom
     zdraw : (N, 1, 2) standard normals (conditional proposal) or (N, G, d) (bootstrap)
+    carry : ``'fast'`` mode: ``H`` is taken as ``B`` (pass ``delta = 0``, ``max_terms =
+        0``); ``out_M`` and ``out_Lam`` hold each particle's posterior ``M = Psi P_B`` and
+        ``Lambda`` of the last step on entry, carried and updated in place, so only
+        ``phi`` is solved for and ``Lambda`` is not formed by cancellation
+        (:mod:`roadgrip.estimators.gpssm_linalg`)
     fpk : (G, m, np) odd-part features ``f`` at the peak slip angles
     wold, wnew : (N, G, np, m) ``P_B f / p_scale`` per ``pinv`` slot, before (read through
         ``panc`` and corrected by the pending term, like ``pinv``) and after this step
@@ -327,7 +332,7 @@ def particle_pass(
     d = Psi.shape[2]
     m = Psi.shape[3]
     npk = fpk.shape[2]
-    nr = 1 + d
+    nr = 1 if carry else 1 + d
     R = np.zeros((nr, m), dtype=pinv.dtype)
     X = np.zeros((nr, m), dtype=pinv.dtype)
     cur = np.zeros((nr, m), dtype=pinv.dtype)
@@ -362,6 +367,7 @@ def particle_pass(
     izz = veh[_IZZ]
     v_eps = veh[_V_EPS]
     dof = nu - d + 1.0
+    fl = lam if propagate else 1.0
     cp = math.cos(steer_prev)
     c0 = fzf * math.cos(steer) / mass  # d ay / d mu_f
     c1 = fzr / mass                    # d ay / d mu_r
@@ -413,7 +419,7 @@ def particle_pass(
             b = n * G + g
             for k in range(m):
                 R[0, k] = phi[g, k]
-                for a in range(d):
+                for a in range(nr - 1):
                     R[1 + a, k] = Psi[n, g, a, k]
             # this particle's P_B: its ancestor's slot minus the pending rank-1 term
             kb = panc[n] * G + g
@@ -437,14 +443,14 @@ def particle_pass(
                 for i in range(m):
                     for j in range(m):
                         dst[i, j] = src[i, j]
-            neumann_solve(dst, p_scale, delta, R, nr, 1 + d, tol, max_terms, X, pbv, cur, nxt)
+            neumann_solve(dst, p_scale, delta, R, nr, nr, tol, max_terms, X, pbv, cur, nxt)
             s = 0.0
             for k in range(m):
                 U[g, k] = X[0, k]
                 PB[g, k] = pbv[k]
                 s += phi[g, k] * U[g, k]
                 for a in range(d):
-                    Y[g, a, k] = X[1 + a, k]
+                    Y[g, a, k] = out_M[n, g, a, k] if carry else X[1 + a, k]
             s_g[g] = s
             # P_B f of the peak features (stored units) and f^T H^{-1} f to first order
             for p in range(npk):
@@ -466,16 +472,27 @@ def particle_pass(
                     fw += fpk[g, k, p] * wk
                     ww += wk * wk
                 vpk0[g, p] = p_scale * fw - delta * p_scale * p_scale * ww
-            for a in range(d):
-                acc = 0.0
-                for k in range(m):
-                    acc += Psi[n, g, a, k] * U[g, k]
-                loc[g, a] = acc
-                for c in range(d):
+            if carry:
+                # loc = M phi; Lambda0 + lam (Lambda - Lambda0) = Lambda0 + Phi - Psi M^T
+                # after the forgetting, without the cancellation
+                for a in range(d):
                     acc = 0.0
                     for k in range(m):
-                        acc += Psi[n, g, a, k] * Y[g, c, k]
-                    lam_star[g, a, c] = Lambda0[a, c] + Phi[n, g, a, c] - acc
+                        acc += Y[g, a, k] * phi[g, k]
+                    loc[g, a] = acc
+                    for c in range(d):
+                        lam_star[g, a, c] = Lambda0[a, c] + fl * (out_Lam[n, g, a, c] - Lambda0[a, c])
+            else:
+                for a in range(d):
+                    acc = 0.0
+                    for k in range(m):
+                        acc += Psi[n, g, a, k] * U[g, k]
+                    loc[g, a] = acc
+                    for c in range(d):
+                        acc = 0.0
+                        for k in range(m):
+                            acc += Psi[n, g, a, k] * Y[g, c, k]
+                        lam_star[g, a, c] = Lambda0[a, c] + Phi[n, g, a, c] - acc
             _sym_pd(lam_star[g], 1e-12)
         # 4. friction sample and weight factor (eq. 21-22)
         ll = 0.0
