@@ -120,7 +120,8 @@ def main() -> None:
     same = te["resampled"].to_numpy() == tf["resampled"].to_numpy()
     first = int(np.argmin(same)) if not same.all() else None
     print(f"  the two particle systems first resample differently at step {first} "
-          "(single-precision rounding of the weights; the paths are independent after that)")
+          "(the fast mode's prior weight c differs from 1 by up to 0.8 %, which moves the "
+          "weights; the paths are independent after that)")
     # Monte Carlo reference: the same exact filter with another seed
     cfg1 = GPSSMConfig(d.vehicle, basis=make_basis("tensor:10x10"), particles=200, linalg="exact")
     _, cv1 = GPSSM(cfg1, seed=1).run(d, curve_times=(1e9,),
