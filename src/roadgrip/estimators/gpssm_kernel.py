@@ -117,7 +117,7 @@ def _sym_pd(S, floor):  # pragma: no cover - compiled
 def _mv3(P, src, o, dst, fac):  # pragma: no cover - compiled
     """``dst[o:o+3] = fac P src[o:o+3]`` (rows are vectors), four rows of ``P`` at a time."""
     m = P.shape[0]
-    z = P[0, 0] - P[0, 0]
+    z = 0.0
     m4 = m - m % 4
     for i in range(0, m4, 4):
         a00 = z; a01 = z; a02 = z; a10 = z; a11 = z; a12 = z  # noqa: E702
@@ -145,7 +145,7 @@ def _mv3(P, src, o, dst, fac):  # pragma: no cover - compiled
 def _mv2(P, src, o, dst, fac):  # pragma: no cover - compiled
     """``dst[o:o+2] = fac P src[o:o+2]``, four rows of ``P`` at a time."""
     m = P.shape[0]
-    z = P[0, 0] - P[0, 0]
+    z = 0.0
     m4 = m - m % 4
     for i in range(0, m4, 4):
         a00 = z; a01 = z; a10 = z; a11 = z; a20 = z; a21 = z; a30 = z; a31 = z  # noqa: E702
@@ -170,7 +170,7 @@ def _mv2(P, src, o, dst, fac):  # pragma: no cover - compiled
 def _mv1(P, src, o, dst, fac):  # pragma: no cover - compiled
     """``dst[o] = fac P src[o]``, four rows of ``P`` at a time."""
     m = P.shape[0]
-    z = P[0, 0] - P[0, 0]
+    z = 0.0
     m4 = m - m % 4
     for i in range(0, m4, 4):
         a0 = z; a1 = z; a2 = z; a3 = z  # noqa: E702
@@ -211,8 +211,7 @@ def neumann_solve(P, p_scale, delta, R, nr, n_exact, tol, max_terms, X, pb, cur,
     terms until one falls below ``tol`` of the sum (at most ``max_terms``); the others one
     correction term. ``pb = P_B R[0]``."""
     m = P.shape[0]
-    f0 = P[0, 0] - P[0, 0] + p_scale
-    _mv(P, R, nr, cur, f0)
+    _mv(P, R, nr, cur, p_scale)
     for r in range(nr):
         for i in range(m):
             X[r, i] = cur[r, i]
@@ -225,7 +224,7 @@ def neumann_solve(P, p_scale, delta, R, nr, n_exact, tol, max_terms, X, pb, cur,
                 v = abs(X[r, i])
                 if v > xmax:
                     xmax = v
-        fac = P[0, 0] - P[0, 0] - delta * p_scale
+        fac = -delta * p_scale
         n_rhs = nr
         for _it in range(max_terms):
             _mv(P, cur, n_rhs, nxt, fac)
@@ -333,21 +332,21 @@ def particle_pass(
     m = Psi.shape[3]
     npk = fpk.shape[2]
     nr = 1 if carry else 1 + d
-    R = np.zeros((nr, m), dtype=pinv.dtype)
-    X = np.zeros((nr, m), dtype=pinv.dtype)
-    cur = np.zeros((nr, m), dtype=pinv.dtype)
-    nxt = np.zeros((nr, m), dtype=pinv.dtype)
-    pbv = np.zeros(m, dtype=pinv.dtype)
+    R = np.zeros((nr, m))
+    X = np.zeros((nr, m))
+    cur = np.zeros((nr, m))
+    nxt = np.zeros((nr, m))
+    pbv = np.zeros(m)
     phi = np.zeros((G, m))
     U = np.zeros((G, m))
     PB = np.zeros((G, m))
     Y = np.zeros((G, d, m))
-    FT = np.empty((G, npk, m), dtype=pinv.dtype)
+    FT = np.empty((G, npk, m))
     for g in range(G):
         for p in range(npk):
             for k in range(m):
                 FT[g, p, k] = fpk[g, k, p]
-    Wt = np.zeros((max(npk, 1), m), dtype=pinv.dtype)
+    Wt = np.zeros((max(npk, 1), m))
     vpk0 = np.zeros((G, npk))
     ef = np.empty(nf)
     er = np.empty(nf)
@@ -455,7 +454,7 @@ def particle_pass(
             # P_B f of the peak features (stored units) and f^T H^{-1} f to first order
             for p in range(npk):
                 if fresh[g, p]:
-                    _mv1(dst, FT[g], p, Wt, Wt[0, 0] - Wt[0, 0] + 1.0)
+                    _mv1(dst, FT[g], p, Wt, 1.0)
                 else:
                     c = 0.0
                     for k in range(m):
@@ -467,7 +466,7 @@ def particle_pass(
                 fw = 0.0
                 ww = 0.0
                 for k in range(m):
-                    wk = np.float64(Wt[p, k])
+                    wk = Wt[p, k]
                     wnew[pdst[n], g, p, k] = wk
                     fw += fpk[g, k, p] * wk
                     ww += wk * wk

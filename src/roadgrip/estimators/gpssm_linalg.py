@@ -148,20 +148,17 @@ def init(mode: str, n: int, groups: int, m: int, history: int = 64) -> LinAlgSta
     """Prior state: ``Sigma = 0``, ``H = I``; ``history`` rank-1 terms are buffered."""
     if mode not in LINALG_MODES:
         raise ValueError(f"unknown linear-algebra mode {mode!r}; expected one of {LINALG_MODES}")
-    # 'fast' once stored P_B in single precision: with the per-axle basis the data make
-    # B ill-conditioned enough that the rank-1 downdates lose it (the filter collapsed)
-    dtype = np.float64
-    sigma = np.zeros((n, groups, m, m), dtype=dtype)
+    sigma = np.zeros((n, groups, m, m))
     ar = np.arange(n)
     if mode == "direct":
         e = np.zeros(0)
         return LinAlgState(mode, sigma, e, 1.0, 1.0, 1.0, 0, np.zeros((0, n, groups, m)), e, 0,
                            e, e, np.zeros((n, groups, 0)), np.zeros((n, groups)), ar, ar,
                            np.zeros((0, n), np.int64))
-    pinv = np.broadcast_to(np.eye(m, dtype=dtype), (n, groups, m, m)).copy()
+    pinv = np.broadcast_to(np.eye(m), (n, groups, m, m)).copy()
     J = max(int(history), 1)
     return LinAlgState(
-        mode, sigma, pinv, 1.0, 1.0, 1.0, 0, np.zeros((J, n, groups, m), dtype=dtype), np.zeros(J), 0,
+        mode, sigma, pinv, 1.0, 1.0, 1.0, 0, np.zeros((J, n, groups, m)), np.zeros(J), 0,
         np.empty_like(pinv), np.empty_like(sigma), np.zeros((n, groups, m)), np.zeros((n, groups)),
         ar.copy(), ar.copy(), np.zeros((J, n), np.int64),
     )
@@ -352,7 +349,7 @@ def _settle(pinv, out, panc, pend, pgain):  # pragma: no cover - compiled
 
 def inverse(st: LinAlgState) -> NDArray:
     """``P_B`` of every particle, shape (N, G, m, m) (``'exact'``, ``'fast'``; for checks)."""
-    return settle(st).pinv.astype(np.float64) * st.p_scale
+    return settle(st).pinv * st.p_scale
 
 
 def solve(st: LinAlgState, R: NDArray, n_exact: int | None = None) -> tuple[NDArray, NDArray | None]:
@@ -379,7 +376,7 @@ def solve(st: LinAlgState, R: NDArray, n_exact: int | None = None) -> tuple[NDAr
     else:
         tol, max_terms = EXACT_TOL, 60
     n_exact = nr if n_exact is None else n_exact
-    Rt = np.ascontiguousarray(np.swapaxes(R, -1, -2).reshape(N * G, nr, m), dtype=np.float64)
+    Rt = np.ascontiguousarray(np.swapaxes(R, -1, -2).reshape(N * G, nr, m))
     Xt, pb = _neumann(pinv.reshape(N * G, m, m), st.p_scale, delta, Rt, n_exact, tol, max_terms)
     return np.swapaxes(Xt.reshape(N, G, nr, m), -1, -2), pb.reshape(N, G, m)
 
