@@ -6,7 +6,11 @@ Prints:
    exact and fast mode over the whole drive (wall time, steps/s, real-time factor; peak
    traced memory from a separate 300-step run, as tracing slows the filter), the largest
    difference between their posterior mean curves over the visited slip range (same
-   seed; and two exact runs with seeds 0 and 1 as the Monte Carlo reference), and the
+   seed; and two exact runs with seeds 0 and 1 as the Monte Carlo reference, and two
+   with ``sigma_ay`` changed by 1e-9 and 1e-6 relative, which shows how far the filter's
+   paths part under a perturbation of that size), the floor of a step at these settings
+   (one rank-1 update and product over every particle's matrix, from cache and from main
+   memory, and the refactorisation per step) against the 50x budget, and the
    straightforward per-particle solve ('direct') on a prefix, with the speed-up measured
    in the same run;
 2. N = 200 with m = 20 basis functions (separable:10);
@@ -33,16 +37,18 @@ import resource
 import time
 import tracemalloc
 
+import numba
 import numpy as np
 
+from roadgrip.estimators import gpssm_linalg as la
 from roadgrip.estimators.basis import make_basis
 from roadgrip.estimators.gpssm import GPSSM, GPSSMConfig, curve_accuracy
 from roadgrip.sim.scenarios import simulate_scenario
 
 
-def timed_run(drive, basis: str, n: int, mode: str, steps: int | None = None, curves=()):
+def timed_run(drive, basis: str, n: int, mode: str, steps: int | None = None, curves=(), **config):
     d = drive if steps is None else drive.slice_time(drive.t[0], drive.t[0] + steps / 25.0 - 1e-9)
-    cfg = GPSSMConfig(d.vehicle, basis=make_basis(basis), particles=n, linalg=mode)
+    cfg = GPSSMConfig(d.vehicle, basis=make_basis(basis), particles=n, linalg=mode, **config)
     f = GPSSM(cfg, seed=0)
     # warm up the compiled kernels outside the timing
     GPSSM(cfg, seed=0).run(d.slice_time(d.t[0], d.t[0] + 0.2))
@@ -61,6 +67,58 @@ def curve_difference(a, b, acc) -> list[tuple[float, float]]:
         dd = np.abs(a.mean[ax, sel] - b.mean[ax, sel])
         out.append((float(dd.max()), float(dd.mean())))
     return out
+
+
+@numba.njit(fastmath=True)
+def _sweep(P, u, r, y):  # pragma: no cover - compiled
+    """Per matrix: ``P -= u u^T``, then ``y = P r``: the least per-step work on a particle's
+    ``P_B`` (one rank-1 update and one product)."""
+    n, m, _ = P.shape
+    for k in range(n):
+        for i in range(m):
+            for j in range(m):
+                P[k, i, j] -= u[i] * u[j]
+        for i in range(m):
+            acc = 0.0
+            for j in range(m):
+                acc += P[k, i, j] * r[j]
+            y[k, i] = acc
+
+
+def memory_floor(n: int, m: int, period: int, rate: float) -> None:
+    """Lower bounds on a step at the paper settings: one rank-1 update and product over
+    every particle's ``m x m`` matrix, from cache (the same ``8 n m²`` bytes swept again)
+    and from main memory (four such sets in turn: 64 MiB at ``n = 200``, ``m = 100``,
+    twice this machine's L3), and the refactorisation (Cholesky inverse of every
+    ``Sigma + c I``) spread over its period."""
+    rng = np.random.default_rng(0)
+    sets = [np.broadcast_to(np.eye(m), (n, m, m)).copy() for _ in range(4)]
+    u = rng.standard_normal(m) * 1e-6
+    r = rng.standard_normal(m)
+    y = np.empty((n, m))
+    _sweep(sets[0], u, r, y)
+    reps = 40
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        _sweep(sets[0], u, r, y)
+    warm = (time.perf_counter() - t0) / reps
+    t0 = time.perf_counter()
+    for k in range(reps):
+        _sweep(sets[k % 4], u, r, y)
+    cold = (time.perf_counter() - t0) / reps
+    st = la.init("exact", n, 1, m, history=period)
+    st.hist[:] = rng.standard_normal(st.hist.shape) * 0.3
+    st.hcoef[:] = 1.0
+    refac = np.inf
+    for _ in range(4):
+        t0 = time.perf_counter()
+        st = la.refactor(st._replace(nhist=period), 1.0)
+        refac = min(refac, time.perf_counter() - t0)
+    budget = 1.0 / (50.0 * rate)
+    print(f"floor, N = {n}, m = {m} ({8 * n * m * m / 2**20:.0f} MiB of P_B): one rank-1 update and "
+          f"product per matrix {1e3 * warm:.2f} ms from cache, {1e3 * cold:.2f} ms from main memory; "
+          f"refactorisation (best of 4) {1e3 * refac:.1f} ms = {1e3 * refac / period:.2f} ms per step "
+          f"(every {period} steps); 50x real time allows {1e3 * budget:.2f} ms per step")
 
 
 def accuracy() -> None:
@@ -130,6 +188,18 @@ def main() -> None:
     mc = curve_difference(ce, c1, acc)
     print(f"exact seed 0 vs exact seed 1 (Monte Carlo spread), largest / mean: "
           f"front {mc[0][0]:.4f} / {mc[0][1]:.4f}, rear {mc[1][0]:.4f} / {mc[1][1]:.4f}")
+    # path sensitivity: the same exact filter, seed and drive, with sigma_ay changed in its
+    # 9th / 6th digit; the resampling decisions part after a few hundred steps
+    for eps in (1e-9, 1e-6):
+        _, tp, cvp, _ = timed_run(drive, "tensor:10x10", 200, "exact", steps, curves=(1e9,),
+                                  sigma_ay=GPSSMConfig.sigma_ay * (1.0 + eps))
+        sp = curve_difference(ce, next(iter(cvp.values())), acc)
+        same = te["resampled"].to_numpy() == tp["resampled"].to_numpy()
+        first = int(np.argmin(same)) if not same.all() else None
+        print(f"exact vs exact with sigma_ay x (1 + {eps:g}) (path sensitivity), largest / mean: "
+              f"front {sp[0][0]:.4f} / {sp[0][1]:.4f}, rear {sp[1][0]:.4f} / {sp[1][1]:.4f}; "
+              f"first differing resample at step {first}")
+    memory_floor(200, 100, 80, d.meta.sample_rate)
     n_direct = 150 if args.quick else 400
     _, _, _, w_dir = timed_run(drive, "tensor:10x10", 200, "direct", n_direct)
     _, _, _, w_ex = timed_run(drive, "tensor:10x10", 200, "exact", n_direct)
