@@ -109,6 +109,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from roadgrip.blas_threads import one_blas_thread
 from roadgrip.constants import V_EPS
 from roadgrip.estimators import gpssm_kernel as gk
 from roadgrip.estimators import gpssm_linalg as la
@@ -593,11 +594,24 @@ def step(
     (:mod:`roadgrip.estimators.gpssm_kernel`); ``'direct'`` runs the NumPy reference
     implementation (:func:`step_reference`). Both draw the same random numbers.
 
+    BLAS runs one thread during the step (:mod:`roadgrip.blas_threads`): faster for these
+    small products, and the result does not depend on the number of cores (a threaded
+    product sums in another order, and the filter's paths part at the first resampling
+    that such a difference changes).
+
     Returns
     -------
     state : GPSSMState
     estimate : GPSSMEstimate
     """
+    with one_blas_thread():
+        return _step(state, sample, config, seed)
+
+
+def _step(
+    state: GPSSMState | None, sample: Sample, config: GPSSMConfig, seed: int
+) -> tuple[GPSSMState, GPSSMEstimate]:
+    """:func:`step` without setting the BLAS threads (for loops that set them once)."""
     if config.linalg == "direct":
         return step_reference(state, sample, config, seed)
     return _step_compiled(state, sample, config, seed)
@@ -1333,7 +1347,8 @@ class GPSSM:
     def curves(self, alpha: NDArray, level: float = 0.95) -> CurvePosterior:
         if self.state_ is None:
             raise ValueError("no data yet: call step() first")
-        return posterior_curves(self.state_, self.config, alpha, level)
+        with one_blas_thread():
+            return posterior_curves(self.state_, self.config, alpha, level)
 
     def run(
         self,
@@ -1366,16 +1381,17 @@ class GPSSM:
         if curve_alpha is None:
             curve_alpha = np.linspace(-self.config.peak_range, self.config.peak_range, 161)
         done = 0
-        for i, row in enumerate(data):
-            est = self.step(Sample(*row))
-            if not keep[i]:
-                continue
-            rows.append(est)
-            while pending and (row[0] >= pending[0] or i == len(data) - 1):
-                curves[pending.pop(0)] = self.curves(curve_alpha)
-            done += 1
-            if progress is not None and done % 50 == 0:
-                progress(50)
+        with one_blas_thread():
+            for i, row in enumerate(data):
+                self.state_, est = _step(self.state_, Sample(*row), self.config, self.seed)
+                if not keep[i]:
+                    continue
+                rows.append(est)
+                while pending and (row[0] >= pending[0] or i == len(data) - 1):
+                    curves[pending.pop(0)] = posterior_curves(self.state_, self.config, curve_alpha)
+                done += 1
+                if progress is not None and done % 50 == 0:
+                    progress(50)
         return pd.DataFrame(rows, columns=GPSSMEstimate._fields), curves
 
 
