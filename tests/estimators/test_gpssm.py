@@ -67,17 +67,21 @@ def test_same_seed_same_result_other_seed_differs(snow20):
     assert not np.allclose(a["vy"], c["vy"])
 
 
-@pytest.mark.parametrize(("basis", "proposal", "measured_vy"), [
-    ("tensor:4x4", "conditional", False), ("separable-odd:6", "conditional", False),
-    ("tensor-odd:5x5", "prior", False), ("separable:5", "prior", False),
-    ("separable-odd:6", "conditional", True),
+@pytest.mark.parametrize(("basis", "proposal", "measured_vy", "limit_deg"), [
+    ("tensor:4x4", "conditional", False, None), ("separable-odd:6", "conditional", False, None),
+    ("tensor-odd:5x5", "prior", False, None), ("separable:5", "prior", False, None),
+    ("separable-odd:6", "conditional", True, None), ("tensor-odd:5x5", "conditional", False, 1.0),
+    ("separable:5", "prior", False, 1.0),
 ])
-def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measured_vy):
+def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measured_vy, limit_deg):
     # the compiled kernel and the array implementation draw the same random numbers; a
-    # stop at walking pace (no learning, vy pinned to 0), the sideslip bound and a
-    # measured lateral velocity included
+    # stop at walking pace (no learning, vy pinned to 0), the sideslip bound, a measured
+    # lateral velocity and a slip limit that the slip angles pass included
     d = snow20.slice_time(0.0, 8.0)
-    cfg = _cfg(d, basis, n=24, proposal=proposal, max_sideslip=math.radians(3.0))
+    limit = None if limit_deg is None else math.radians(limit_deg)
+    cfg = _cfg(d, basis, n=24, proposal=proposal, max_sideslip=math.radians(3.0), slip_limit=limit)
+    if limit is not None:
+        assert np.abs(d.col("alpha_f_true")).max() > 2.0 * limit
     rows = drive_inputs(d)
     if measured_vy:
         rows[100:, 5] = d.col("vy_true")[100:]
@@ -443,3 +447,48 @@ def test_step_and_run_hold_blas_to_one_thread(snow20, monkeypatch):
         assert blas_threads() == outside
     assert len(seen) == len(_samples(d.slice_time(0.0, 0.3))) + 2
     assert set(seen) == {1}
+
+
+def test_curve_is_held_flat_beyond_the_slip_limit(snow20):
+    d = snow20.slice_time(0.0, 4.0)
+    cfg = _cfg(d, "separable-odd:8")
+    b = cfg.basis
+    assert cfg.alpha_limit == pytest.approx(b.L - 2.0 * b.ell)  # 26 deg
+    f = GPSSM(cfg, seed=0)
+    f.run(d)
+    lim = cfg.alpha_limit
+    a = np.array([0.5 * lim, lim, lim + math.radians(2.0), b.L, 1.5 * b.L])
+    c = f.curves(np.concatenate([a, -a]))
+    for ax in range(2):
+        for arr, first in ((c.mean, 1), (c.prior, 1), (c.lower, 2), (c.upper, 2)):
+            # the band also spreads over the slip-angle uncertainty (a fraction of a
+            # degree here), so it is flat from a little past the limit
+            for side in (0, 5):
+                np.testing.assert_allclose(arr[ax, side + first:side + 5], arr[ax, side + first],
+                                           rtol=0, atol=1e-12)
+        # past the limit the curve keeps the uncertainty it has there, not the vanishing
+        # variance of the basis at its boundary
+        assert c.upper[ax, 4] - c.lower[ax, 4] > 4.0 * cfg.curve_sigma_floor
+        assert abs(c.mean[ax, 0] - c.mean[ax, 1]) > 1e-4
+    with pytest.raises(ValueError, match="slip_limit"):
+        _cfg(d, slip_limit=1.1 * b.L)
+    assert _cfg(d, slip_limit=0.2).alpha_limit == 0.2
+
+
+@pytest.mark.slow
+def test_slip_past_the_basis_domain_does_not_run_away():
+    # snow-slalom seed 2: at 24 s the driver steers 34 deg and the true front slip reaches
+    # 32 deg, past the basis domain (L = 30 deg). Holding the curve flat past L - 2 ell
+    # keeps the lateral velocity; with the limit at L it runs away (the friction there is
+    # the prior's, about 0.04, with nothing left to sample)
+    d = simulate_scenario("snow-slalom", seed=2).slice_time(0.0, 30.0)
+    assert np.abs(d.col("alpha_f_true")).max() > math.radians(31.0)
+    rms = {}
+    for name, limit in (("default", None), ("at L", math.radians(30.0))):
+        cfg = GPSSMConfig(d.vehicle, basis=make_basis("tensor-odd:10x10"), particles=200, slip_limit=limit)
+        table, _ = GPSSM(cfg, seed=2).run(d)
+        err = table["vy"].to_numpy() - d.col("vy_true")
+        t = table["t"].to_numpy()
+        rms[name] = [float(np.sqrt(np.mean(err[t >= t0] ** 2))) for t0 in (20.0, 27.0)]
+    assert rms["default"][0] < 0.5 and rms["default"][1] < 0.1, rms
+    assert rms["at L"][1] > 1.0, rms  # the failure the limit removes

@@ -107,7 +107,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from roadgrip.blas_threads import one_blas_thread
 from roadgrip.constants import V_EPS
@@ -182,7 +182,8 @@ class GPSSMConfig:
     peak_grid : int
         Points of the slip grid on ``[0, peak_range]`` used for the peak each step.
     peak_range : float
-        Largest slip angle searched for the peak [rad].
+        Largest slip angle searched for the peak [rad]. Capped at :attr:`alpha_limit`, past which
+        the curve is flat by construction.
     bin_width : float
         Width of the slip-angle histogram bins [rad].
     peak_visits : int
@@ -229,6 +230,16 @@ class GPSSMConfig:
         beyond the basis domain where the learned part vanishes), nothing in eq. 7 pulls
         ``vy`` back: it integrates ``-vx r`` and runs away (hundreds of m/s on the DART
         recordings). A car that is not spinning out stays well inside the bound (:data:`DART_OPTIONS`).
+    slip_limit : float or None
+        Slip angle [rad] beyond which each axle's friction curve is held flat: the prior
+        mean and the features are evaluated at ``±slip_limit`` for larger ``|alpha|``
+        (:attr:`alpha_limit`). The basis functions all vanish at the domain boundary
+        ``±L``, so without the limit a slip estimate past about ``L - ell`` meets the
+        near-zero prior friction with no uncertainty left to sample: no particle can
+        produce the measured lateral acceleration, nothing pulls ``vy`` back, and it runs
+        away (5-8 m/s on the snow-slalom drives whose front slip reaches 32 deg). ``None``:
+        ``L - 2 ell`` (26 deg for the paper's basis), where the prior variance of every
+        basis is still that of the interior.
     """
 
     vehicle: VehicleParams
@@ -258,6 +269,7 @@ class GPSSMConfig:
     slip_sigma: float = math.radians(0.25)
     curve_sigma_floor: float = 0.005
     max_sideslip: float | None = None
+    slip_limit: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.vehicle, VehicleParams):
@@ -292,6 +304,18 @@ class GPSSMConfig:
             raise ValueError(f"proposal must be 'conditional' or 'prior', got {self.proposal!r}")
         if self.refactor_every < 1 or self.peak_grid < 3 or self.peak_visits < 1:
             raise ValueError("refactor_every, peak_grid (>= 3) and peak_visits must be positive")
+        if self.slip_limit is not None and not 0.0 < self.slip_limit <= self.basis.L:
+            raise ValueError(f"slip_limit must be in (0, L = {self.basis.L:.4g}] rad or None, "
+                             f"got {self.slip_limit!r}")
+
+    @property
+    def alpha_limit(self) -> float:
+        """Slip angle [rad] beyond which the friction curve is held flat (``slip_limit``,
+        default ``L - 2 ell``, at least ``L / 2``)."""
+        if self.slip_limit is not None:
+            return float(self.slip_limit)
+        b = self.basis
+        return float(max(b.L - 2.0 * b.ell, 0.5 * b.L))
 
     @property
     def Lambda0(self) -> NDArray[np.float64]:
@@ -477,18 +501,27 @@ def _manifold_ratio(state: GPSSMState) -> float:
     return float(np.clip(sxy / sxx, 0.2, 5.0))
 
 
+def _held(config: GPSSMConfig, alpha: ArrayLike) -> NDArray:
+    """Slip angles [rad] at which the friction model is evaluated: ``alpha`` clipped to
+    ``±config.alpha_limit`` (the curve is flat beyond; ``GPSSMConfig.slip_limit``)."""
+    lim = config.alpha_limit
+    return np.clip(np.asarray(alpha, dtype=float), -lim, lim)
+
+
 def _axle_features(
     config: GPSSMConfig, ratio: float, alpha: NDArray
 ) -> tuple[NDArray, NDArray]:
     """Features of each axle's curve at ``alpha``: two arrays (n, m) and the (group, row).
 
     Returns ``feats`` of shape (2, n, m) and ``where`` of shape (2, 2) = (group, row).
+    Each slip angle is held to ``±config.alpha_limit`` (:func:`_held`).
     """
     b = config.basis
     if b.kind == "tensor":
-        ff = b.features(alpha, ratio * alpha)[..., 0, :]
-        fr = b.features(alpha / ratio, alpha)[..., 0, :]
+        ff = b.features(_held(config, alpha), _held(config, ratio * alpha))[..., 0, :]
+        fr = b.features(_held(config, alpha / ratio), _held(config, alpha))[..., 0, :]
         return np.stack([ff, fr]), np.array([[0, 0], [0, 1]])
+    alpha = _held(config, alpha)
     f = b.features(alpha, alpha)
     return np.stack([f[..., 0, :], f[..., 1, :]]), np.array([[0, 0], [1, 0]])
 
@@ -657,8 +690,9 @@ def step_reference(
     # 2. slips and features
     alpha_f, alpha_r = slip_angles(sample.vx, x[:, LateralState.VY], x[:, LateralState.YAW_RATE],
                                    sample.steer, veh)
-    phi = b.features(alpha_f, alpha_r)  # (N, G, m)
-    mu_prior = np.stack([config.prior_tire.mu(alpha_f), config.prior_tire.mu(alpha_r)], axis=1)
+    af_h, ar_h = _held(config, alpha_f), _held(config, alpha_r)
+    phi = b.features(af_h, ar_h)  # (N, G, m)
+    mu_prior = np.stack([config.prior_tire.mu(af_h), config.prior_tire.mu(ar_h)], axis=1)
 
     ratio = _manifold_ratio(state)
     fpk_g = _peak_rhs(config, ratio, state.peak_alpha)  # (G, m, np)
@@ -854,7 +888,7 @@ def _step_compiled(
         0.0 if math.isnan(sample.vy) else float(sample.vy), learn,
         kc["veh"], kc["mf"], lam, nu, kc["Lambda0"], config.sigma_ay, config.sigma_yaw_rate, vy_max,
         lin.p_scale, 0.0 if carry else 1.0 - lin.c, kc["tol"], kc["max_terms"],
-        kc["tensor"], kc["nf"], kc["fidx"], kc["ridx"], kc["wgt"], b.L, fpk_g, wold, wnew, fresh,
+        kc["tensor"], kc["nf"], kc["fidx"], kc["ridx"], kc["wgt"], b.L, config.alpha_limit, fpk_g, wold, wnew, fresh,
         gdraw, zdraw, config.proposal == "conditional", carry,
         alpha, M, Lam, vpk, munow, e,
     )
@@ -1035,10 +1069,11 @@ def _peak_features(config: GPSSMConfig, ratio: float, a_front: float, a_rear: fl
 
 @lru_cache(maxsize=64)
 def _peak_grid(config: GPSSMConfig, ratio: float) -> tuple[NDArray, NDArray, NDArray]:
-    """Slip grid on ``[0, peak_range]``, odd-part features (2, n, m) and prior curve."""
-    grid = np.linspace(0.0, config.peak_range, config.peak_grid)
+    """Slip grid on ``[0, min(peak_range, alpha_limit)]``, odd-part features (2, n, m) and
+    prior curve."""
+    grid = np.linspace(0.0, min(config.peak_range, config.alpha_limit), config.peak_grid)
     feats, _ = _odd(config, ratio, grid)
-    return grid, feats, config.prior_tire.mu(grid)
+    return grid, feats, config.prior_tire.mu(_held(config, grid))
 
 
 def _peak_estimates(
@@ -1165,7 +1200,7 @@ def posterior_curves(
         # Student-t CDF; its normal limit once the t is within 1e-3 of it (dof > 500)
         return ndtr(z) if dof > 500.0 else stdtr(dof, z)
 
-    prior = config.prior_tire.mu(alpha)
+    prior = config.prior_tire.mu(_held(config, alpha))
     # slip-angle spread of the particle cloud, per axle
     af, ar = slip_angles(state.u[1], state.x[:, LateralState.VY], state.x[:, LateralState.YAW_RATE],
                          state.u[0], config.vehicle)
@@ -1194,7 +1229,7 @@ def posterior_curves(
             else:
                 aj = alpha + o * sig_a[ax]
                 fj, _ = _axle_features(config, ratio, aj)
-                locs.append(M_ax @ fj[ax].T + config.prior_tire.mu(aj))
+                locs.append(M_ax @ fj[ax].T + config.prior_tire.mu(_held(config, aj)))
             wts.append(w * wo)
         L_ = np.concatenate(locs)            # (3N, n)
         S_ = np.concatenate([sc, sc, sc])    # (3N, n)

@@ -283,7 +283,7 @@ def particle_pass(
     propagate, dt, steer_prev, vx_prev, steer, vx, ay, yaw_rate, has_vy, vy_meas, learn,
     veh, mf, lam, nu, Lambda0, sigma_ay, sigma_r, vy_max,
     p_scale, delta, tol, max_terms,
-    tensor, nf, fidx, ridx, wgt, L, fpk, wold, wnew, fresh,
+    tensor, nf, fidx, ridx, wgt, L, a_lim, fpk, wold, wnew, fresh,
     gdraw, zdraw, conditional, carry,
     out_alpha, out_M, out_Lam, out_vpk, out_munow, est,
 ):  # pragma: no cover - compiled
@@ -304,6 +304,8 @@ def particle_pass(
     Psi : (N, G, d, m), Phi : (N, G, d, d) in/out (forgotten when ``propagate``, then
         updated when ``learn``)
     veh : (VEH.SIZE,);  mf : (4,) prior Magic Formula ``B, C, D, E``
+    L, a_lim : basis half-width and the slip angle past which the friction model is held
+        flat [rad] (``GPSSMConfig.alpha_limit``)
     has_vy, vy_meas : a measured lateral velocity [m/s] that replaces every particle's
     vy_max : float, negative for no bound
     gdraw : (N, G) chi-square draws with ``nu - d + 1`` degrees of freedom
@@ -401,10 +403,13 @@ def particle_pass(
         ar = -math.atan((vy - lr * r) / ureg)
         out_alpha[n, 0] = af
         out_alpha[n, 1] = ar
-        mu_pr[0] = _mf(af, mf[0], mf[1], mf[2], mf[3])
-        mu_pr[1] = _mf(ar, mf[0], mf[1], mf[2], mf[3])
-        _sines(af, L, nf, ef)
-        _sines(ar, L, nf, er)
+        # the friction model is held flat beyond +-a_lim (GPSSMConfig.slip_limit)
+        afh = min(max(af, -a_lim), a_lim)
+        arh = min(max(ar, -a_lim), a_lim)
+        mu_pr[0] = _mf(afh, mf[0], mf[1], mf[2], mf[3])
+        mu_pr[1] = _mf(arh, mf[0], mf[1], mf[2], mf[3])
+        _sines(afh, L, nf, ef)
+        _sines(arh, L, nf, er)
         for g in range(G):
             for k in range(m):
                 v = wgt[g, k]
