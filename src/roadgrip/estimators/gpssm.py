@@ -226,10 +226,11 @@ class GPSSMConfig:
     max_sideslip : float or None
         Largest body sideslip angle ``|arctan(vy / vx)|`` [rad] a particle may take after
         the propagation; ``None`` for no bound. Where the data demand more lateral force
-        than a particle's sampled curve gives (at and past the friction limit, or a slip
-        beyond the basis domain where the learned part vanishes), nothing in eq. 7 pulls
-        ``vy`` back: it integrates ``-vx r`` and runs away (hundreds of m/s on the DART
-        recordings). A car that is not spinning out stays well inside the bound (:data:`DART_OPTIONS`).
+        than a particle's sampled curve gives (at and past the friction limit), nothing in
+        eq. 7 pulls ``vy`` back: it integrates ``-vx r`` and runs away (hundreds of m/s on
+        the DART recordings from the IMU alone). A slip past the basis domain, the other
+        way into it, is handled by ``slip_limit``. A car that is not spinning out stays
+        well inside the bound (:data:`DART_OPTIONS`).
     slip_limit : float or None
         Slip angle [rad] beyond which each axle's friction curve is held flat: the prior
         mean and the features are evaluated at ``±slip_limit`` for larger ``|alpha|``
