@@ -37,3 +37,22 @@ def test_paper_study_curves_within_003_and_covered(drive, basis):
     last = table.iloc[-1]
     assert last["peak_observed_front"]
     assert last["mu_front_lower"] - 0.01 <= 0.3 <= last["mu_front_upper"] + 0.01
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_peak_band_holds_the_true_peak_on_other_drives(seed):
+    # the command's basis on two more drives. The peak band carries the basis truncation
+    # error (curve_sigma_floor) as the curve band does: without it the observed front peak,
+    # 0.303-0.306 against 0.300, had a band of +-0.003 that held the truth 11 % of the time
+    d = simulate_scenario("snow-slalom", seed=seed)
+    cfg = GPSSMConfig(d.vehicle, basis=make_basis("separable-odd:20"), particles=200)
+    table, _ = GPSSM(cfg, seed=seed).run(d)
+    late = table[table["t"] >= 40.0]
+    for axle in ("front", "rear"):
+        true_peak = d.true_tire(axle).peak()[1]
+        inside = (late[f"mu_{axle}_lower"] <= true_peak) & (true_peak <= late[f"mu_{axle}_upper"])
+        assert inside.mean() >= 0.9, (axle, inside.mean())
+    # and stays informative where the peak was observed
+    obs = late[late["peak_observed_front"]]
+    assert len(obs) > 0.8 * len(late)
+    assert (obs["mu_front_upper"] - obs["mu_front_lower"]).max() < 0.05

@@ -220,9 +220,9 @@ class GPSSMConfig:
         the speed (0.05 m/s at 12 m/s is 0.24 deg on the simulated snow drive).
     curve_sigma_floor : float
         Standard deviation [-] added in quadrature to every particle's function posterior
-        in the curve band: the error of representing a tire curve with a truncated basis,
-        which the posterior of the basis weights does not contain (a few thousandths for
-        the Magic Formula with 20 functions per axle).
+        in the curve band and the peak band: the error of representing a tire curve with a
+        truncated basis, which the posterior of the basis weights does not contain (a few
+        thousandths for the Magic Formula with 20 functions per axle).
     max_sideslip : float or None
         Largest body sideslip angle ``|arctan(vy / vx)|`` [rad] a particle may take after
         the propagation; ``None`` for no bound. Where the data demand more lateral force
@@ -905,7 +905,7 @@ def _step_compiled(
     a_vis = np.array([_visited_range(config, visits[ax]) for ax in range(2)])
     pk = np.empty((2, 6))
     gk.peak_summary(M, Lam, max(nu - d - 1.0, 1.0), logw, vpk, feats, prior, grid, kc["where"],
-                    kc["col"], a_vis, b.ell, _Z95, pk)
+                    kc["col"], a_vis, b.ell, _Z95, config.curve_sigma_floor**2, pk)
     ess = float(e[gk.EST.ESS])
     resampled = ess <= config.ess_threshold * N
     new = GPSSMState(
@@ -1094,11 +1094,12 @@ def _peak_estimates(
         j = int(np.argmax(mean))
         a_pk = float(grid[j])
         # within-particle variances at the previous step's two peak slip angles
-        var_in = np.maximum(vpk[:, g, cols[ax, 0]], 0.0) * Lam[:, g, r, r] / qdof
+        var_in = np.maximum(vpk[:, g, cols[ax, 0]], 0.0) * Lam[:, g, r, r] / qdof + config.curve_sigma_floor**2
         # at the reported point of an unobserved peak, but never below the variance at the
         # unrestricted peak: a demonstrated maximum can carry a bias of the lateral
         # velocity (non-odd bases) that its own variance does not show
-        var_band = np.maximum(np.maximum(vpk[:, g, cols[ax, 1]], 0.0) * Lam[:, g, r, r] / qdof, var_in)
+        var_band = np.maximum(np.maximum(vpk[:, g, cols[ax, 1]], 0.0) * Lam[:, g, r, r] / qdof
+                              + config.curve_sigma_floor**2, var_in)
         peaks = curves.max(axis=1)
         pm = float(w @ peaks)
         pv = float(w @ ((peaks - pm) ** 2 + var_in))

@@ -649,7 +649,7 @@ def particle_pass(
 
 
 @numba.njit(cache=True, fastmath=True)
-def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis, ell, z95, out):
+def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis, ell, z95, floor2, out):
     """Peak friction per axle (:func:`roadgrip.estimators.gpssm._peak_estimates`).
 
     Parameters
@@ -661,6 +661,8 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
     col : (2, 2) columns of ``vpk`` per axle: at the unrestricted peak and at the band point
         (the lower band of an unobserved peak uses the larger of the two variances)
     a_vis : (2,) visited slip range [rad]
+    floor2 : float, variance [-] added to every particle's (``curve_sigma_floor²``: the
+        basis truncation error, which moves the peak of a represented curve too)
     out : (2, 6) rows front/rear: ``mu, lower, upper, alpha_peak, observed, alpha_band``
     """  # pragma: no cover - compiled
     N = M.shape[0]
@@ -713,7 +715,7 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
             pm += w[n] * peaks[n]
         pv = 0.0
         for n in range(N):
-            var_in = max(vpk[n, g, col[ax, 0]], 0.0) * Lam[n, g, r, r] / qdof
+            var_in = max(vpk[n, g, col[ax, 0]], 0.0) * Lam[n, g, r, r] / qdof + floor2
             pv += w[n] * ((peaks[n] - pm) ** 2 + var_in)
         hi = pm + z95 * math.sqrt(max(pv, 0.0))
         observed = a_vis[ax] >= a_pk + ell and a_pk > 0.0 and jmax < ng - 1
@@ -731,7 +733,7 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
             vv = 0.0
             for n in range(N):
                 var_in = max(max(vpk[n, g, col[ax, 1]], 0.0), max(vpk[n, g, col[ax, 0]], 0.0))
-                var_in *= Lam[n, g, r, r] / qdof
+                var_in = var_in * Lam[n, g, r, r] / qdof + floor2
                 vv += w[n] * ((vis[n] - mu_hat) ** 2 + var_in)
             lo = mu_hat - z95 * math.sqrt(max(vv, 0.0))
             jb = 0
