@@ -182,8 +182,8 @@ class GPSSMConfig:
     peak_grid : int
         Points of the slip grid on ``[0, peak_range]`` used for the peak each step.
     peak_range : float
-        Largest slip angle searched for the peak [rad]. Capped at :attr:`alpha_limit`, past which
-        the curve is flat by construction.
+        Largest slip angle searched for the peak [rad]; capped at :attr:`alpha_limit`,
+        past which the curve is flat by construction.
     bin_width : float
         Width of the slip-angle histogram bins [rad].
     peak_visits : int
@@ -228,9 +228,9 @@ class GPSSMConfig:
         the propagation; ``None`` for no bound. Where the data demand more lateral force
         than a particle's sampled curve gives (at and past the friction limit), nothing in
         eq. 7 pulls ``vy`` back: it integrates ``-vx r`` and runs away (hundreds of m/s on
-        the DART recordings from the IMU alone). A slip past the basis domain, the other
-        way into it, is handled by ``slip_limit``. A car that is not spinning out stays
-        well inside the bound (:data:`DART_OPTIONS`).
+        the DART recordings from the IMU alone). The other way into such a run-away, a
+        slip past the basis domain, is closed by ``slip_limit``. A car that is not spinning
+        out stays well inside the bound (:data:`DART_OPTIONS`).
     slip_limit : float or None
         Slip angle [rad] beyond which each axle's friction curve is held flat: the prior
         mean and the features are evaluated at ``±slip_limit`` for larger ``|alpha|``
@@ -889,7 +889,8 @@ def _step_compiled(
         0.0 if math.isnan(sample.vy) else float(sample.vy), learn,
         kc["veh"], kc["mf"], lam, nu, kc["Lambda0"], config.sigma_ay, config.sigma_yaw_rate, vy_max,
         lin.p_scale, 0.0 if carry else 1.0 - lin.c, kc["tol"], kc["max_terms"],
-        kc["tensor"], kc["nf"], kc["fidx"], kc["ridx"], kc["wgt"], b.L, config.alpha_limit, fpk_g, wold, wnew, fresh,
+        kc["tensor"], kc["nf"], kc["fidx"], kc["ridx"], kc["wgt"], b.L, config.alpha_limit,
+        fpk_g, wold, wnew, fresh,
         gdraw, zdraw, config.proposal == "conditional", carry,
         alpha, M, Lam, vpk, munow, e,
     )
