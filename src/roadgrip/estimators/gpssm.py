@@ -241,6 +241,12 @@ class GPSSMConfig:
         away (5-8 m/s on the snow-slalom drives whose front slip reaches 32 deg). ``None``:
         ``L - 2 ell`` (26 deg for the paper's basis), where the prior variance of every
         basis is still that of the interior.
+    peak_max : float
+        Largest peak friction admitted [-] (as the cascade's ``mu_bounds``): the upper band
+        of a peak that was not observed. Past the visited slip range the learned curve is
+        the prior's, so the data bound the peak only from below; an upper band taken from
+        that curve would state the weak prior's guess (on the dry-gravel-dry drive it put
+        the dry peak below 0.82-0.91 against a true 1.0).
     """
 
     vehicle: VehicleParams
@@ -271,6 +277,7 @@ class GPSSMConfig:
     curve_sigma_floor: float = 0.005
     max_sideslip: float | None = None
     slip_limit: float | None = None
+    peak_max: float = 2.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.vehicle, VehicleParams):
@@ -285,7 +292,7 @@ class GPSSMConfig:
         if self.max_sideslip is not None and not 0.0 < self.max_sideslip < math.pi / 2:
             raise ValueError(f"max_sideslip must be in (0, pi/2) rad or None, got {self.max_sideslip!r}")
         for name in ("sigma_w0", "sigma_ay", "sigma_yaw_rate", "sigma_vy0", "peak_range",
-                     "bin_width", "slip_sigma", "curve_sigma_floor", "max_dt", "min_speed"):
+                     "bin_width", "slip_sigma", "curve_sigma_floor", "max_dt", "min_speed", "peak_max"):
             v = getattr(self, name)
             if not np.isfinite(v) or v <= 0:
                 raise ValueError(f"{name} must be positive and finite, got {v!r}")
@@ -906,7 +913,7 @@ def _step_compiled(
     a_vis = np.array([_visited_range(config, visits[ax]) for ax in range(2)])
     pk = np.empty((2, 6))
     gk.peak_summary(M, Lam, max(nu - d - 1.0, 1.0), logw, vpk, feats, prior, grid, kc["where"],
-                    kc["col"], a_vis, b.ell, _Z95, config.curve_sigma_floor**2, pk)
+                    kc["col"], a_vis, b.ell, _Z95, config.curve_sigma_floor**2, config.peak_max, pk)
     ess = float(e[gk.EST.ESS])
     resampled = ess <= config.ess_threshold * N
     new = GPSSMState(
@@ -1111,6 +1118,9 @@ def _peak_estimates(
         if observed:
             mu_hat, lo = pm, pm - _Z95 * math.sqrt(max(pv, 0.0))
         else:
+            # past the visited range the curve is the prior's: the data bound the peak
+            # only from below (GPSSMConfig.peak_max)
+            hi = config.peak_max
             inside = grid <= a_vis
             if inside.sum() <= 1:
                 mu_hat, lo = 0.0, 0.0

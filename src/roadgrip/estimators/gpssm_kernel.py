@@ -649,7 +649,8 @@ def particle_pass(
 
 
 @numba.njit(cache=True, fastmath=True)
-def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis, ell, z95, floor2, out):
+def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis, ell, z95, floor2, peak_max,
+                 out):
     """Peak friction per axle (:func:`roadgrip.estimators.gpssm._peak_estimates`).
 
     Parameters
@@ -663,6 +664,7 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
     a_vis : (2,) visited slip range [rad]
     floor2 : float, variance [-] added to every particle's (``curve_sigma_floor²``: the
         basis truncation error, which moves the peak of a represented curve too)
+    peak_max : float, the upper band of a peak that was not observed (``GPSSMConfig.peak_max``)
     out : (2, 6) rows front/rear: ``mu, lower, upper, alpha_peak, observed, alpha_band``
     """  # pragma: no cover - compiled
     N = M.shape[0]
@@ -726,7 +728,9 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
         elif n_in <= 1:
             mu_hat = 0.0
             lo = 0.0
+            hi = peak_max
         else:
+            hi = peak_max
             mu_hat = 0.0
             for n in range(N):
                 mu_hat += w[n] * vis[n]
