@@ -5,7 +5,6 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
-from threadpoolctl import threadpool_info, threadpool_limits
 
 from roadgrip.drive import Drive
 from roadgrip.estimators import gpssm_linalg as la
@@ -420,13 +419,10 @@ def test_writing_the_pending_updates_out_mid_run_does_not_change_the_filter(snow
     pd.testing.assert_frame_equal(plain, pd.DataFrame(rows), check_exact=False, rtol=1e-9, atol=1e-12)
 
 
-def test_step_and_run_hold_blas_to_one_thread(snow20, monkeypatch):
+def test_step_and_run_hold_blas_to_one_thread(snow20, monkeypatch, two_blas_threads, blas_threads):
     """The kernel and the curves see one BLAS thread however the filter is driven, and the
     caller's setting is back afterwards."""
     from roadgrip.estimators import gpssm_kernel as gk
-
-    def blas_threads():
-        return {i["filepath"]: i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}
 
     d = snow20.slice_time(0.0, 1.0)
     cfg = _cfg(d)
@@ -438,15 +434,11 @@ def test_step_and_run_hold_blas_to_one_thread(snow20, monkeypatch):
         return real(*args)
 
     monkeypatch.setattr(gk, "peak_summary", spy)
-    with threadpool_limits(limits=2, user_api="blas"):
-        outside = blas_threads()
-        if min(outside.values()) < 2:
-            pytest.skip(f"BLAS runs one thread at most here: {outside}")
-        GPSSM(cfg, seed=0).run(d.slice_time(0.0, 0.3))
-        f = GPSSM(cfg, seed=0)
-        f.step(_samples(d)[0])
-        step(None, _samples(d)[0], cfg)
-        assert blas_threads() == outside
+    GPSSM(cfg, seed=0).run(d.slice_time(0.0, 0.3))
+    f = GPSSM(cfg, seed=0)
+    f.step(_samples(d)[0])
+    step(None, _samples(d)[0], cfg)
+    assert blas_threads() == two_blas_threads
     assert len(seen) == len(_samples(d.slice_time(0.0, 0.3))) + 2
     assert set(seen) == {1}
 

@@ -419,7 +419,6 @@ class GPSSMState(NamedTuple):
         angle of the reported peak (the argmax inside the visited range while the peak is
         not observed). The peak band uses the function variance at both (the lower band
         of an unobserved peak the larger one).
-        Argmax of the last posterior mean curve, per axle [rad].
     rng : numpy.random.Generator
         The filter's random stream (advanced in place by :func:`step`, like the other
         buffers).

@@ -728,9 +728,7 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
         elif n_in <= 1:
             mu_hat = 0.0
             lo = 0.0
-            hi = peak_max
         else:
-            hi = peak_max
             mu_hat = 0.0
             for n in range(N):
                 mu_hat += w[n] * vis[n]
@@ -745,6 +743,10 @@ def peak_summary(M, Lam, qdof, logw, vpk, feats, prior, grid, where, col, a_vis,
                 if grid[k] <= a_vis[ax] and mean[k] > mean[jb]:
                     jb = k
             a_band = grid[jb]
+        if not observed:
+            # past the visited range the curve is the prior's: the data bound the peak
+            # only from below
+            hi = peak_max
         out[ax, 0] = mu_hat
         out[ax, 1] = max(lo, 0.0)
         out[ax, 2] = max(hi, mu_hat)

@@ -308,17 +308,14 @@ def settle(st: LinAlgState) -> LinAlgState:
     """Write the ancestors' matrices and the pending rank-1 terms out, in place: afterwards
     ``pinv[i]`` is particle ``i``'s own ``P_B / p_scale`` (``panc`` the identity), and the
     carried ``P_B f`` of the peak features (``pkw``) likewise."""
-    if st.mode == "direct":
+    if st.mode == "direct" or _settled_pinv(st) is st.pinv:
         return st
     N = st.pinv.shape[0]
-    if np.array_equal(st.panc, np.arange(N)) and not st.pgain.any():
-        return st
-    _settle(st.pinv, st.spare, st.panc, st.pend, st.pgain)
     if st.pkw is not None and st.pkf is not None:
         pe = st.pend[st.panc]                                              # (N, G, m)
         c = np.einsum("ngm,gmp->ngp", pe, st.pkf) * st.pgain[st.panc][..., None]
         st.pkw[...] = st.pkw[st.panc] - c[..., None] * pe[:, :, None, :]
-    st.pinv[...] = st.spare
+    st.pinv[...] = st.spare  # where _settled_pinv wrote the settled matrices
     st.panc[:] = np.arange(N)
     st.pgain[:] = 0.0
     return st
