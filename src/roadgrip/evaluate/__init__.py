@@ -4,6 +4,8 @@
 * :mod:`roadgrip.evaluate.suite`: which estimator runs on which scenario or
   real data set, how each run is scored, and ``roadgrip bench``.
 * :mod:`roadgrip.evaluate.maps`: friction grids of a run and their cell truth.
+* :mod:`roadgrip.evaluate.truth`: the true axle friction curve of a simulated drive,
+  parametric or binned from its truth columns, and the axles' friction utilisation.
 
 The output contract the metrics read is described in ``docs/output-contract.md``.
 """
@@ -29,14 +31,23 @@ from roadgrip.evaluate.metrics import (
     truth_excitation,
     truth_grip_class,
 )
+from roadgrip.evaluate.truth import (
+    BinnedCurve,
+    binned_truth_curve,
+    friction_utilisation,
+    has_parametric_truth,
+    true_curve,
+)
 
 __all__ = [
+    "BinnedCurve",
     "ClassificationMetrics",
     "CurveMetrics",
     "DetectionEvent",
     "MapMetrics",
     "band_coverage",
     "bench_cli",
+    "binned_truth_curve",
     "cell_truth",
     "classification_accuracy",
     "confident_wrong_class_rate",
@@ -45,9 +56,12 @@ __all__ = [
     "covered_mask",
     "curve_error",
     "detection_delays",
+    "friction_utilisation",
+    "has_parametric_truth",
     "map_metrics",
     "peak_error",
     "sustained",
+    "true_curve",
     "true_peak_series",
     "truth_excitation",
     "truth_grip_class",

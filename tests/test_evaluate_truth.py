@@ -1,0 +1,235 @@
+"""True axle friction curves (parametric or binned) and friction utilisation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from roadgrip.drive import Drive
+from roadgrip.evaluate.truth import (
+    DEFAULT_BIN_WIDTH,
+    PURE_LATERAL_MAX_FX,
+    BinnedCurve,
+    binned_truth_curve,
+    friction_utilisation,
+    has_parametric_truth,
+    true_curve,
+    utilisation_source,
+)
+from roadgrip.vehicle import PRESETS
+
+
+def _curvature_bound(mu, lo: float, hi: float) -> float:
+    """max |mu''| over [lo, hi] (finite differences on a fine grid)."""
+    g = np.linspace(lo, hi, 4001)
+    h = g[1] - g[0]
+    return float(np.abs(np.gradient(np.gradient(mu(g), h), h)).max())
+
+
+# -- binned against the parametric truth of the planar simulator --------------------------
+@pytest.fixture(scope="module")
+def planar_drives():
+    scen = pytest.importorskip("roadgrip.sim.scenarios", reason="simulator not available")
+    return {"dry-gravel-dry": scen.simulate_scenario("dry-gravel-dry", seed=0, duration=150),
+            "f1tenth-patches": scen.simulate_scenario("f1tenth-patches", seed=0, duration=60)}
+
+
+@pytest.mark.parametrize("name", ["dry-gravel-dry", "f1tenth-patches"])
+@pytest.mark.parametrize("axle", ["front", "rear"])
+def test_binned_curve_agrees_with_the_parametric_tire_at_the_bin_centres(planar_drives, name, axle):
+    d = planar_drives[name]
+    labels = sorted(set(d.data["surface"].astype(str)))
+    checked = 0
+    for lab in labels:
+        bc = binned_truth_curve(d, axle, lab)
+        if len(bc) < 5:
+            continue  # a surface barely driven on (one sample of gravel at t = 60 s and 120 s)
+        lat = d.true_tire(axle, surface=lab)
+        w = bc.bin_width
+        # Piecewise-linear through bin centroids: interpolation over <= 2 bins, extrapolation
+        # over <= 1 and the in-bin averaging each cost at most ~ w² max|mu''| / 2 ...
+        tol = 2.0 * w**2 * _curvature_bound(lat.mu, *bc.slip_range)
+        # ... and the combined slip the 5 % longitudinal threshold lets in (friction ellipse).
+        dx = d.true_tire(axle, "longitudinal", lab).peak()[1]
+        tol += (1.0 - np.sqrt(1.0 - (PURE_LATERAL_MAX_FX / dx) ** 2)) * lat.peak()[1]
+        err = np.abs(bc.at_centres() - lat.mu(bc.centres))
+        assert np.isfinite(err).all()
+        assert err.max() <= tol, (lab, err.max(), tol)
+        checked += 1
+    assert checked >= 1
+
+
+def test_bin_means_read_at_the_centres_would_be_biased(planar_drives):
+    """Why the curve goes through bin centroids: on dry asphalt (slope ~ 12 /rad) the raw
+    bin mean sits several hundredths off the tire at the bin centre."""
+    d = planar_drives["dry-gravel-dry"]
+    bc = binned_truth_curve(d, "front", "dry_asphalt")
+    lat = d.true_tire("front", surface="dry_asphalt")
+    naive = np.abs(bc.mu_mean - lat.mu(bc.centres)).max()
+    centroid = np.abs(bc.at_centres() - lat.mu(bc.centres)).max()
+    assert naive > 0.02
+    assert centroid < naive / 5
+
+
+def test_combined_slip_samples_are_left_out(planar_drives):
+    """f1tenth low-grip patches: the rear axle drives hard past its lateral peak, where the
+    friction ellipse takes lateral force away. Without the |Fx|/Fz threshold the binned
+    curve falls below the pure-lateral tire; with it, it does not."""
+    d = planar_drives["f1tenth-patches"]
+    lat = d.true_tire("rear", surface="low_grip")
+    strict = binned_truth_curve(d, "rear", "low_grip")
+    loose = binned_truth_curve(d, "rear", "low_grip", max_long=np.inf)
+    assert loose.count.sum() > strict.count.sum()
+    err_loose = np.nanmax(np.abs(loose.at_centres() - lat.mu(loose.centres)))
+    err_strict = np.nanmax(np.abs(strict.at_centres() - lat.mu(strict.centres)))
+    assert err_loose > 0.01 > err_strict
+
+
+def test_true_curve_is_the_parametric_tire_when_the_drive_carries_one(planar_drives):
+    d = planar_drives["f1tenth-patches"]
+    assert has_parametric_truth(d, "front") and has_parametric_truth(d, "rear", "longitudinal")
+    f = true_curve(d, "rear", "high_grip")
+    a = np.linspace(-0.3, 0.3, 7)
+    np.testing.assert_array_equal(f(a), d.true_tire("rear", surface="high_grip").mu(a))
+
+
+# -- a hand-made drive with binned truth (as a multi-body model states it) ------------------
+def _mu_a(a):
+    return 0.3 * np.sin(1.4 * np.arctan(12.0 * a))
+
+
+def _mu_b(a):
+    return 0.8 * np.sin(1.6 * np.arctan(9.0 * a))
+
+
+def _binned_drive(n: int = 20000, seed: int = 4) -> Drive:
+    """Fy = mu(alpha) Fz, except on combined-slip rows (|Fx| = 0.3 Fz, Fy halved) and lifted
+    rows (Fz = 0); 'snow' for the first 70 % of the time, 'tarmac' after."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.01
+    surface = np.where(np.arange(n) < int(0.7 * n), "snow", "tarmac")
+    df = pd.DataFrame({"t": t, "surface": surface})
+    for a in "fr":
+        alpha = rng.uniform(-0.2, 0.15, n)
+        fz = rng.uniform(3000.0, 6000.0, n)
+        mu = np.where(surface == "snow", _mu_a(alpha), _mu_b(alpha))
+        fy = mu * fz
+        fx = rng.uniform(-0.04, 0.04, n) * fz
+        comb = rng.random(n) < 0.2
+        fx[comb] = 0.3 * fz[comb] * rng.choice([-1.0, 1.0], comb.sum())
+        fy[comb] *= 0.5
+        lifted = rng.random(n) < 0.02
+        fz[lifted], fy[lifted], fx[lifted] = 0.0, 1.0, 0.0
+        df[f"alpha_{a}_true"], df[f"Fx{a}_true"] = alpha, fx
+        df[f"Fy{a}_true"], df[f"Fz{a}_true"] = fy, fz
+    df["mu_true"] = np.where(surface == "snow", 0.3, 0.8)
+    truth = {"model": "multibody", "truth_curve": "binned",
+             "surfaces": {"snow": {"mu": 0.3}, "tarmac": {"mu": 0.8}}}
+    return Drive.from_frame(df, PRESETS["suv"], source="sim:test", truth=truth, check_units=False)
+
+
+@pytest.mark.parametrize("axle", ["front", "rear"])
+def test_binned_curve_recovers_an_analytic_curve(axle):
+    d = _binned_drive()
+    assert not has_parametric_truth(d, axle)
+    bc = true_curve(d, axle)  # default surface: the one under the vehicle most of the time
+    assert isinstance(bc, BinnedCurve) and bc.surface == "snow"
+    w = DEFAULT_BIN_WIDTH
+    tol = 2.0 * w**2 * _curvature_bound(_mu_a, -0.2, 0.15)
+    assert tol < 0.04 * 0.3  # a few % of the peak: the check has teeth
+    err = np.abs(bc.at_centres() - _mu_a(bc.centres))
+    assert err.max() <= tol
+    # every visited bin between -0.2 and 0.15 rad, and only pure-lateral loaded samples
+    assert bc.slip_range[0] <= -0.2 and bc.slip_range[1] >= 0.15 and len(bc) == 41
+    a = "f" if axle == "front" else "r"
+    data = d.data[d.data["surface"] == "snow"]
+    pure = (data[f"Fz{a}_true"] > 0) & (data[f"Fx{a}_true"].abs() <= 0.05 * data[f"Fz{a}_true"])
+    assert bc.count.sum() == pure.sum()
+    # between the centres too, and NaN where the drive never went
+    g = np.linspace(-0.195, 0.145, 301)
+    assert np.abs(bc(g) - _mu_a(g)).max() <= tol
+    assert np.isnan(bc(np.array([-0.25, 0.2, 0.5, np.nan]))).all()
+    # the other surface, its own curve
+    tar = binned_truth_curve(d, axle, "tarmac")
+    tol_b = 2.0 * w**2 * _curvature_bound(_mu_b, -0.2, 0.15)
+    assert np.abs(tar.at_centres() - _mu_b(tar.centres)).max() <= tol_b
+
+
+def test_binned_curve_leaves_sparse_bins_out_and_keeps_shape():
+    d = _binned_drive(n=2000)
+    bc = binned_truth_curve(d, "front", "snow", bin_width=0.01, min_count=30)
+    assert (bc.count >= 30).all()
+    every = binned_truth_curve(d, "front", "snow", bin_width=0.01, min_count=1)
+    assert len(every) > len(bc)
+    dropped = np.setdiff1d(every.bins, bc.bins)
+    assert np.isnan(bc((dropped + 0.5) * 0.01)).all()
+    assert bc(np.zeros((2, 3))).shape == (2, 3)
+
+
+def test_isolated_bin_is_constant_and_runs_extrapolate_to_their_edges():
+    # bins 0, 1 (a run) and 5 (isolated); two samples each, on mu = 2 alpha
+    w = 0.1
+    alpha = np.array([0.02, 0.06, 0.12, 0.16, 0.52, 0.56])
+    df = pd.DataFrame({"t": np.arange(6) * 0.1, "alpha_f_true": alpha, "Fxf_true": 0.0,
+                       "Fyf_true": 2.0 * alpha * 1000.0, "Fzf_true": 1000.0})
+    d = Drive.from_frame(df, PRESETS["sedan"], truth={"truth_curve": "binned"}, check_units=False)
+    bc = binned_truth_curve(d, "front", bin_width=w, min_count=2)
+    assert bc.bins.tolist() == [0, 1, 5]
+    np.testing.assert_allclose(bc.alpha_mean, [0.04, 0.14, 0.54])
+    # a straight line is reproduced exactly across and beyond the centroids of the run
+    q = np.array([0.0, 0.03, 0.1, 0.19])
+    np.testing.assert_allclose(bc(q), 2.0 * q, atol=1e-12)
+    np.testing.assert_allclose(bc(np.array([0.5, 0.59])), [1.08, 1.08])  # constant
+    assert np.isnan(bc(np.array([0.25, -0.01]))).all()
+
+
+def test_binned_curve_errors_name_the_problem():
+    d = _binned_drive(n=500)
+    with pytest.raises(ValueError, match="axle must be 'front' or 'rear'"):
+        binned_truth_curve(d, "middle")
+    with pytest.raises(ValueError, match=r"surface 'ice' never occurs.*\['snow', 'tarmac'\]"):
+        binned_truth_curve(d, "front", "ice")
+    with pytest.raises(ValueError, match="bin_width must be a positive"):
+        binned_truth_curve(d, "front", bin_width=0.0)
+    with pytest.raises(ValueError, match="min_count must be a positive integer"):
+        binned_truth_curve(d, "front", min_count=0)
+    bare = Drive.from_frame(d.data[["t", "alpha_f_true", "Fyf_true"]], d.vehicle, source="x")
+    with pytest.raises(ValueError, match=r"lacks truth column\(s\) \['Fxf_true', 'Fzf_true'\]"):
+        binned_truth_curve(bare, "front")
+
+
+def test_declared_binned_truth_wins_over_tire_dicts():
+    from roadgrip.tire import SURFACES
+
+    d = _binned_drive(n=2000)
+    snow = SURFACES["snow"].lateral.to_dict()
+    truth = dict(d.meta.truth, surfaces={"snow": {"front": snow, "rear": snow, "mu": 0.3},
+                                         "tarmac": {"front": snow, "rear": snow, "mu": 0.8}})
+    parametric = Drive.from_frame(d.data, d.vehicle, truth={**truth, "truth_curve": "parametric"},
+                                  check_units=False)
+    declared = Drive.from_frame(d.data, d.vehicle, truth=truth, check_units=False)
+    assert has_parametric_truth(parametric, "front")
+    assert not has_parametric_truth(parametric, "front", "longitudinal")  # no 'front_long'
+    assert not has_parametric_truth(declared, "front")
+    assert isinstance(true_curve(declared, "front"), BinnedCurve)
+
+
+# -- utilisation --------------------------------------------------------------------------
+def test_utilisation_from_columns_and_computed_from_forces():
+    df = pd.DataFrame({"t": [0.0, 0.1, 0.2, 0.3],
+                       "Fxr_true": [300.0, 0.0, -400.0, 10.0],
+                       "Fyr_true": [400.0, 1000.0, 300.0, 0.0],
+                       "Fzr_true": [1000.0, 2000.0, 1000.0, 0.0],
+                       "mu_true": [1.0, 0.5, 0.5, 0.5]})
+    d = Drive.from_frame(df, PRESETS["sedan"], check_units=False)
+    assert utilisation_source(d, "rear") == "computed" and utilisation_source(d, "front") is None
+    u = friction_utilisation(d, "rear")
+    np.testing.assert_allclose(u[:3], [0.5, 1.0, 1.0])  # 500/1000, 1000/1000, 500/500
+    assert np.isnan(u[3])  # no load: undefined
+    d2 = Drive.from_frame(df.assign(util_r_true=[0.1, 0.2, 0.3, 0.4]), PRESETS["sedan"],
+                          check_units=False)
+    assert utilisation_source(d2, "rear") == "column"
+    np.testing.assert_array_equal(friction_utilisation(d2, "rear"), [0.1, 0.2, 0.3, 0.4])
+    with pytest.raises(ValueError, match="no front friction utilisation"):
+        friction_utilisation(d, "front")
