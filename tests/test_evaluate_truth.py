@@ -233,3 +233,61 @@ def test_utilisation_from_columns_and_computed_from_forces():
     np.testing.assert_array_equal(friction_utilisation(d2, "rear"), [0.1, 0.2, 0.3, 0.4])
     with pytest.raises(ValueError, match="no front friction utilisation"):
         friction_utilisation(d, "front")
+
+
+# -- the benchmark's scores on a drive with binned truth ------------------------------------
+def test_true_peak_series_falls_back_to_mu_true_on_binned_truth():
+    from roadgrip.evaluate.metrics import true_peak_series
+
+    d = _binned_drive(n=1000)
+    for axle in ("front", "rear"):
+        np.testing.assert_array_equal(true_peak_series(d, axle), d.col("mu_true"))
+    with pytest.raises(ValueError, match="carries no friction truth"):
+        true_peak_series(Drive.from_frame(d.data.drop(columns="mu_true"), d.vehicle,
+                                          truth=d.meta.truth, check_units=False))
+
+
+def _curve_stand_in(method, drive, request):
+    """Friction trace = mu_true; posterior curves = the analytic truth of the surface under
+    the vehicle + 0.02 on the GP-SSM's slip grid, band +-0.05, at the requested curve times."""
+    from roadgrip.estimators.base import EstimateResult, conform
+
+    t = drive.t
+    mu = drive.col("mu_true")
+    tab = pd.DataFrame({"t": t, "mu_front": mu, "mu_rear": mu, "mu_front_lower": mu - 0.1,
+                        "mu_front_upper": mu + 0.1, "mu_rear_lower": mu - 0.1,
+                        "mu_rear_upper": mu + 0.1, "peak_observed_front": True,
+                        "peak_observed_rear": True})
+    grid = np.linspace(-0.3, 0.3, 161)
+    frames = []
+    for tc in request.curve_times or ():
+        surface = drive.data["surface"].iloc[np.searchsorted(t - t[0], tc + 1e-9) - 1]
+        mu_c = (_mu_a if surface == "snow" else _mu_b)(grid)
+        frames += [pd.DataFrame({"t": tc, "axle": axle, "alpha": grid, "mu_mean": mu_c + 0.02,
+                                 "mu_lower": mu_c - 0.03, "mu_upper": mu_c + 0.07})
+                   for axle in ("front", "rear")]
+    curves = pd.concat(frames, ignore_index=True) if frames else None
+    return EstimateResult(method, conform(tab), {}, curves)
+
+
+def test_suite_scores_curves_against_the_binned_truth(monkeypatch):
+    import roadgrip.estimators as est
+    from roadgrip.evaluate import suite
+
+    monkeypatch.setattr(est, "run_estimator", _curve_stand_in)
+    d = _binned_drive(n=10000)  # all snow for the first 70 s
+    rec = suite.run_suite([suite.Case("binned", "gpssm", "gpssm")], suite.QUICK,
+                          drives={"binned": d})[0]
+    assert rec.status == "ok", rec.details
+    m = rec.metrics
+    # The curves are the truth + 0.02; the binned truth is within 2 w² max|mu''| of it and the
+    # curves' linear interpolation on the 0.00375 rad grid within grid² max|mu''| / 8.
+    curv = max(_curvature_bound(_mu_a, -0.2, 0.15), _curvature_bound(_mu_b, -0.2, 0.15))
+    tol = 2.0 * DEFAULT_BIN_WIDTH**2 * curv + 0.00375**2 * curv / 8
+    assert np.isfinite(m["curve_mae"])
+    assert m["curve_mae"] == pytest.approx(0.02, abs=tol)
+    assert m["curve_cov"] == 1.0
+    assert abs(m["peak_err_f"]) < 1e-12  # the true peak is mu_true
+    # curves at 50 s (snow) and at the end (tarmac), each against its own surface's truth
+    scored = [x for x in rec.details if x.startswith("curve ")]
+    assert len(scored) == 4 and any("front at t = 50 s" in x for x in scored)

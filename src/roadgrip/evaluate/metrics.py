@@ -54,6 +54,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.stats import norm
 
+from roadgrip.evaluate.truth import has_parametric_truth
+
 __all__ = [
     "ClassificationMetrics",
     "CurveMetrics",
@@ -610,9 +612,13 @@ def cell_truth(
 def true_peak_series(drive, axle: str = "front", direction: str = "lateral") -> NDArray[np.float64]:
     """True peak friction of ``axle`` at every sample of a simulated drive, shape (n,).
 
-    Uses the surface label of each sample and the drive's true tire models;
-    falls back to the ``mu_true`` column when the drive carries no per-surface
-    tire models. Raises when the drive carries no truth at all.
+    Uses the surface label of each sample and the drive's true tire models
+    (the peak of the ``axle`` curve in ``direction``). Falls back to the
+    ``mu_true`` column (the surface's peak friction) when the drive carries no
+    parametric tire model for some sample's surface, in particular for drives
+    whose truth is binned (surfaces given as ``{'mu': float}`` only, see
+    :mod:`roadgrip.evaluate.truth`). Raises ``ValueError`` when the drive carries
+    neither.
     """
     truth = drive.meta.truth or {}
     surfaces = truth.get("surfaces")
@@ -620,7 +626,7 @@ def true_peak_series(drive, axle: str = "front", direction: str = "lateral") -> 
         labels = drive.data["surface"].astype(str).to_numpy()
         out = np.full(len(labels), np.nan)
         for name in np.unique(labels):
-            if name in surfaces:
+            if name in surfaces and has_parametric_truth(drive, axle, direction, name):
                 out[labels == name] = drive.true_tire(axle, direction, name).peak()[1]
         if np.isfinite(out).all():
             return out

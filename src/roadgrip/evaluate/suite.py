@@ -15,6 +15,11 @@ DART high / low     gpssm, brls, slipmap (calibrated on the    floor label (high
 frictionmaps DSn    cascade (+ friction grid)                  DS3-DS5 map agreement
 ==================  =========================================  ==============================
 
+The true curve is the drive's parametric tire, or, for a drive that states its truth
+binned (a multi-body model), its binned ``Fy / Fz`` in the same 0.5 deg slip bins
+(:func:`roadgrip.evaluate.truth.true_curve`); the true peak is the tire's or else the
+``mu_true`` column (:func:`roadgrip.evaluate.metrics.true_peak_series`).
+
 Each run is timed and scored with :mod:`roadgrip.evaluate.metrics`; a method
 whose module is not installed is reported as ``not available`` and a run that
 raises is reported with its error, so one failing estimator never hides the
@@ -37,6 +42,7 @@ import numpy as np
 import pandas as pd
 
 from roadgrip.evaluate import metrics as M
+from roadgrip.evaluate.truth import true_curve
 
 __all__ = [
     "BENCH_COLUMNS",
@@ -491,6 +497,7 @@ def _score_curves(rec: RunRecord) -> None:
         return
     drive, m = rec.drive, rec.metrics
     maes, covs = [], []
+    truths: dict[tuple[str, str | None], Any] = {}
     for t_c in sorted(curves["t"].unique()):
         for axle, col in (("front", "alpha_f_true"), ("rear", "alpha_r_true")):
             c = curves[(curves["t"] == t_c) & (curves["axle"] == axle)].sort_values("alpha")
@@ -498,9 +505,13 @@ def _score_curves(rec: RunRecord) -> None:
                 continue
             upto = drive.t - drive.t[0] <= t_c + 1e-9
             visited = drive.col(col)[upto]
-            # The true curve of the surface under the vehicle at the curve's time.
+            # The true curve of the surface under the vehicle at the curve's time: the
+            # parametric tire, or the binned Fy/Fz of the whole drive on that surface in
+            # the same slip bins (NaN, hence not scored, where the truth visited no bin).
             surface = str(drive.data["surface"][upto].iloc[-1]) if drive.has("surface") else None
-            truth: Any = drive.true_tire(axle, surface=surface).mu
+            if (axle, surface) not in truths:
+                truths[axle, surface] = true_curve(drive, axle, surface, bin_width=CURVE_BIN_WIDTH)
+            truth: Any = truths[axle, surface]
             cm = M.curve_error(c["alpha"].to_numpy(float), c["mu_mean"].to_numpy(float), truth,
                                visited, mu_lower=c["mu_lower"].to_numpy(float),
                                mu_upper=c["mu_upper"].to_numpy(float), min_visits=20,
