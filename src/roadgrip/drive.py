@@ -64,6 +64,8 @@ TRUTH_COLUMNS = (
     "Fyr_true",
     "Fzf_true",
     "Fzr_true",
+    "util_f_true",
+    "util_r_true",
     "surface",
 )
 

@@ -10,7 +10,19 @@ dry-gravel-dry      sedan      paper 002: dry -> gravel -> dry with acceleration
 f1tenth-patches     f1tenth    paper 003: laps of a closed track with low- and
                                high-grip patches; pose with localisation noise
 straight-cruise     sedan      no excitation: straight at constant speed
+figure-eight        (mb)       laps of a figure-eight with snow, gravel and a wet
+                               crossing braked on every second lap
 ==================  =========  =====================================================
+
+Engines
+-------
+Each scenario runs on one or more engines (:attr:`Scenario.engines`, the first
+is the default): ``'lateral'`` and ``'planar'`` are roadgrip's own single-track
+models (the models inside the estimators), ``'multibody'`` is the independent
+CommonRoad multi-body vehicle of :mod:`roadgrip.sim.multibody`, driven by the
+builders of :mod:`roadgrip.sim.mb_scenarios` with a vehicle of
+:data:`MB_VEHICLES`. Multi-body drives are cached on disk by content hash when
+``ROADGRIP_DRIVE_CACHE`` names a folder (or ``cache=True``).
 """
 
 from __future__ import annotations
@@ -45,7 +57,7 @@ from roadgrip.sim.sensors import SensorSpec
 from roadgrip.sim.track import ClosedTrack, TrackDriver
 from roadgrip.vehicle.params import PRESETS
 
-__all__ = ["SCENARIOS", "Scenario", "simulate_scenario"]
+__all__ = ["MB_VEHICLES", "SCENARIOS", "Scenario", "simulate_scenario"]
 
 
 @dataclass(frozen=True)
@@ -60,10 +72,15 @@ class Scenario:
     duration : float
         Default simulated time [s].
     output_rate : float
-        Output sample rate [Hz].
+        Output sample rate [Hz] of the default engine.
     description : str
-    build : callable
-        ``build(seed, duration, progress) -> Drive``.
+    build : callable or None
+        ``build(seed, duration, progress) -> Drive`` on the single-track engine
+        (None for a multi-body-only scenario).
+    engines : tuple of str
+        Engines the scenario runs on; the first is the default.
+    multibody_duration : float, optional
+        Default simulated time on the multi-body engine [s].
     """
 
     name: str
@@ -71,7 +88,9 @@ class Scenario:
     duration: float
     output_rate: float
     description: str
-    build: Callable[[int, float, bool], Drive]
+    build: Callable[[int, float, bool], Drive] | None
+    engines: tuple[str, ...] = ()
+    multibody_duration: float | None = None
 
 
 # ------------------------------------------------------------------------------------
@@ -254,30 +273,48 @@ SCENARIOS: dict[str, Scenario] = {
         Scenario(
             "snow-slalom", "suv", 250.0, 25.0,
             "SUV on snow (mu 0.3), lateral model, random slalom into the nonlinear tire region",
-            _snow_slalom,
+            _snow_slalom, ("lateral", "multibody"), 200.0,
         ),
         Scenario(
             "dry-gravel-dry", "sedan", 3 * DGD_SEGMENT, 100.0,
             "sedan, dry asphalt -> gravel -> dry asphalt; acceleration, braking, cornering, quiet",
-            _dry_gravel_dry,
+            _dry_gravel_dry, ("planar", "multibody"), 3 * DGD_SEGMENT,
         ),
         Scenario(
             "f1tenth-patches", "f1tenth", 60.0, 50.0,
             "F1/10 car lapping a 10 x 6 m track with low- and high-grip patches in the corners",
-            _f1tenth_patches,
+            _f1tenth_patches, ("planar",),
         ),
         Scenario(
             "straight-cruise", "sedan", 120.0, 100.0,
-            "sedan on dry asphalt, straight at 20 m/s: almost no excitation",
-            _straight_cruise,
+            "sedan on dry asphalt, straight at 20 m/s: almost no excitation (multi-body: the "
+            "friction drops to 0.3 half-way)",
+            _straight_cruise, ("planar", "multibody"), 120.0,
+        ),
+        Scenario(
+            "figure-eight", "ford-escort", 280.0, 100.0,
+            "car lapping a 524 m figure-eight over dry asphalt with snow, gravel and a wet "
+            "crossing braked to 3 m/s on every second lap",
+            None, ("multibody",), 280.0,
         ),
     )
 }
 """Scenarios by name."""
 
 
+MB_VEHICLES = ("ford-escort", "vw-vanagon")
+"""Vehicles of the multi-body engine (CommonRoad parameter sets 1 and 3)."""
+
+
 def simulate_scenario(
-    name: str, seed: int = 0, progress: bool = False, duration: float | None = None
+    name: str,
+    seed: int = 0,
+    progress: bool = False,
+    duration: float | None = None,
+    *,
+    engine: str | None = None,
+    vehicle: str | None = None,
+    cache: bool | None = None,
 ) -> Drive:
     """Simulate a named scenario.
 
@@ -291,17 +328,47 @@ def simulate_scenario(
         Show a status line.
     duration : float, optional
         Override the scenario's duration [s] (short runs for tests).
+    engine : str, optional
+        One of the scenario's :attr:`Scenario.engines` (default: its first).
+    vehicle : str, optional
+        Multi-body vehicle (:data:`MB_VEHICLES`, default ``'ford-escort'``);
+        the single-track engines use the scenario's own vehicle.
+    cache : bool, optional
+        Read and write multi-body drives in the folder ``ROADGRIP_DRIVE_CACHE``
+        (default: whenever that variable is set).
 
     Raises
     ------
     ValueError
-        Unknown scenario name (the message lists the known ones).
+        Unknown scenario, engine or vehicle (the message lists the known ones).
     """
     try:
         sc = SCENARIOS[name]
     except KeyError:
         raise ValueError(f"unknown scenario {name!r}; known scenarios: {', '.join(SCENARIOS)}") from None
-    dur = sc.duration if duration is None else float(duration)
-    if dur <= 0:
+    engine = sc.engines[0] if engine is None else engine
+    if engine not in sc.engines:
+        raise ValueError(f"scenario {name!r} runs on engine(s) {', '.join(sc.engines)}, not {engine!r}")
+    if engine != "multibody":
+        if vehicle is not None and vehicle != sc.vehicle:
+            raise ValueError(f"scenario {name!r} on the {engine} engine drives its own vehicle "
+                             f"{sc.vehicle!r}; --vehicle applies to the multibody engine")
+        dur = sc.duration if duration is None else float(duration)
+        if dur <= 0:
+            raise ValueError(f"duration must be positive, got {dur}")
+        assert sc.build is not None
+        return sc.build(seed, dur, progress)
+    vehicle = MB_VEHICLES[0] if vehicle is None else vehicle
+    if vehicle not in MB_VEHICLES:
+        raise ValueError(f"unknown multi-body vehicle {vehicle!r}; known: {', '.join(MB_VEHICLES)}")
+    dur = float(sc.multibody_duration or sc.duration) if duration is None else float(duration)
+    if not (dur > 0 and np.isfinite(dur)):
         raise ValueError(f"duration must be positive, got {dur}")
-    return sc.build(seed, dur, progress)
+    from roadgrip.sim import drive_cache
+    from roadgrip.sim.mb_scenarios import MB_BUILDERS
+
+    def build() -> Drive:
+        return MB_BUILDERS[name](seed, dur, progress, vehicle)
+
+    return drive_cache.cached(build, enabled=cache, scenario=name, engine=engine, vehicle=vehicle,
+                              seed=int(seed), duration=dur)

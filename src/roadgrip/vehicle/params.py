@@ -197,6 +197,15 @@ PRESET_SOURCES: dict[str, str] = {
         "CG height are measured-scale estimates; cornering stiffness is from the authors' "
         "Pacejka-like fit (about 0.84 peak, slope near 6/rad per unit load)."
     ),
+    "ford-escort": (
+        "CommonRoad vehicle 1 (Ford Escort, multi-body parameters from the US DOT vehicle "
+        "dynamics data) as roadgrip.sim.multibody.vehicle_from_commonroad derives it: total "
+        "mass, CG and yaw inertia of the sprung and unsprung masses, the package's CG height, "
+        "rolling radius and wheel inertia, mean track, cornering stiffness |p_ky1| Fz."
+    ),
+    "vw-vanagon": (
+        "CommonRoad vehicle 3 (VW Vanagon, multi-body parameters), derived as for ford-escort."
+    ),
 }
 
 
