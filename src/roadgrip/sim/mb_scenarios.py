@@ -95,6 +95,12 @@ DGD_SEGMENT = 60.0
 """Length of each surface segment of ``dry-gravel-dry`` [s]."""
 
 
+def _lane_shape(tau: NDArray, offset: float, change_time: float) -> NDArray:
+    """Jerk-limited lane change: ``offset (u - sin(2 pi u) / 2 pi)``, ``u = tau / T`` in [0, 1]."""
+    u = np.clip(tau / change_time, 0.0, 1.0)
+    return offset * (u - np.sin(2 * np.pi * u) / (2 * np.pi))
+
+
 def _dry_gravel_dry(seed: int, duration: float, progress: bool, vehicle: str) -> Drive:
     rng = np.random.default_rng([seed, 11])
     labels = ("dry_asphalt", "gravel", "dry_asphalt")
@@ -145,14 +151,9 @@ def _dry_gravel_dry(seed: int, duration: float, progress: bool, vehicle: str) ->
             y += np.where(inside, amp * np.sin(2 * np.pi * tau / period)
                           * np.clip(np.minimum(tau, n_per * period - tau) / (0.5 * period), 0, 1), 0.0)
         else:
-            T = period
-            hold = (t1 - t0) - 2 * T
-
-            def shape(u):
-                u = np.clip(u / T, 0.0, 1.0)
-                return mag * (u - np.sin(2 * np.pi * u) / (2 * np.pi))
-
-            y += np.where(inside, shape(tau) - shape(tau - T - hold), 0.0)
+            hold = (t1 - t0) - 2 * period
+            y += np.where(inside, _lane_shape(tau, mag, period)
+                          - _lane_shape(tau - period - hold, mag, period), 0.0)
     v = np.interp(t_of_s, t, vt)
     field = PiecewiseTime(tuple(i * DGD_SEGMENT for i in range(len(labels))), labels)
     return simulate_multibody(
