@@ -291,3 +291,30 @@ def test_suite_scores_curves_against_the_binned_truth(monkeypatch):
     # curves at 50 s (snow) and at the end (tarmac), each against its own surface's truth
     scored = [x for x in rec.details if x.startswith("curve ")]
     assert len(scored) == 4 and any("front at t = 50 s" in x for x in scored)
+
+
+def test_gpssm_curve_accuracy_and_curve_table_on_binned_truth():
+    from roadgrip.estimators.gpssm import CurvePosterior, curve_accuracy, curves_frame
+
+    d = _binned_drive(n=10000)
+    grid = np.linspace(-0.3, 0.3, 161)
+    mu = np.vstack([_mu_a(grid), _mu_a(grid)])
+    post = CurvePosterior(grid, mu + 0.02, mu - 0.03, mu + 0.07, np.zeros_like(mu))
+    curv = _curvature_bound(_mu_a, -0.2, 0.15)
+    tol = 2.0 * DEFAULT_BIN_WIDTH**2 * curv + 0.00375**2 * curv / 8
+    acc = curve_accuracy(post, d, 50.0)
+    for axle in ("front", "rear"):
+        assert acc[axle]["mae"] == pytest.approx(0.02, abs=tol)
+        assert acc[axle]["coverage"] == 1.0 and acc[axle]["bins"] == 41
+    # front slips beyond 0.1 rad only under combined slip: those bins have no truth, not scored
+    df = d.data.copy()
+    far = df["alpha_f_true"] > 0.1
+    df.loc[far, "Fxf_true"] = 0.3 * df.loc[far, "Fzf_true"]
+    acc = curve_accuracy(post, Drive(df, d.meta), 50.0)
+    assert acc["front"]["alpha_max"] < 0.1 + DEFAULT_BIN_WIDTH and acc["front"]["bins"] < acc["rear"]["bins"] == 41
+    assert acc["front"]["mae"] == pytest.approx(0.02, abs=tol)
+    tab = curves_frame({50.0: post}, d)
+    front = tab[tab["axle"] == "front"]
+    inside = (front["alpha"] > -0.19) & (front["alpha"] < 0.145)
+    assert np.isnan(front.loc[~inside & (front["alpha"].abs() > 0.21), "mu_true"]).all()
+    assert np.abs(front.loc[inside, "mu_true"] - _mu_a(front.loc[inside, "alpha"])).max() <= tol

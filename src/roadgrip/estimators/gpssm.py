@@ -1455,8 +1455,10 @@ def curves_frame(curves: dict[float, CurvePosterior], drive: Any = None) -> pd.D
                 "mu_lower": c.lower[ax], "mu_upper": c.upper[ax], "mu_prior": c.prior[ax],
             })
             if drive is not None and drive.has_truth:
-                try:
-                    f["mu_true"] = drive.true_tire(axle).mu(c.alpha)
+                from roadgrip.evaluate.truth import true_curve
+
+                try:  # parametric, or binned (NaN where the drive's truth visited no bin)
+                    f["mu_true"] = true_curve(drive, axle)(c.alpha)
                 except Exception:
                     pass
             frames.append(f)
@@ -1476,13 +1478,17 @@ def curve_accuracy(
     Slip bins of ``bin_width`` [rad] (signed) visited at least ``min_visits`` times by the
     true slip angles up to ``t_end`` form the covered range; over their centres the
     posterior mean is compared with the true curve (mean absolute error) and the 95 % band
-    is checked to contain it (coverage fraction).
+    is checked to contain it (coverage fraction). The true curve is
+    :func:`roadgrip.evaluate.truth.true_curve`: on a drive with binned truth, covered bins
+    its pure-lateral samples did not visit are left out.
 
     Returns
     -------
     dict
         ``{'front': {'mae', 'coverage', 'bins', 'alpha_min', 'alpha_max'}, 'rear': ...}``.
     """
+    from roadgrip.evaluate.truth import true_curve
+
     out: dict[str, dict[str, float]] = {}
     t = drive.t
     sel = t <= (t_end if t_end is not None else t[-1]) + 1e-9
@@ -1491,6 +1497,8 @@ def curve_accuracy(
         idx = np.floor(a_true / bin_width).astype(int)
         ids, counts = np.unique(idx, return_counts=True)
         centres = (ids[counts >= min_visits] + 0.5) * bin_width
+        true = true_curve(drive, axle, bin_width=bin_width)(centres)
+        centres, true = centres[np.isfinite(true)], true[np.isfinite(true)]
         if len(centres) == 0:
             out[axle] = {"mae": float("nan"), "coverage": float("nan"), "bins": 0,
                          "alpha_min": 0.0, "alpha_max": 0.0}
@@ -1498,7 +1506,6 @@ def curve_accuracy(
         mean = np.interp(centres, curve.alpha, curve.mean[ax])
         lo = np.interp(centres, curve.alpha, curve.lower[ax])
         hi = np.interp(centres, curve.alpha, curve.upper[ax])
-        true = drive.true_tire(axle).mu(centres)
         out[axle] = {
             "mae": float(np.mean(np.abs(mean - true))),
             "coverage": float(np.mean((lo <= true) & (true <= hi))),
