@@ -318,3 +318,26 @@ def test_gpssm_curve_accuracy_and_curve_table_on_binned_truth():
     inside = (front["alpha"] > -0.19) & (front["alpha"] < 0.145)
     assert np.isnan(front.loc[~inside & (front["alpha"].abs() > 0.21), "mu_true"]).all()
     assert np.abs(front.loc[inside, "mu_true"] - _mu_a(front.loc[inside, "alpha"])).max() <= tol
+
+
+def test_curve_figures_draw_a_binned_truth_where_it_is_defined(tmp_path):
+    import matplotlib.pyplot as plt
+
+    from roadgrip.estimators.gpssm import CurvePosterior, curves_frame
+    from roadgrip.plots import gpssm as PG
+    from roadgrip.plots import signals as PS
+
+    d = _binned_drive(n=4000)
+    grid = np.linspace(-0.3, 0.3, 161)
+    mu = np.vstack([_mu_a(grid), _mu_a(grid)])
+    tab = curves_frame({20.0: CurvePosterior(grid, mu, mu - 0.05, mu + 0.05, 0 * mu)}, d)
+    assert tab["mu_true"].isna().any() and tab["mu_true"].notna().any()
+    for fig in (PS.plot_curves(tab),
+                PG.plot_curves(tab, pd.DataFrame({"t": d.t, "alpha_f": d.col("alpha_f_true"),
+                                                  "alpha_r": d.col("alpha_r_true")}),
+                               tmp_path / "fig1.png")):
+        truth = [ln for ax in fig.axes for ln in ax.get_lines() if ln.get_label() == "truth"]
+        assert len(truth) == 2  # front and rear
+        y = np.asarray(truth[0].get_ydata(), float)
+        assert np.isfinite(y).sum() > 80 and np.isnan(y).any()  # [-0.2, 0.15] of [-0.3, 0.3]
+        plt.close(fig)

@@ -29,7 +29,7 @@ def plot_curves(curves: pd.DataFrame, table: pd.DataFrame, path: str | Path, tit
     curves : DataFrame
         ``curves.parquet`` layout: ``t`` [s from the drive start], ``axle``, ``alpha``
         [rad], ``mu_mean``, ``mu_lower``, ``mu_upper``, optional ``mu_prior`` and
-        ``mu_true``.
+        ``mu_true`` (drawn where finite: a binned truth is NaN outside its visited bins).
     table : DataFrame
         Per-step estimates with ``t``, ``alpha_f``, ``alpha_r`` [rad] (slip histogram).
     path : str or Path
@@ -51,7 +51,7 @@ def plot_curves(curves: pd.DataFrame, table: pd.DataFrame, path: str | Path, tit
             a = np.degrees(c["alpha"].to_numpy())
             ax.fill_between(a, c["mu_lower"], c["mu_upper"], color="0.8", label="95 % band")
             ax.plot(a, c["mu_mean"], "k-", lw=1.5, label="posterior mean")
-            if "mu_true" in c and c["mu_true"].notna().all():
+            if "mu_true" in c and c["mu_true"].notna().any():  # a binned truth: gaps
                 ax.plot(a, c["mu_true"], "r--", lw=1.2, label="truth")
             if "mu_prior" in c:
                 ax.plot(a, c["mu_prior"], "k-.", lw=1.0, label="prior")

@@ -158,7 +158,7 @@ def plot_curves(curves: pd.DataFrame, visited: dict[str, np.ndarray] | None = No
     ----------
     curves : DataFrame
         Columns ``t``, ``axle``, ``alpha`` [rad], ``mu_mean``, ``mu_lower``,
-        ``mu_upper`` and optionally ``mu_true``.
+        ``mu_upper`` and optionally ``mu_true`` (drawn where finite).
     visited : dict, optional
         ``{'front': alpha_f, 'rear': alpha_r}`` visited slip angles [rad], drawn
         as a histogram under the curves.
@@ -175,7 +175,8 @@ def plot_curves(curves: pd.DataFrame, visited: dict[str, np.ndarray] | None = No
             colour = cmap(k / max(len(times) - 1, 1))
             ax.fill_between(a, c["mu_lower"], c["mu_upper"], color=colour, alpha=0.15, lw=0)
             ax.plot(a, c["mu_mean"], color=colour, lw=1.3, label=f"t = {tc:.0f} s")
-            if k == len(times) - 1 and "mu_true" in c and np.isfinite(c["mu_true"].to_numpy(float)).all():
+            # the truth where it is defined (a binned truth is NaN outside its visited bins)
+            if k == len(times) - 1 and "mu_true" in c and np.isfinite(c["mu_true"].to_numpy(float)).any():
                 ax.plot(a, c["mu_true"], "k--", lw=1.0, label="truth")
         if visited is not None and axle in visited and len(visited[axle]):
             ax2 = ax.twinx()
