@@ -320,7 +320,7 @@ def test_gpssm_curve_accuracy_and_curve_table_on_binned_truth():
     assert np.abs(front.loc[inside, "mu_true"] - _mu_a(front.loc[inside, "alpha"])).max() <= tol
 
 
-def test_curve_figures_draw_a_binned_truth_where_it_is_defined(tmp_path):
+def test_curve_figures_draw_a_binned_truth_where_it_is_defined(tmp_path, monkeypatch):
     import matplotlib.pyplot as plt
 
     from roadgrip.estimators.gpssm import CurvePosterior, curves_frame
@@ -332,10 +332,13 @@ def test_curve_figures_draw_a_binned_truth_where_it_is_defined(tmp_path):
     mu = np.vstack([_mu_a(grid), _mu_a(grid)])
     tab = curves_frame({20.0: CurvePosterior(grid, mu, mu - 0.05, mu + 0.05, 0 * mu)}, d)
     assert tab["mu_true"].isna().any() and tab["mu_true"].notna().any()
-    for fig in (PS.plot_curves(tab),
-                PG.plot_curves(tab, pd.DataFrame({"t": d.t, "alpha_f": d.col("alpha_f_true"),
-                                                  "alpha_r": d.col("alpha_r_true")}),
-                               tmp_path / "fig1.png")):
+    written = []  # the Fig. 1 writer closes its figure: keep it
+    monkeypatch.setattr(PG.plt, "close", written.append)
+    PG.plot_curves(tab, pd.DataFrame({"t": d.t, "alpha_f": d.col("alpha_f_true"),
+                                      "alpha_r": d.col("alpha_r_true")}), tmp_path / "fig1.png")
+    monkeypatch.undo()
+    assert (tmp_path / "fig1.png").exists() and len(written) == 1
+    for fig in (PS.plot_curves(tab), written[0]):
         truth = [ln for ax in fig.axes for ln in ax.get_lines() if ln.get_label() == "truth"]
         assert len(truth) == 2  # front and rear
         y = np.asarray(truth[0].get_ydata(), float)
