@@ -27,3 +27,11 @@ def two_blas_threads():
         if not threads or min(threads.values()) < 2:
             pytest.skip(f"BLAS runs one thread at most here: {threads}")
         yield threads
+
+
+def pytest_configure(config):
+    """Share simulated multi-body drives between test workers and runs (content-hashed)."""
+    import os
+    from pathlib import Path
+
+    os.environ.setdefault("ROADGRIP_DRIVE_CACHE", str(Path(__file__).resolve().parents[1] / ".cache" / "drives"))
