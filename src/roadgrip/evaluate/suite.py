@@ -109,6 +109,11 @@ class BenchSettings:
         Row labels of :data:`GPSSM_VARIANTS` to run on snow-slalom.
     gpssm_other : str
         The variant run on straight-cruise and the real data.
+    multibody : tuple of (scenario, vehicle)
+        Drives of the independent multi-body engine, each its own rows
+        (drive name ``'<scenario>:mb:<vehicle>'``).
+    multibody_durations : dict
+        Scenario -> multi-body duration [s] (missing: the scenario's own).
     """
 
     name: str
@@ -120,6 +125,12 @@ class BenchSettings:
     frictionmaps_runs: tuple[str, ...] = ("DS1", "DS2", "DS3", "DS4", "DS5")
     gpssm_variants: tuple[str, ...] = ("gpssm", "gpssm-fast", "gpssm-sep", "gpssm-sep-odd")
     gpssm_other: str = "gpssm-sep-odd"
+    multibody: tuple[tuple[str, str], ...] = (
+        ("snow-slalom", "ford-escort"), ("dry-gravel-dry", "ford-escort"),
+        ("figure-eight", "ford-escort"), ("straight-cruise", "ford-escort"),
+        ("snow-slalom", "vw-vanagon"), ("dry-gravel-dry", "vw-vanagon"),
+    )
+    multibody_durations: dict[str, float] = field(default_factory=dict)
 
     def describe(self) -> str:
         """One line saying what was shortened or reduced."""
@@ -132,6 +143,12 @@ class BenchSettings:
             parts.append("full scenario durations")
         variants = ", ".join(f"{v} ({_variant_text(v)})" for v in self.gpssm_variants)
         parts.append(f"GP-SSM on snow-slalom: {variants}")
+        if self.multibody:
+            mbd = ", ".join(
+                f"{sc}/{v}" + (f" {self.multibody_durations[sc]:g} s" if sc in self.multibody_durations else "")
+                for sc, v in self.multibody
+            )
+            parts.append(f"multi-body drives: {mbd}")
         parts.append("real data: " + ("yes" if self.real_data else "no"))
         return "; ".join(parts)
 
@@ -150,12 +167,16 @@ QUICK = BenchSettings(
     dart_files=1,
     frictionmaps_runs=("DS3", "DS4", "DS5"),
     gpssm_variants=("gpssm-fast", "gpssm-sep", "gpssm-sep-odd"),
+    multibody=(("snow-slalom", "ford-escort"), ("dry-gravel-dry", "ford-escort"),
+               ("figure-eight", "ford-escort"), ("straight-cruise", "ford-escort")),
+    multibody_durations={"snow-slalom": 60.0, "figure-eight": 120.0, "straight-cruise": 30.0},
 )
 DEMO = BenchSettings(
     "demo",
     scenarios=("snow-slalom", "dry-gravel-dry", "f1tenth-patches"),
     real_data=False,
     gpssm_variants=("gpssm-sep-odd",),
+    multibody=(("dry-gravel-dry", "ford-escort"),),
 )
 
 
@@ -208,6 +229,10 @@ class RunRecord:
     wall_s: float = float("nan")
 
 
+MB_TAG = ":mb:"
+"""Separator of a multi-body drive name, ``'<scenario>:mb:<vehicle>'``."""
+
+
 # -- discovery ---------------------------------------------------------------------------
 def module_available(name: str) -> bool:
     """Whether a roadgrip module can be imported (without importing it)."""
@@ -254,6 +279,11 @@ def default_cases(settings: BenchSettings) -> list[Case]:
     for sc in settings.scenarios:
         for c in sim_methods.get(sc, []):
             cases.append(replace(c, drive=sc))
+    mb_methods = dict(sim_methods, **{"snow-slalom": [gp_other],
+                                      "figure-eight": [Case("", "cascade", "cascade")]})
+    for sc, vehicle in settings.multibody:
+        for c in mb_methods.get(sc, []):
+            cases.append(replace(c, drive=f"{sc}{MB_TAG}{vehicle}"))
     root = real_data_root() if settings.real_data else None
     if root is not None:
         for floor, ref in (("high_grip_rubbery_floor", "high"), ("low_grip_tape_and_tiles", "low")):
@@ -285,9 +315,15 @@ def _load_drive(case: Case, settings: BenchSettings, seed: int, cache: dict):
     else:
         from roadgrip.sim.scenarios import simulate_scenario
 
-        duration = settings.durations.get(case.drive)
-        kwargs = {"duration": duration} if duration else {}
-        drive = simulate_scenario(case.drive, seed=seed, **kwargs)
+        if MB_TAG in case.drive:
+            sc, vehicle = case.drive.split(MB_TAG)
+            duration = settings.multibody_durations.get(sc)
+            drive = simulate_scenario(sc, seed=seed, engine="multibody", vehicle=vehicle,
+                                      duration=duration)
+        else:
+            duration = settings.durations.get(case.drive)
+            kwargs = {"duration": duration} if duration else {}
+            drive = simulate_scenario(case.drive, seed=seed, **kwargs)
     cache[key] = drive
     return drive
 
