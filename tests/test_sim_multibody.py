@@ -238,3 +238,24 @@ def test_bad_requests_are_named():
     with pytest.raises(ValueError, match="no mu"):
         mb.simulate_multibody("ford-escort", mb.Path([0, 1, 2], [0, 0, 0], [5, 5, 5]),
                               ConstantFriction("ice"), {"snow": 0.3}, duration=1.0)
+
+
+def test_command_line_simulates_on_the_multibody_engine(tmp_path):
+    from tests.test_cli_foundation import _roadgrip
+
+    out = tmp_path / "mb.parquet"
+    res = _roadgrip("simulate", "snow-slalom", "--engine", "multibody", "--vehicle", "vw-vanagon",
+                    "--duration", "12", "--seed", "2", "-o", str(out))
+    assert res.returncode == 0, res.stderr
+    from roadgrip.io import read_drive
+
+    d = read_drive(out)
+    assert d.meta.truth["model"] == "multibody" and d.vehicle == PRESETS["vw-vanagon"]
+    assert d.duration == pytest.approx(12.0, abs=0.05) and d.meta.sample_rate == pytest.approx(25.0)
+    listing = _roadgrip("scenarios")
+    assert listing.returncode == 0
+    rows = {line.split("│")[1].strip(): line for line in listing.stdout.splitlines() if line.count("│") > 3}
+    assert "multibody" in rows["figure-eight"] and "lateral, multibody" in rows["snow-slalom"]
+    assert "multibody" not in rows["f1tenth-patches"]
+    bad = _roadgrip("simulate", "f1tenth-patches", "--engine", "multibody", "-o", str(out))
+    assert bad.returncode == 2 and "runs on engine" in bad.stderr
