@@ -161,3 +161,75 @@ def test_simulated_scenarios_excitation():
     assert slalom.method == cruise.method == "truth"
     assert slalom.fraction >= 0.15
     assert cruise.fraction < 0.02
+
+
+# -- friction utilisation, and drives whose truth is binned --------------------------------
+def _binned_truth_drive(util_columns: bool) -> Drive:
+    """Ten samples; front utilisation given or computed, rear always computed from forces.
+
+    Front: 0.1 0.2 0.55 0.6 0.7 0.81 0.9 0.95 0.3 0.4 -> 6/10 above 0.5, 3/10 above 0.8.
+    Rear (mu 0.5, Fz 1000 N, so |F| / 500 N): 1.0, 0.4, 0.8 (not above), 0.9, 0.2, ... and
+    one lifted sample (Fz = 0), left out.
+    """
+    u_f = np.array([0.1, 0.2, 0.55, 0.6, 0.7, 0.81, 0.9, 0.95, 0.3, 0.4])
+    fzf = np.full(10, 2000.0)
+    mu = np.full(10, 0.5)
+    # front forces that give u_f: |F| = u mu Fz, split 3:4 between x and y
+    ff = u_f * mu * fzf
+    fxr = np.array([300.0, 0.0, 240.0, 0.0, 100.0, 0.0, 0.0, 0.0, 0.0, 50.0])
+    fyr = np.array([400.0, 200.0, 320.0, 450.0, 0.0, 260.0, 280.0, 420.0, 350.0, 0.0])
+    fzr = np.array([1000.0] * 9 + [0.0])
+    df = pd.DataFrame({"t": np.arange(10) * 0.1, "alpha_f_true": 0.0, "alpha_r_true": 0.0,
+                       "Fxf_true": 0.6 * ff, "Fyf_true": 0.8 * ff, "Fzf_true": fzf,
+                       "Fxr_true": fxr, "Fyr_true": fyr, "Fzr_true": fzr, "mu_true": mu,
+                       "surface": "ice"})
+    if util_columns:
+        # the column wins over the forces: make the forces disagree to show it
+        df["util_f_true"] = u_f
+        df["Fxf_true"] = 0.0
+    truth = {"model": "multibody", "truth_curve": "binned", "surfaces": {"ice": {"mu": 0.5}}}
+    return Drive.from_frame(df, SEDAN, source="sim:test", truth=truth, check_units=False)
+
+
+@pytest.mark.parametrize("util_columns", [True, False])
+def test_utilisation_shares_from_columns_or_forces(util_columns):
+    from roadgrip.io.describe import utilisation_shares
+
+    front, rear = utilisation_shares(_binned_truth_drive(util_columns))
+    assert front.source == ("column" if util_columns else "computed") and rear.source == "computed"
+    assert front.above == pytest.approx({0.5: 0.6, 0.8: 0.3})
+    assert front.defined == 1.0
+    # rear |F| / 500 N over the nine loaded samples: 1.0 0.4 0.8 0.9 0.2 0.52 0.56 0.84 0.7
+    assert rear.above == pytest.approx({0.5: 7 / 9, 0.8: 3 / 9})  # 0.8 itself is not above
+    assert rear.defined == pytest.approx(0.9)
+
+
+def test_no_utilisation_without_the_truth_columns():
+    from roadgrip.io.describe import utilisation_shares
+
+    assert utilisation_shares(_truth_drive(0.2)) == []
+
+
+def test_binned_truth_excitation_is_the_front_utilisation():
+    exc = nonlinear_fraction(_binned_truth_drive(True))
+    assert exc[0].method == "truth"
+    assert exc[0].fraction == pytest.approx(0.3)  # 0.81, 0.9, 0.95
+    assert "utilisation" in exc[0].detail and "no parametric tire curve" in exc[0].detail
+    # neither a parametric curve nor a utilisation: skipped, with the reason
+    d = _binned_truth_drive(False)
+    bare = Drive.from_frame(d.data.drop(columns=["mu_true"]), SEDAN, truth=d.meta.truth,
+                            check_units=False)
+    e = nonlinear_fraction(bare)[0]
+    assert e.method == "truth" and np.isnan(e.fraction) and e.detail.startswith("skipped:")
+
+
+def test_describe_reports_utilisation_on_a_binned_truth_drive():
+    console = Console(record=True, width=220)
+    console.print(describe_drive(_binned_truth_drive(False)))
+    text = console.export_text()
+    assert "friction utilisation" in text and "time > 50%" in text and "time > 80%" in text
+    front = next(ln for ln in text.splitlines() if ln.startswith("│ front"))
+    assert "60.0%" in front and "30.0%" in front and "hypot(Fxf, Fyf)" in front
+    rear = next(ln for ln in text.splitlines() if ln.startswith("│ rear"))
+    assert "77.8%" in rear and "33.3%" in rear and "defined at 90.0%" in rear
+    assert "skipped" not in text and "30.0%" in text

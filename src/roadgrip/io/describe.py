@@ -6,7 +6,12 @@ excites the tire in its nonlinear region (:func:`nonlinear_fraction`):
 * With simulation truth: the fraction of samples where ``|alpha_f_true|`` is
   beyond ``alpha_80``, the front slip angle at which the true front friction
   curve (of the surface under the vehicle at that sample) reaches 80 % of its
-  peak.
+  peak. A drive whose truth carries no parametric tire curve (binned truth, see
+  :mod:`roadgrip.evaluate.truth`) has no ``alpha_80``; there the measure is the
+  fraction of samples whose front friction utilisation ``|F| / (mu Fz)``
+  exceeds 80 % (:func:`~roadgrip.evaluate.truth.friction_utilisation`), among
+  the samples where it is defined, and it is reported as skipped when the drive
+  carries no utilisation either.
 * Without truth, two proxies on the measured signals (smoothed by a centred
   0.2 s moving average against sensor noise):
 
@@ -21,6 +26,13 @@ excites the tire in its nonlinear region (:func:`nonlinear_fraction`):
     it follows transients (slaloms), so a departure means the tires left their
     linear range, or the vehicle's stiffnesses do not fit the surface. It needs
     ``yaw_rate``, ``steer`` and ``vx``.
+
+It also reports the friction utilisation per axle (:func:`utilisation_shares`):
+the fraction of samples above 50 % and above 80 % of the available friction,
+from the ``util_f_true`` / ``util_r_true`` columns when present, otherwise
+``hypot(Fx, Fy) / (mu_true Fz)`` from the axle forces (samples with ``Fz <= 0``
+have no utilisation and are left out of the fractions). At a uniform sample rate
+a fraction of samples is a fraction of time.
 """
 
 from __future__ import annotations
@@ -33,16 +45,23 @@ from rich.table import Table
 
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import SIGNAL_COLUMNS, TRUTH_COLUMNS, Drive
+from roadgrip.evaluate.truth import friction_utilisation, has_parametric_truth, utilisation_source
 from roadgrip.tire import FrictionModel
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = [
+    "UTILISATION_LEVELS",
     "Excitation",
+    "UtilisationShare",
     "describe_drive",
     "linear_yaw_rate",
     "nonlinear_fraction",
     "slip_at_fraction_of_peak",
+    "utilisation_shares",
 ]
+
+UTILISATION_LEVELS = (0.5, 0.8)
+"""Friction utilisation levels [-] whose exceedance ``roadgrip info`` reports per axle."""
 
 UNITS = {
     "t": "s",
@@ -201,7 +220,9 @@ def nonlinear_fraction(
     """
     out: list[Excitation] = []
     data = drive.data
-    if drive.has_truth and "alpha_f_true" in data.columns and "surfaces" in (drive.meta.truth or {}):
+    truth = drive.meta.truth or {}
+    parametric = has_parametric_truth(drive, "front")
+    if parametric and "alpha_f_true" in data.columns:
         alpha = np.abs(drive.col("alpha_f_true"))
         if "surface" in data.columns:
             labels = data["surface"].astype(str).to_numpy()
@@ -220,6 +241,22 @@ def nonlinear_fraction(
                 "|alpha_f_true| beyond the slip of 80 % of the true front peak (" + ", ".join(parts) + ")",
             )
         )
+    elif drive.has_truth and not parametric and ("surfaces" in truth or "truth_curve" in truth):
+        why = "the drive's truth has no parametric tire curve"
+        src = utilisation_source(drive, "front")
+        if src is None:
+            out.append(Excitation(
+                float("nan"), "truth",
+                f"skipped: {why} (no slip of 80 % of its peak) and no front utilisation "
+                "(util_f_true, or Fxf/Fyf/Fzf_true and mu_true)"))
+        else:
+            u = friction_utilisation(drive, "front")
+            ok = np.isfinite(u)
+            frac = float(np.mean(u[ok] > 0.8)) if ok.any() else float("nan")
+            out.append(Excitation(
+                frac, "truth",
+                f"front friction utilisation |F| / (mu Fz) > 80 % ({_UTIL_FROM[src]('f')}; "
+                f"{why}, so no slip of 80 % of its peak)"))
     t = drive.t
     if "ay" in data.columns:
         mu = 1.0 if mu_peak is None else float(mu_peak)
@@ -250,6 +287,67 @@ def nonlinear_fraction(
     return out
 
 
+_UTIL_FROM = {
+    "column": lambda a: f"util_{a}_true",
+    "computed": lambda a: f"hypot(Fx{a}, Fy{a}) / (mu_true Fz{a})",
+}
+
+
+@dataclass(frozen=True)
+class UtilisationShare:
+    """How much of a drive an axle spends near its friction limit.
+
+    Attributes
+    ----------
+    axle : str
+        ``'front'`` or ``'rear'``.
+    source : str
+        ``'column'`` (``util_<a>_true``) or ``'computed'`` (axle forces and ``mu_true``).
+    above : dict of float to float
+        Utilisation level [-] -> fraction of samples strictly above it [-], among the
+        samples where the utilisation is defined (NaN when it is defined nowhere).
+    defined : float
+        Fraction of all samples where the utilisation is defined [-].
+    """
+
+    axle: str
+    source: str
+    above: dict[float, float]
+    defined: float
+
+
+def utilisation_shares(
+    drive: Drive, levels: tuple[float, ...] = UTILISATION_LEVELS
+) -> list[UtilisationShare]:
+    """Per axle, the fraction of samples above each friction-utilisation level.
+
+    Parameters
+    ----------
+    drive : Drive
+        Utilisation from ``util_f_true`` / ``util_r_true``, otherwise computed from
+        ``Fx*_true``, ``Fy*_true``, ``Fz*_true`` and ``mu_true``
+        (:func:`roadgrip.evaluate.truth.friction_utilisation`).
+    levels : tuple of float
+        Utilisation levels [-].
+
+    Returns
+    -------
+    list of UtilisationShare
+        One per axle that has a utilisation (empty for a drive without).
+    """
+    out = []
+    for axle in ("front", "rear"):
+        src = utilisation_source(drive, axle)
+        if src is None:
+            continue
+        u = friction_utilisation(drive, axle)
+        ok = np.isfinite(u)
+        above = {float(lv): float(np.mean(u[ok] > lv)) if ok.any() else float("nan")
+                 for lv in levels}
+        out.append(UtilisationShare(axle, src, above, float(np.mean(ok)) if len(u) else float("nan")))
+    return out
+
+
 def _fmt(v: float) -> str:
     return f"{v:.4g}"
 
@@ -266,8 +364,9 @@ def describe_drive(drive: Drive, *, mu_peak: float | None = None) -> Group:
     Returns
     -------
     rich.console.Group
-        An overview table, a per-signal table (unit, min, max, mean) and the
-        excitation table.
+        An overview table, a per-signal table (unit, min, max, mean), the
+        excitation table and, when the drive carries it, the friction utilisation
+        table (:func:`utilisation_shares`).
     """
     t = drive.t
     dt = np.diff(t)
@@ -316,4 +415,19 @@ def describe_drive(drive: Drive, *, mu_peak: float | None = None) -> Group:
     exc.add_column("definition")
     for e in nonlinear_fraction(drive, mu_peak=mu_peak):
         exc.add_row(e.method, "n/a" if not np.isfinite(e.fraction) else f"{e.fraction:.1%}", e.detail)
-    return Group(over, sig, exc)
+    parts = [over, sig, exc]
+    shares = utilisation_shares(drive)
+    if shares:
+        util = Table(title="friction utilisation |F| / (mu Fz) (truth)")
+        util.add_column("axle")
+        for lv in UTILISATION_LEVELS:
+            util.add_column(f"time > {lv:.0%}", justify="right")
+        util.add_column("from")
+        for sh in shares:
+            src = _UTIL_FROM[sh.source](sh.axle[0])
+            if sh.defined < 1.0:
+                src += f" (defined at {sh.defined:.1%} of the samples)"
+            util.add_row(sh.axle, *("n/a" if not np.isfinite(f) else f"{f:.1%}"
+                                    for f in sh.above.values()), src)
+        parts.append(util)
+    return Group(*parts)
