@@ -28,14 +28,16 @@ class _Ids(HTMLParser):
 def test_demo_covers_the_three_scenarios_and_applicable_methods():
     pairs = {(c.drive, c.method) for c in default_cases(DEMO)}
     assert pairs == {("snow-slalom", "gpssm"), ("dry-gravel-dry", "brls"), ("dry-gravel-dry", "slipmap"),
-                     ("f1tenth-patches", "cascade")}
+                     ("f1tenth-patches", "cascade"),
+                     ("dry-gravel-dry:mb:ford-escort", "brls"), ("dry-gravel-dry:mb:ford-escort", "slipmap")}
 
 
 @pytest.mark.slow
 def test_demo_writes_report_with_all_sections(tmp_path):
     pytest.importorskip("roadgrip.sim.scenarios")
     settings = replace(DEMO, name="test", particles=20,
-                       durations={"snow-slalom": 30.0, "dry-gravel-dry": 40.0, "f1tenth-patches": 40.0})
+                       durations={"snow-slalom": 30.0, "dry-gravel-dry": 40.0, "f1tenth-patches": 40.0},
+                       multibody_durations={"dry-gravel-dry": 70.0})
     path = demo_cli(tmp_path / "report", seed=0, settings=settings)
     assert path == tmp_path / "report" / "index.html" and path.is_file()
     p = _Ids()
