@@ -63,11 +63,12 @@ def simulate(
 @app.command()
 def scenarios() -> None:
     """List the named scenarios."""
-    from rich.table import Table
+    from rich.table import Column, Table
 
     from roadgrip.sim.scenarios import SCENARIOS
 
-    table = Table("name", "engines", "vehicle", "duration [s]", "rate [Hz]", "description")
+    table = Table("engines", "vehicle", "duration [s]", "rate [Hz]", "description")
+    table.columns.insert(0, Column("name", no_wrap=True))
     for name, sc in SCENARIOS.items():
         vehicles = sc.vehicle if sc.build is not None else "ford-escort, vw-vanagon"
         if sc.build is not None and "multibody" in sc.engines:

@@ -393,6 +393,12 @@ class Drive:
         if axle not in ("front", "rear"):
             raise ValueError(f"axle must be 'front' or 'rear', got {axle!r}")
         key = axle if direction == "lateral" else f"{axle}_long"
+        if key not in surfaces[surface]:
+            raise DriveValidationError(
+                f"drive from {self.meta.source} carries no parametric tire curve for surface "
+                f"{surface!r} (its truth curve is binned from the truth columns: "
+                "roadgrip.evaluate.truth)"
+            )
         return model_from_dict(surfaces[surface][key])
 
     # -- files -------------------------------------------------------------------------
