@@ -50,6 +50,7 @@ __all__ = [
     "integrate_lateral",
     "integrate_planar",
     "lateral_rhs",
+    "nearest_on_path",
     "planar_rhs",
     "surface_index",
     "tire_mu",
@@ -324,12 +325,20 @@ def _rk4_planar(x, h, steer, tdf, tdr, tbf, tbr, rows, peaks, p, k1, k2, k3, k4,
 
 
 @njit(cache=True)
-def _nearest(px, py, x, y, start, window):
+def nearest_on_path(px, py, x, y, start, back, ahead, closed):
+    """Index of the path point nearest ``(x, y)`` among ``start - back .. start + ahead - 1``.
+
+    A closed path wraps around; an open one is searched within its ends.
+    """
     n = px.shape[0]
     best = start
     bd = 1e300
-    for j in range(-5, window):
-        i = (start + j) % n
+    for j in range(-back, ahead):
+        i = start + j
+        if closed:
+            i = i % n
+        elif i < 0 or i >= n:
+            continue
         d = (px[i] - x) ** 2 + (py[i] - y) ** 2
         if d < bd:
             bd = d
@@ -408,7 +417,7 @@ def integrate_planar(
     idx = 0
     npath = path_x.shape[0]
     if steer_mode == 1:
-        idx = _nearest(path_x, path_y, x[5], x[6], 0, npath)
+        idx = nearest_on_path(path_x, path_y, x[5], x[6], 0, 5, npath, True)
     for k in range(n_steps + 1):
         t = k * dt
         si = surface_index(mode, t, x[5], x[6], times, time_idx, rects, rect_idx, n_rects, base)
@@ -421,7 +430,7 @@ def integrate_planar(
             vr = v_ref[k]
             ar = a_ref[k]
         else:
-            idx = _nearest(path_x, path_y, x[5], x[6], idx, 80)
+            idx = nearest_on_path(path_x, path_y, x[5], x[6], idx, 5, 80, True)
             la = lookahead0 + lookahead_gain * max(vx, 0.0)
             j = idx
             for _ in range(npath):

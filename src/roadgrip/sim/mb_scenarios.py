@@ -29,6 +29,7 @@ from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.sim.friction import ConstantFriction, Patch, PatchFriction, PiecewiseTime
 from roadgrip.sim.multibody import Path, simulate_multibody
+from roadgrip.sim.scenarios import DGD_SEGMENT, dgd_truth
 from roadgrip.sim.sensors import SensorSpec
 from roadgrip.sim.track import ClosedTrack
 
@@ -91,10 +92,6 @@ def _snow_slalom(seed: int, duration: float, progress: bool, vehicle: str) -> Dr
 
 
 # ------------------------------------------------------------------------------------
-DGD_SEGMENT = 60.0
-"""Length of each surface segment of ``dry-gravel-dry`` [s]."""
-
-
 def _lane_shape(tau: NDArray, offset: float, change_time: float) -> NDArray:
     """Jerk-limited lane change: ``offset (u - sin(2 pi u) / 2 pi)``, ``u = tau / T`` in [0, 1]."""
     u = np.clip(tau / change_time, 0.0, 1.0)
@@ -159,14 +156,7 @@ def _dry_gravel_dry(seed: int, duration: float, progress: bool, vehicle: str) ->
     return simulate_multibody(
         vehicle, Path(s, y, v), field, {"dry_asphalt": 1.0, "gravel": 0.5}, duration=duration,
         output_rate=100.0, sensors=MB_SENSORS, seed=seed, name="dry-gravel-dry", progress=progress,
-        truth_extra={
-            "changes": [c for c in field.changes if c["t"] < duration],
-            "segments": [
-                {"t0": i * DGD_SEGMENT, "t1": (i + 1) * DGD_SEGMENT, "surface": lab}
-                for i, lab in enumerate(labels) if i * DGD_SEGMENT < duration
-            ],
-            "excited_intervals": [e for e in excited if e["t0"] < duration],
-        },
+        truth_extra=dgd_truth(field, labels, excited, duration),
     )
 
 
@@ -199,24 +189,6 @@ def _lemniscate_xy(a: float, th: NDArray) -> tuple[NDArray, NDArray]:
     return a * np.cos(th) / d, a * np.sin(th) * np.cos(th) / d
 
 
-def _speed_profile(track: ClosedTrack, v_max: float, ay_max: NDArray, a_acc: float,
-                   a_brake: float) -> NDArray:
-    """Speed limit along a loop for a per-point lateral-acceleration budget [m/s]."""
-    k = np.abs(track.curvature())
-    k = np.maximum.reduce([np.roll(k, s) for s in range(-3, 4)])
-    v = np.minimum(v_max, np.sqrt(ay_max / np.maximum(k, 1e-9)))
-    ds = track.segment_lengths()
-    n = track.n
-    for _ in range(2):
-        for i in range(2 * n):
-            j, jn = i % n, (i + 1) % n
-            v[jn] = min(v[jn], np.sqrt(v[j] ** 2 + 2 * a_acc * ds[j]))
-        for i in range(2 * n, 0, -1):
-            j, jp = i % n, (i - 1) % n
-            v[jp] = min(v[jp], np.sqrt(v[j] ** 2 + 2 * a_brake * ds[jp]))
-    return v
-
-
 def _figure_eight(seed: int, duration: float, progress: bool, vehicle: str) -> Drive:
     rng = np.random.default_rng([seed, 12])
     track = lemniscate()
@@ -225,7 +197,7 @@ def _figure_eight(seed: int, duration: float, progress: bool, vehicle: str) -> D
     labels = np.array(field.labels)[field.labels_at(np.zeros(track.n), track.x, track.y)]
     mu_pts = np.array([FIGURE_EIGHT_MU[lab] for lab in labels])
     ay_plan = np.minimum(0.45, 0.8 * mu_pts) * GRAVITY
-    v_lap = _speed_profile(track, 16.0 * rng.uniform(0.95, 1.05), ay_plan, a_acc=2.0, a_brake=3.0)
+    v_lap = track.speed_profile(16.0 * rng.uniform(0.95, 1.05), ay_plan, a_acc=2.0, a_brake=3.0)
     seg = track.segment_lengths()
     s_lap = np.concatenate([[0.0], np.cumsum(seg[:-1])])
     lap = track.length

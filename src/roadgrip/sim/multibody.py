@@ -72,8 +72,9 @@ from numpy.typing import NDArray
 
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
-from roadgrip.sim.engine import surface_index
+from roadgrip.sim.engine import nearest_on_path, surface_index
 from roadgrip.sim.friction import FrictionField
+from roadgrip.sim.runner import wheel_centre_speeds
 from roadgrip.sim.sensors import SensorSpec, apply_sensors, sensors_to_dict
 from roadgrip.vehicle.params import VehicleParams
 from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
@@ -419,21 +420,11 @@ def _rk4(x, u, p, h, k1, k2, k3, k4, tmp, xs):
 
 
 @njit(cache=True)
-def _nearest_on_path(px, py, x, y, start, back, ahead, closed):
-    n = px.shape[0]
-    best = start
-    bd = 1e300
-    for j in range(-back, ahead):
-        i = start + j
-        if closed:
-            i = i % n
-        elif i < 0 or i >= n:
-            continue
-        d = (px[i] - x) ** 2 + (py[i] - y) ** 2
-        if d < bd:
-            bd = d
-            best = i
-    return best
+def _next_on_path(j, n, closed):
+    """The point after ``j`` on a path of ``n`` points; -1 past the end of an open path."""
+    if j + 1 < n:
+        return j + 1
+    return 0 if closed else -1
 
 
 @njit(cache=True)
@@ -549,16 +540,14 @@ def integrate_mb(
             ar = 0.0
         else:
             si = surface_index(mode, t, x[0], x[1], times, time_idx, rects, rect_idx, n_rects, base)
-            idx = _nearest_on_path(path_x, path_y, x[0], x[1], idx, 20, 200, closed)
+            idx = nearest_on_path(path_x, path_y, x[0], x[1], idx, 20, 200, closed)
             vx = max(x[3], 0.0)
             la = lookahead0 + lookahead_gain * vx
             j = idx
             for _ in range(npath):
-                jn = j + 1
-                if jn >= npath:
-                    if not closed:
-                        break
-                    jn = 0
+                jn = _next_on_path(j, npath, closed)
+                if jn < 0:
+                    break
                 dxp = path_x[jn] - x[0]
                 dyp = path_y[jn] - x[1]
                 j = jn
@@ -578,11 +567,9 @@ def integrate_mb(
             acc = 0.0
             vr = path_v[idx]
             for _ in range(npath):
-                jn = jj + 1
-                if jn >= npath:
-                    if not closed:
-                        break
-                    jn = 0
+                jn = _next_on_path(jj, npath, closed)
+                if jn < 0:
+                    break
                 acc += math.sqrt((path_x[jn] - path_x[jj]) ** 2 + (path_y[jn] - path_y[jj]) ** 2)
                 jj = jn
                 vr = min(vr, path_v[jj])
@@ -713,6 +700,10 @@ MB_SENSOR_COLUMNS = (
 )
 
 
+_PKG_G = 9.81
+"""Gravity inside the package's equations [m/s²]."""
+
+
 def _specific_force(states, derivs, vehicle, p) -> tuple[NDArray, ...]:
     """Accelerometer at the CG in body axes [m/s²], the body-z angular rate [rad/s],
     and the CG's acceleration in the yaw-aligned horizontal frame [m/s²]."""
@@ -732,9 +723,6 @@ def _specific_force(states, derivs, vehicle, p) -> tuple[NDArray, ...]:
     gyro = r * ct * cf - (-states[:, S.PITCH_RATE]) * sf
     return fx, fy, gyro, ax, ay
 
-
-_PKG_G = 9.81
-"""Gravity inside the package's equations [m/s²]."""
 
 
 def simulate_multibody(
@@ -876,10 +864,7 @@ def _drive_from_run(vp, p_pkg, states, derivs, inputs, wheels, surf, labels, mu,
     fxf, fyf, fzf, uf = _axle_truth(wheels, [0, 1])
     fxr, fyr, fzr, ur = _axle_truth(wheels, [2, 3])
     mu_arr = np.array([float(mu[lab]) for lab in labels])
-    hb = 0.5 * vp.track_width * r
-    c, s = np.cos(steer), np.sin(steer)
-    lat_f = (vy_cg + vp.lf * r) * s
-    centre = {"fl": (vx - hb) * c + lat_f, "fr": (vx + hb) * c + lat_f, "rl": vx - hb, "rr": vx + hb}
+    centre = dict(zip(("fl", "fr", "rl", "rr"), wheel_centre_speeds(vx, vy_cg, r, steer, vp), strict=True))
     cols: dict[str, Any] = {"t": t}
     cols.update({k: measured[k] for k in MB_SENSOR_COLUMNS})
     cols.update(vx_true=vx, vy_true=vy_cg, yaw_rate_true=r, alpha_f_true=af, alpha_r_true=ar)

@@ -58,7 +58,7 @@ from roadgrip.vehicle.planar import (
 )
 from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
 
-__all__ = ["MEASURED_COLUMNS", "MIN_INTERNAL_RATE", "simulate"]
+__all__ = ["MEASURED_COLUMNS", "MIN_INTERNAL_RATE", "simulate", "wheel_centre_speeds"]
 
 MIN_INTERNAL_RATE = 500.0
 """Lowest internal integration rate [Hz]."""
@@ -86,7 +86,7 @@ def _surface_list(friction: FrictionField, surfaces: Mapping[str, SurfaceTires])
     return [surfaces[s] for s in friction.labels]
 
 
-def _wheel_centre_speeds(vx, vy, r, steer, vehicle):
+def wheel_centre_speeds(vx, vy, r, steer, vehicle):
     """Longitudinal wheel-centre speeds in the wheel frames ``(fl, fr, rl, rr)`` [m/s]."""
     hb = 0.5 * vehicle.track_width * r
     c, s = np.cos(steer), np.sin(steer)
@@ -276,7 +276,7 @@ def _run_lateral(vehicle, maneuver, n, dt, table, field_args, surf_list, v_eps, 
 
 def _common_truth(vehicle, vx, vy, r, steer, x, y, psi, wf, wr, v_eps):
     w = wheel_speeds(wf, wr, r, steer, vehicle)
-    vc = _wheel_centre_speeds(vx, vy, r, steer, vehicle)
+    vc = wheel_centre_speeds(vx, vy, r, steer, vehicle)
     kap = [longitudinal_slip(wi, vi, vehicle.wheel_radius, v_eps=v_eps) for wi, vi in zip(w, vc, strict=True)]
     return {
         "yaw_rate": r, "steer": steer, "vx": vx, "x": x, "y": y, "psi": psi,

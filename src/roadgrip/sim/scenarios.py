@@ -175,6 +175,19 @@ def _dgd_segment(t0: float, rng) -> tuple[list, list, list]:
     return phases, steer, excited
 
 
+def dgd_truth(field: PiecewiseTime, labels, excited: list[dict], duration: float) -> dict:
+    """``meta.truth`` entries of a dry-gravel-dry drive: surface changes, segments and the
+    labelled excitation intervals that start within ``duration`` [s]."""
+    return {
+        "changes": [c for c in field.changes if c["t"] < duration],
+        "segments": [
+            {"t0": i * DGD_SEGMENT, "t1": (i + 1) * DGD_SEGMENT, "surface": s}
+            for i, s in enumerate(labels) if i * DGD_SEGMENT < duration
+        ],
+        "excited_intervals": [e for e in excited if e["t0"] < duration],
+    }
+
+
 def _dry_gravel_dry(seed: int, duration: float, progress: bool) -> Drive:
     vehicle = PRESETS["sedan"]
     rng = np.random.default_rng([seed, 2])
@@ -192,14 +205,7 @@ def _dry_gravel_dry(seed: int, duration: float, progress: bool) -> Drive:
         vehicle, man, field, surfaces,
         duration=duration, model="planar", output_rate=100.0, internal_rate=1000.0,
         sensors=CAR_SENSORS, seed=seed, name="dry-gravel-dry", progress=progress,
-        truth_extra={
-            "changes": [c for c in field.changes if c["t"] < duration],
-            "segments": [
-                {"t0": i * DGD_SEGMENT, "t1": (i + 1) * DGD_SEGMENT, "surface": s}
-                for i, s in enumerate(labels) if i * DGD_SEGMENT < duration
-            ],
-            "excited_intervals": [e for e in excited if e["t0"] < duration],
-        },
+        truth_extra=dgd_truth(field, labels, excited, duration),
     )
 
 

@@ -101,10 +101,12 @@ class ClosedTrack:
         ds = self.segment_lengths() + np.roll(self.segment_lengths(), 1)
         return dh / ds
 
-    def speed_profile(self, v_max: float, ay_max: float, a_acc: float, a_brake: float) -> NDArray[np.float64]:
+    def speed_profile(
+        self, v_max: float, ay_max: float | NDArray[np.float64], a_acc: float, a_brake: float
+    ) -> NDArray[np.float64]:
         """Speed limit along the track [m/s]: ``sqrt(ay_max / |kappa|)`` capped at ``v_max``,
         then forward (acceleration ``a_acc``) and backward (braking ``a_brake``) passes,
-        repeated around the loop."""
+        repeated around the loop. ``ay_max`` [m/s²] is one budget or one per point, shape (n,)."""
         k = np.abs(self.curvature())
         # smooth the curvature so the straight-to-arc jump is seen a little early
         k = np.maximum.reduce([np.roll(k, s) for s in range(-3, 4)])
