@@ -5,7 +5,7 @@ Run: ``.venv/bin/python benchmarks/bench_cascade.py`` (one core: ``NUMBA_NUM_THR
 Prints samples/s of the whole three-stage cascade on the simulated
 ``f1tenth-patches`` drive, and, for the stage-2 force model (6 states, 5
 measurements), steps/s of filterpy's ``UnscentedKalmanFilter``, of roadgrip's
-pure-Python kernels (:mod:`roadgrip.estimators.kalman`) and of the compiled loop
+pure-Python kernels (:mod:`roadgrip.inference.kalman`) and of the compiled loop
 the cascade uses, with the largest difference of their estimates.
 """
 
@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from roadgrip.estimators import cascade as C
-from roadgrip.estimators.kalman import (
+from roadgrip.inference.kalman import (
     GaussianState,
     merwe_weights,
     psd_sqrt,

@@ -28,8 +28,8 @@ from roadgrip.estimators.brls import (
     brls_step,
     default_config,
 )
-from roadgrip.estimators.kinematic import KinematicConfig, KinematicEstimator, estimate_kinematics
 from roadgrip.estimators.slipmap import SlipMapClassifier, slipmap_batch
+from roadgrip.inference.kinematic import KinematicConfig, KinematicEstimator, estimate_kinematics
 
 
 def _best(fn, repeat=3):

@@ -43,8 +43,8 @@ import numba
 import numpy as np
 
 from roadgrip.estimators import gpssm_linalg as la
-from roadgrip.estimators.basis import make_basis
 from roadgrip.estimators.gpssm import GPSSM, GPSSMConfig, curve_accuracy
+from roadgrip.inference.basis import make_basis
 from roadgrip.sim.scenarios import simulate_scenario
 
 

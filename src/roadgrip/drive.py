@@ -397,7 +397,7 @@ class Drive:
             raise DriveValidationError(
                 f"drive from {self.meta.source} carries no parametric tire curve for surface "
                 f"{surface!r} (its truth curve is binned from the truth columns: "
-                "roadgrip.evaluate.truth)"
+                "roadgrip.truth)"
             )
         return model_from_dict(surfaces[surface][key])
 

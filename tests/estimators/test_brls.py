@@ -24,8 +24,8 @@ from roadgrip.estimators.brls import (
     save_calibration,
     sufficiently_excited,
 )
-from roadgrip.estimators.kinematic import KinematicEstimator
 from roadgrip.evaluate.metrics import count_switches, detection_delays, truth_grip_class
+from roadgrip.inference.kinematic import KinematicEstimator
 
 OFF = ChannelCalibration(1.0, 0.0, 0.5, 1.0, enabled=False)
 
@@ -77,7 +77,7 @@ def test_fig6_fast_excited_transitions_slow_unexcited_one():
 
 def test_fig6_plain_rls_drifts_where_brls_holds():
     t, phi, y, cfg = _fig6()
-    from roadgrip.estimators.rls import brls_scalar_batch
+    from roadgrip.inference.rls import brls_scalar_batch
 
     rls, _, _ = brls_scalar_batch(phi, y, np.full(t.size, np.nan), 0.2, 100.0, 0.96, 0.0, 1e4)
     _, out = brls_batch(t, np.zeros_like(t), np.zeros_like(t), phi, y, cfg, dt0=1.0)
@@ -147,7 +147,7 @@ def test_config_validation():
 
 def test_theoretical_slip_regressor():
     """tan(alpha) vx / (R omega): eq. 2's slip gives vx / (R omega) = 1 - kappa driving, 1 / (1 + kappa) braking."""
-    from roadgrip.estimators.kinematic import KinematicOutput
+    from roadgrip.inference.kinematic import KinematicOutput
 
     a_f, a_r = np.array([0.05, 0.05, 0.05]), np.array([0.1, 0.1, 0.1])
     kappa = np.array([[0.0, 0.0, 0.2, 0.2], [0.0, 0.0, -0.2, -0.2], [0.0, 0.0, 0.2, 0.2]])

@@ -9,7 +9,6 @@ import pytest
 from roadgrip.drive import Drive
 from roadgrip.estimators import gpssm_linalg as la
 from roadgrip.estimators.base import EstimateRequest
-from roadgrip.estimators.basis import make_basis
 from roadgrip.estimators.gpssm import (
     GPSSM,
     GPSSMConfig,
@@ -22,6 +21,7 @@ from roadgrip.estimators.gpssm import (
     step,
     step_reference,
 )
+from roadgrip.inference.basis import make_basis
 from roadgrip.sim.scenarios import simulate_scenario
 from roadgrip.vehicle import PRESETS
 

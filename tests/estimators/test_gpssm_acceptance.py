@@ -8,8 +8,8 @@ t = 50 s and at the end of the drive.
 import numpy as np
 import pytest
 
-from roadgrip.estimators.basis import make_basis
 from roadgrip.estimators.gpssm import GPSSM, GPSSMConfig, curve_accuracy
+from roadgrip.inference.basis import make_basis
 from roadgrip.sim.scenarios import simulate_scenario
 
 pytestmark = pytest.mark.slow

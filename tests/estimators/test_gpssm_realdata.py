@@ -5,8 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from roadgrip.estimators.basis import make_basis
 from roadgrip.estimators.gpssm import DART_OPTIONS, GPSSM, GPSSMConfig, drive_vx
+from roadgrip.inference.basis import make_basis
 
 DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dart"
 FILES = {

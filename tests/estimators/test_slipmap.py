@@ -12,7 +12,6 @@ from roadgrip.estimators import slipmap
 from roadgrip.estimators.base import EstimateRequest
 from roadgrip.estimators.brls import default_config as brls_default
 from roadgrip.estimators.brls import sufficiently_excited
-from roadgrip.estimators.kinematic import KinematicEstimator
 from roadgrip.estimators.slipmap import (
     SlipMapClassifier,
     SlipMapConfig,
@@ -23,6 +22,7 @@ from roadgrip.estimators.slipmap import (
     slipmap_step,
 )
 from roadgrip.evaluate.metrics import count_switches, detection_delays, truth_grip_class
+from roadgrip.inference.kinematic import KinematicEstimator
 from roadgrip.vehicle import PRESETS
 
 SEDAN = PRESETS["sedan"]  # front-wheel drive

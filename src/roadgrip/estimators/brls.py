@@ -9,10 +9,10 @@ one equivalent tire (eq. 4)::
 with ``theta_long = C_k / M`` [m/s²] and ``theta_lat = 2 C_alpha / M``
 [m/s²/rad] (roadgrip slip-angle sign, so ``theta_lat > 0``; the paper's
 opposite sign flips its eq. 8 inequalities for the lateral channel). The slips
-come from the friction-independent :mod:`roadgrip.estimators.kinematic`
+come from the friction-independent :mod:`roadgrip.inference.kinematic`
 stage. Wheels without a speed sensor contribute zero slip.
 
-Each channel runs bRLS (eq. 6, :mod:`roadgrip.estimators.rls`) whose reference
+Each channel runs bRLS (eq. 6, :mod:`roadgrip.inference.rls`) whose reference
 is the stiffness of the *current* friction state (Fig. 5 and 7): unexcited
 data pull the estimate to the state's reference, excited data move it towards
 the measured stiffness. The state machine (eq. 8, roadgrip sign)::
@@ -32,7 +32,7 @@ Implementation choices the paper leaves open, written down here:
   reference (its estimate was the old reference, not data).
 * Forgetting is given as a memory time: ``mu = exp(-dt / memory_s)`` per sample.
 * ``gamma`` (the excitation scale of each regressor, see
-  :mod:`roadgrip.estimators.rls` on its form) defaults to the regressor value at
+  :mod:`roadgrip.inference.rls` on its form) defaults to the regressor value at
   which the two classes' predicted accelerations differ by twice the
   acceleration noise: ``gamma ln 2 = 2 sigma_a / (theta_high - theta_low)``.
   A sample is **sufficiently excited** for a channel when its measurement
@@ -78,7 +78,7 @@ from numpy.typing import NDArray
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
-from roadgrip.estimators.kinematic import (
+from roadgrip.inference.kinematic import (
     LATERAL_ACCELERATION_SOURCES,
     KinematicClassifier,
     KinematicConfig,
@@ -210,7 +210,7 @@ class BRLSConfig:
         Output of the lateral channel: the accelerometer's ``ay``, or the
         kinematic ``r vx + dvy/dt`` of the upstream stage; ``'auto'`` takes the
         kinematic one when the velocity comes from a pose
-        (:func:`roadgrip.estimators.kinematic.select_lateral_acceleration`).
+        (:func:`roadgrip.inference.kinematic.select_lateral_acceleration`).
     theoretical_slip : bool
         Lateral regressor from the theoretical slips ``tan(alpha) vx / (R omega)``
         instead of the slip angles (see :func:`regressors`).
@@ -895,7 +895,7 @@ def _channel_candidates(
     name: str, data: list, base: BRLSConfig, quantiles: Sequence[float], memory: float
 ) -> list[ChannelCalibration]:
     """Candidate settings of one channel for one memory (see :func:`calibrate`)."""
-    from roadgrip.estimators.rls import brls_scalar_batch
+    from roadgrip.inference.rls import brls_scalar_batch
 
     ln2 = math.log(2.0)
     pooled = {}

@@ -187,7 +187,7 @@ from numpy.typing import NDArray
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive, DriveValidationError
 from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
-from roadgrip.estimators.kalman import (
+from roadgrip.inference.kalman import (
     cholesky_lower,
     joseph_update,
     merwe_weights,
@@ -437,7 +437,7 @@ class CascadeConfig:
         ``'auto'``, ``'wheels'``, ``'vx'``, ``'vx_motor'`` or ``'motor_rpm'``
         (:func:`measured_speed`).
     alpha, beta, kappa : float
-        Unscented-transform parameters (:func:`roadgrip.estimators.kalman.merwe_weights`).
+        Unscented-transform parameters (:func:`roadgrip.inference.kalman.merwe_weights`).
     """
 
     accel_std: float | None = None

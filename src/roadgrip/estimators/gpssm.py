@@ -17,7 +17,7 @@ sigma_yaw_rate²)`` (configuration values, not read from the data). The axle fri
 
 (eq. 14 with ``zeta_{k+1} = G^{-1}(x_{k+1} - a) - mu_prior(alpha_k)``), where
 ``mu_prior`` is a low-friction Magic Formula (paper Sec. 4) and ``phi`` a Hilbert-space
-basis (:mod:`roadgrip.estimators.basis`). ``A`` and ``Q`` have the MNIW prior of eq. 24.
+basis (:mod:`roadgrip.inference.basis`). ``A`` and ``Q`` have the MNIW prior of eq. 24.
 
 Sign convention: ``alpha`` is the ISO slip angle of :mod:`roadgrip.vehicle.slip`
 (``alpha = -arctan(v_y,w / v_x,w)``); positive ``alpha`` gives positive (leftward) ``mu``,
@@ -64,7 +64,7 @@ particle's state trajectory.
 Odd-symmetric bases
 -------------------
 ``tensor-odd:n x n`` and ``separable-odd:n`` keep only the basis functions that are odd in
-the slip angles (:func:`roadgrip.estimators.basis.make_basis`): ``mu(-alpha) =
+the slip angles (:func:`roadgrip.inference.basis.make_basis`): ``mu(-alpha) =
 -mu(alpha)``, a left-right symmetric vehicle. The lateral velocity is observed only through
 the consistency of the learned curve; with an unconstrained basis a bias in ``vy`` shifts
 both turning directions the same way and is absorbed by a shifted curve, with the odd
@@ -114,8 +114,8 @@ from roadgrip.constants import V_EPS
 from roadgrip.estimators import gpssm_kernel as gk
 from roadgrip.estimators import gpssm_linalg as la
 from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
-from roadgrip.estimators.basis import SeparableBasis, TensorBasis, make_basis
-from roadgrip.estimators.kinematic import kinematic_lateral_acceleration
+from roadgrip.inference.basis import SeparableBasis, TensorBasis, make_basis
+from roadgrip.inference.kinematic import kinematic_lateral_acceleration
 from roadgrip.tire import SURFACES, MagicFormula
 from roadgrip.vehicle.lateral import LateralState, lateral_discrete, lateral_measurement
 from roadgrip.vehicle.params import VehicleParams
@@ -206,7 +206,7 @@ class GPSSMConfig:
         the yaw dynamics against them.
     ay_source : {'imu', 'kinematic'}
         The lateral acceleration measured: the accelerometer, or ``r vx + dvy/dt`` from
-        the gyro and the measured velocity (:func:`roadgrip.estimators.kinematic.
+        the gyro and the measured velocity (:func:`roadgrip.inference.kinematic.
         kinematic_lateral_acceleration`; needs ``vy_source='pose'``), which on a small car
         with a hobby-grade IMU and motion capture is about ten times less noisy.
     vx_source : {'auto', 'wheels', 'column', 'pose'}
@@ -1455,7 +1455,7 @@ def curves_frame(curves: dict[float, CurvePosterior], drive: Any = None) -> pd.D
                 "mu_lower": c.lower[ax], "mu_upper": c.upper[ax], "mu_prior": c.prior[ax],
             })
             if drive is not None and drive.has_truth:
-                from roadgrip.evaluate.truth import true_curve
+                from roadgrip.truth import true_curve
 
                 try:  # parametric, or binned (NaN where the drive's truth visited no bin)
                     f["mu_true"] = true_curve(drive, axle)(c.alpha)
@@ -1479,7 +1479,7 @@ def curve_accuracy(
     true slip angles up to ``t_end`` form the covered range; over their centres the
     posterior mean is compared with the true curve (mean absolute error) and the 95 % band
     is checked to contain it (coverage fraction). The true curve is
-    :func:`roadgrip.evaluate.truth.true_curve`: on a drive with binned truth, covered bins
+    :func:`roadgrip.truth.true_curve`: on a drive with binned truth, covered bins
     its pure-lateral samples did not visit are left out.
 
     Returns
@@ -1487,7 +1487,7 @@ def curve_accuracy(
     dict
         ``{'front': {'mae', 'coverage', 'bins', 'alpha_min', 'alpha_max'}, 'rear': ...}``.
     """
-    from roadgrip.evaluate.truth import true_curve
+    from roadgrip.truth import true_curve
 
     out: dict[str, dict[str, float]] = {}
     t = drive.t

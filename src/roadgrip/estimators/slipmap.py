@@ -1,6 +1,6 @@
 r"""Nonlinear friction-state classification on the slip-acceleration maps (paper 002, Sec. V).
 
-Given the friction-independent slips (:mod:`roadgrip.estimators.kinematic`),
+Given the friction-independent slips (:mod:`roadgrip.inference.kinematic`),
 reference accelerations follow from a *mid-friction* Magic Formula tire
 (longitudinal and lateral curves, computed independently: zero lateral slip
 for the longitudinal one and vice versa)::
@@ -56,7 +56,7 @@ from numpy.typing import NDArray
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.estimators.base import EstimateRequest, EstimateResult, conform, timed
-from roadgrip.estimators.kinematic import (
+from roadgrip.inference.kinematic import (
     LATERAL_ACCELERATION_SOURCES,
     KinematicClassifier,
     KinematicConfig,
@@ -122,7 +122,7 @@ class SlipMapConfig:
         Lateral acceleration placed on the lateral map: the accelerometer's, or
         the kinematic ``r vx + dvy/dt``; ``'auto'`` takes the kinematic one when
         the velocity comes from a pose
-        (:func:`roadgrip.estimators.kinematic.select_lateral_acceleration`).
+        (:func:`roadgrip.inference.kinematic.select_lateral_acceleration`).
     """
 
     long_curve: MagicFormula

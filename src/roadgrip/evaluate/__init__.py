@@ -4,7 +4,7 @@
 * :mod:`roadgrip.evaluate.suite`: which estimator runs on which scenario or
   real data set, how each run is scored, and ``roadgrip bench``.
 * :mod:`roadgrip.evaluate.maps`: friction grids of a run and their cell truth.
-* :mod:`roadgrip.evaluate.truth`: the true axle friction curve of a simulated drive,
+* :mod:`roadgrip.truth`: the true axle friction curve of a simulated drive,
   parametric or binned from its truth columns, and the axles' friction utilisation.
 
 The output contract the metrics read is described in ``docs/output-contract.md``.
@@ -31,7 +31,7 @@ from roadgrip.evaluate.metrics import (
     truth_excitation,
     truth_grip_class,
 )
-from roadgrip.evaluate.truth import (
+from roadgrip.truth import (
     BinnedCurve,
     binned_truth_curve,
     friction_utilisation,

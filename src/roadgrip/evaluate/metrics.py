@@ -54,7 +54,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.stats import norm
 
-from roadgrip.evaluate.truth import has_parametric_truth
+from roadgrip.truth import has_parametric_truth
 
 __all__ = [
     "ClassificationMetrics",
@@ -617,7 +617,7 @@ def true_peak_series(drive, axle: str = "front", direction: str = "lateral") -> 
     ``mu_true`` column (the surface's peak friction) when the drive carries no
     parametric tire model for some sample's surface, in particular for drives
     whose truth is binned (surfaces given as ``{'mu': float}`` only, see
-    :mod:`roadgrip.evaluate.truth`). Raises ``ValueError`` when the drive carries
+    :mod:`roadgrip.truth`). Raises ``ValueError`` when the drive carries
     neither.
     """
     truth = drive.meta.truth or {}

@@ -17,7 +17,7 @@ frictionmaps DSn    cascade (+ friction grid)                  DS3-DS5 map agree
 
 The true curve is the drive's parametric tire, or, for a drive that states its truth
 binned (a multi-body model), its binned ``Fy / Fz`` in the same 0.5 deg slip bins
-(:func:`roadgrip.evaluate.truth.true_curve`); the true peak is the tire's or else the
+(:func:`roadgrip.truth.true_curve`); the true peak is the tire's or else the
 ``mu_true`` column (:func:`roadgrip.evaluate.metrics.true_peak_series`).
 
 Each run is timed and scored with :mod:`roadgrip.evaluate.metrics`; a method
@@ -42,7 +42,7 @@ import numpy as np
 import pandas as pd
 
 from roadgrip.evaluate import metrics as M
-from roadgrip.evaluate.truth import true_curve
+from roadgrip.truth import true_curve
 
 __all__ = [
     "BENCH_COLUMNS",

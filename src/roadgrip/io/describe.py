@@ -7,9 +7,9 @@ excites the tire in its nonlinear region (:func:`nonlinear_fraction`):
   beyond ``alpha_80``, the front slip angle at which the true front friction
   curve (of the surface under the vehicle at that sample) reaches 80 % of its
   peak. A drive whose truth carries no parametric tire curve (binned truth, see
-  :mod:`roadgrip.evaluate.truth`) has no ``alpha_80``; there the measure is the
+  :mod:`roadgrip.truth`) has no ``alpha_80``; there the measure is the
   fraction of samples whose front friction utilisation ``|F| / (mu Fz)``
-  exceeds 80 % (:func:`~roadgrip.evaluate.truth.friction_utilisation`), among
+  exceeds 80 % (:func:`~roadgrip.truth.friction_utilisation`), among
   the samples where it is defined, and it is reported as skipped when the drive
   carries no utilisation either.
 * Without truth, two proxies on the measured signals (smoothed by a centred
@@ -45,8 +45,8 @@ from rich.table import Table
 
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import SIGNAL_COLUMNS, TRUTH_COLUMNS, Drive
-from roadgrip.evaluate.truth import friction_utilisation, has_parametric_truth, utilisation_source
 from roadgrip.tire import FrictionModel
+from roadgrip.truth import friction_utilisation, has_parametric_truth, utilisation_source
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = [
@@ -326,7 +326,7 @@ def utilisation_shares(
     drive : Drive
         Utilisation from ``util_f_true`` / ``util_r_true``, otherwise computed from
         ``Fx*_true``, ``Fy*_true``, ``Fz*_true`` and ``mu_true``
-        (:func:`roadgrip.evaluate.truth.friction_utilisation`).
+        (:func:`roadgrip.truth.friction_utilisation`).
     levels : tuple of float
         Utilisation levels [-].
 

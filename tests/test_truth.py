@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from roadgrip.drive import Drive
-from roadgrip.evaluate.truth import (
+from roadgrip.truth import (
     DEFAULT_BIN_WIDTH,
     PURE_LATERAL_MAX_FX,
     BinnedCurve,

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from roadgrip.drive import Drive, DriveValidationError
-from roadgrip.estimators.kinematic import (
+from roadgrip.inference.kinematic import (
     KinematicConfig,
     KinematicEstimator,
     drive_lateral_acceleration,

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from roadgrip.estimators.rls import (
+from roadgrip.inference.rls import (
     batch_least_squares,
     brls_scalar_batch,
     brls_step,

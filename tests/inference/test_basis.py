@@ -1,4 +1,4 @@
-"""Reduced-rank GP bases (roadgrip.estimators.basis)."""
+"""Reduced-rank GP bases (roadgrip.inference.basis)."""
 
 import itertools
 import math
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from roadgrip.estimators.basis import (
+from roadgrip.inference.basis import (
     SeparableBasis,
     TensorBasis,
     eigenfunctions_1d,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from roadgrip.estimators.kalman import (
+from roadgrip.inference.kalman import (
     GaussianState,
     cholesky_lower,
     ekf_predict,
