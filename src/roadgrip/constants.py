@@ -13,3 +13,9 @@ stay finite and continuous down to standstill, and agree with the textbook
 definition to better than 0.5 % once ``|vx| > 5 m/s`` (for F1TENTH-scale cars a
 smaller value can be passed explicitly).
 """
+
+Z95 = 1.959963984540054
+"""Two-sided 95 % quantile of the standard normal distribution, ``Phi^-1(0.975)`` [-].
+
+``mean ± Z95 std`` is the central 95 % interval of a normal estimate.
+"""

@@ -1,0 +1,169 @@
+"""roadgrip.signals: each shared signal against an analytic or independent computation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.stats import norm
+
+from roadgrip import signals
+from roadgrip.constants import GRAVITY, Z95
+from roadgrip.drive import Drive, DriveValidationError
+from roadgrip.vehicle.params import PRESETS
+
+SEDAN = PRESETS["sedan"]
+
+
+def _states(rng, n):
+    """Random planar motions: vx [m/s], vy [m/s], yaw rate [rad/s], steer [rad]."""
+    return (rng.uniform(3.0, 30.0, n), rng.uniform(-1.0, 1.0, n), rng.uniform(-0.6, 0.6, n),
+            rng.uniform(-0.4, 0.4, n))
+
+
+def _rigid_body_wheel_speeds(vx, vy, r, steer, p):
+    """Velocity of each wheel centre from rigid-body kinematics, along the wheel heading."""
+    out = []
+    for x_w, y_w, steered in ((p.lf, 0.5 * p.track_width, True), (p.lf, -0.5 * p.track_width, True),
+                              (-p.lr, 0.5 * p.track_width, False), (-p.lr, -0.5 * p.track_width, False)):
+        u, v = vx - r * y_w, vy + r * x_w  # point velocity of the body at (x_w, y_w)
+        d = steer if steered else np.zeros_like(steer)
+        out.append(u * np.cos(d) + v * np.sin(d))
+    return np.stack(out, axis=-1)
+
+
+def _drive(vehicle, **cols):
+    n = len(next(iter(cols.values())))
+    df = pd.DataFrame({"t": np.arange(n) * 0.01, **cols})
+    return Drive.from_frame(df, vehicle, source="test", check_units=False)
+
+
+def test_z95_is_the_two_sided_normal_quantile():
+    assert Z95 == pytest.approx(norm.ppf(0.975), abs=1e-15)
+    assert norm.cdf(Z95) - norm.cdf(-Z95) == pytest.approx(0.95, abs=1e-15)
+
+
+def test_driven_and_undriven_wheels():
+    assert signals.driven_wheels("fwd").tolist() == [True, True, False, False]
+    assert signals.driven_wheels("rwd").tolist() == [False, False, True, True]
+    assert signals.driven_wheels("awd").tolist() == [True, True, True, True]
+    for d in ("fwd", "rwd", "awd"):
+        np.testing.assert_array_equal(signals.undriven_wheels(d), ~signals.driven_wheels(d))
+        assert signals.driven_wheels(d).shape == (4,)
+    signals.driven_wheels("fwd")[0] = False  # a fresh array each call
+    assert signals.driven_wheels("fwd")[0]
+    with pytest.raises(ValueError, match="'4wd'"):
+        signals.driven_wheels("4wd")
+
+
+def test_wheel_centre_speeds_are_rigid_body_kinematics():
+    rng = np.random.default_rng(0)
+    vx, vy, r, d = _states(rng, 200)
+    got = signals.wheel_centre_speeds(vx, vy, r, d, SEDAN)
+    assert got.shape == (200, 4)
+    np.testing.assert_allclose(got, _rigid_body_wheel_speeds(vx, vy, r, d, SEDAN), rtol=1e-13, atol=1e-12)
+
+
+def test_wheel_cg_speeds_recover_vx_from_free_rolling_wheels():
+    rng = np.random.default_rng(1)
+    vx, vy, r, d = _states(rng, 200)
+    omega = _rigid_body_wheel_speeds(vx, vy, r, d, SEDAN) / SEDAN.wheel_radius
+    got = signals.wheel_cg_speeds(omega, d, r, SEDAN, vy=vy)
+    np.testing.assert_allclose(got, np.repeat(vx[:, None], 4, axis=1), rtol=1e-12)
+    # default lateral velocity: the rear axle rolls without side slip, vy = lr r
+    omega0 = _rigid_body_wheel_speeds(vx, SEDAN.lr * r, r, d, SEDAN) / SEDAN.wheel_radius
+    np.testing.assert_allclose(signals.wheel_cg_speeds(omega0, d, r, SEDAN), got, rtol=1e-12)
+    # an absent wheel stays absent
+    omega[:5, 1] = np.nan
+    assert np.isnan(signals.wheel_cg_speeds(omega, d, r, SEDAN, vy=vy)[:5, 1]).all()
+
+
+def test_wheel_speed_vx_sources():
+    rng = np.random.default_rng(2)
+    n = 300
+    vx, _, r, d = _states(rng, n)
+    omega = _rigid_body_wheel_speeds(vx, SEDAN.lr * r, r, d, SEDAN) / SEDAN.wheel_radius
+    spin = omega * np.array([1.0, 1.0, 1.3, 1.3])  # the rear axle spins under drive
+    wheels = {f"omega_{w}": spin[:, i] for i, w in enumerate(signals.WHEELS)}
+    base = {"yaw_rate": r, "steer": d}
+    rwd, awd = SEDAN.replace(drive="rwd"), SEDAN.replace(drive="awd")
+    # rear drive: the undriven (front) wheels, steer-corrected, give vx exactly
+    got, used = signals.wheel_speed_vx(_drive(rwd, **base, **wheels, vx=vx + 1.0))
+    assert used == "wheels"
+    np.testing.assert_allclose(got, vx, rtol=1e-12)
+    # all-wheel drive: a vx column beats four slipping wheels; without one, all four wheels
+    assert signals.wheel_speed_vx(_drive(awd, **base, **wheels, vx=vx + 1.0))[1] == "column"
+    got, used = signals.wheel_speed_vx(_drive(awd, **base, **wheels))
+    assert used == "wheels"
+    np.testing.assert_allclose(got, vx * (1.0 + 0.3 / 2), rtol=1e-12)
+    # front drive without the rear wheel columns: the vx column, then the pose
+    front = {k: v for k, v in wheels.items() if k.startswith("omega_f")}
+    assert signals.wheel_speed_vx(_drive(SEDAN, **base, **front, vx=vx))[1] == "column"
+    t = np.arange(n) * 0.01
+    pose = {"x": 10.0 * t, "y": np.zeros(n), "psi": np.zeros(n)}
+    got, used = signals.wheel_speed_vx(_drive(SEDAN, **base, **front, **pose))
+    assert used == "pose"
+    np.testing.assert_allclose(got, 10.0, rtol=1e-12)
+    # a requested source names what it lacks
+    with pytest.raises(DriveValidationError, match="omega_rl"):
+        signals.wheel_speed_vx(_drive(SEDAN, **base, **front, vx=vx), "wheels")
+    with pytest.raises(DriveValidationError, match="'vx'"):
+        signals.wheel_speed_vx(_drive(SEDAN, **base, **front), "column")
+    with pytest.raises(DriveValidationError, match="'psi'"):
+        signals.wheel_speed_vx(_drive(SEDAN, **base, x=pose["x"], y=pose["y"]), "auto")
+    with pytest.raises(ValueError, match="'gnss'"):
+        signals.wheel_speed_vx(_drive(SEDAN, **base, vx=vx), "gnss")
+
+
+def test_body_velocity_from_pose_on_a_circle():
+    # a point circling at speed v on radius R with a constant sideslip beta:
+    # body velocity (v cos beta, v sin beta)
+    v, radius, beta, dt = 8.0, 40.0, 0.05, 0.01
+    t = np.arange(0.0, 60.0, dt)  # more than one lap: the heading wraps
+    th = v / radius * t
+    x, y = radius * np.sin(th), radius * (1.0 - np.cos(th))
+    psi = np.angle(np.exp(1j * (th - beta)))  # course = heading + beta
+    vx, vy = signals.body_velocity_from_pose(t, x, y, psi)
+    inner = slice(1, -1)  # central differences: chord of 2 dt, error (v dt / R)² / 6
+    np.testing.assert_allclose(vx[inner], v * np.cos(beta), rtol=1e-5)
+    np.testing.assert_allclose(vy[inner], v * np.sin(beta), rtol=1e-4)
+    # the windowed fit on a uniform clock with a gap and a bad sample
+    keep = np.ones(len(t), bool)
+    keep[2000:2010] = False
+    bad = np.zeros(len(t), bool)
+    bad[4000] = True
+    vxw, vyw = signals.body_velocity_from_pose(t[keep], x[keep], y[keep], psi[keep], window=0.3,
+                                               bad=bad[keep])
+    ok = np.isfinite(vxw)
+    np.testing.assert_allclose(vxw[ok], v * np.cos(beta), rtol=1e-3)
+    np.testing.assert_allclose(vyw[ok], v * np.sin(beta), rtol=1e-2)
+    tk = t[keep]
+    assert not ok[np.abs(tk - t[4000]) < 0.15].any() and not ok[:15].any()
+    assert not ok[(tk > t[1999] - 0.15) & (tk < t[2010] + 0.15)].any()
+    assert ok.mean() > 0.98
+
+
+def test_pose_velocity_of_a_drive():
+    n = 50
+    t = np.arange(n) * 0.01
+    d = _drive(SEDAN, x=3.0 * t, y=4.0 * t, psi=np.full(n, np.arctan2(4.0, 3.0)))
+    vx, vy = signals.pose_velocity(d)
+    np.testing.assert_allclose(vx, 5.0, rtol=1e-12)
+    np.testing.assert_allclose(vy, 0.0, atol=1e-12)
+    with pytest.raises(DriveValidationError, match=r"\['psi'\]"):
+        signals.pose_velocity(_drive(SEDAN, x=t, y=t))
+
+
+def test_axle_loads_by_hand():
+    v = PRESETS["suv"]
+    m, g, lf, lr, h = v.mass, GRAVITY, v.lf, v.lr, v.cg_height
+    L = lf + lr
+    ax = np.array([-5.0, 0.0, 3.0])
+    f, r = signals.axle_loads(v, ax)
+    np.testing.assert_allclose(f, m * g * lr / L - m * ax * h / L, rtol=1e-13)
+    np.testing.assert_allclose(r, m * g * lf / L + m * ax * h / L, rtol=1e-13)
+    f0, r0 = signals.axle_loads(v)
+    assert (f0, r0) == (v.fz_front, v.fz_rear)
+    # a front axle that would carry a negative load under hard acceleration is lifted
+    f, r = signals.axle_loads(v, 2.0 * g * lr / h)
+    assert f == 0.0 and r > m * g
