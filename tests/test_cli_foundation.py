@@ -109,3 +109,93 @@ def test_info_on_real_data_sets():
     res = _roadgrip("info", str(DATA / "frictionmaps"))  # the parent folder is ambiguous
     assert res.returncode == 2
     assert res.stderr.startswith("error: cannot tell the format of folder")
+
+
+# -- roadgrip estimate on a test-only estimator ------------------------------------------
+@pytest.fixture()
+def flat_estimator():
+    """A registered estimator with a ``curve_times`` option (constant band, flat curves)."""
+    from dataclasses import dataclass
+
+    from roadgrip import estimators
+    from roadgrip.estimators.protocol import (
+        DriveInfo,
+        Estimator,
+        EstimatorConfig,
+        Prepared,
+        run_by_stepping,
+    )
+
+    @dataclass(frozen=True)
+    class FlatConfig(EstimatorConfig):
+        method = "flat"
+        level: float = 0.6
+        curve_times: tuple[float, ...] = ()
+
+    def step(state, t):
+        row = {"t": float(t), "mu_front": state, "mu_rear": state, "mu_front_lower": state - 0.1,
+               "mu_front_upper": state + 0.1, "mu_rear_lower": state - 0.1, "mu_rear_upper": state + 0.1}
+        return state, row
+
+    def run(drive, config=None, seed=0, progress=None):
+        config = config or FlatConfig()
+        res = run_by_stepping(FLAT, drive, config, seed, progress)
+        alpha = np.linspace(-0.1, 0.1, 5)
+        curves = pd.DataFrame([{"t": t, "axle": a, "alpha": x, "mu_mean": config.level, "mu_lower": 0.5,
+                                "mu_upper": 0.7, "mu_prior": 0.6}
+                               for t in config.curve_times for a in ("front", "rear") for x in alpha])
+        return type(res)(res.method, res.table, res.meta, curves if len(curves) else None)
+
+    FLAT = Estimator("flat", "-", "flat (test only)", FlatConfig,
+                     lambda d, c: Prepared(DriveInfo.from_drive(d), d.t),
+                     lambda info, c, seed: c.level, step, run, lambda c: (c.level - 0.1, c.level + 0.1))
+    estimators.register(FLAT)
+    yield FLAT
+    estimators.unregister("flat")
+
+
+def test_estimate_writes_estimates_and_curves(drive_file, tmp_path, flat_estimator):
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+    from roadgrip.estimators import EstimateResult
+
+    out, curves = tmp_path / "est.parquet", tmp_path / "curves.parquet"
+    r = CliRunner().invoke(app, ["estimate", str(drive_file), "--method", "flat", "-o", str(out),
+                                 "--curves", str(curves), "--curve-times", "1,2.5"])
+    assert r.exit_code == 0, r.output
+    assert "flat: run summary" in r.output and "peak friction front" in r.output
+    res = EstimateResult.read_parquet(out)
+    assert len(res.table) == 400 and res.table["mu_front"].eq(0.6).all()
+    assert sorted(pd.read_parquet(curves)["t"].unique()) == [1.0, 2.5]
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--particles", "5"], "'particles' do not apply to flat"),
+        (["--linalg", "fast"], "'linalg' do not apply to flat"),
+        (["--curve-times", "1,x"], "--curve-times must be comma-separated seconds"),
+        (["--plot", "{tmp}/f.png"], "no figure for method 'flat'"),
+    ],
+)
+def test_estimate_rejects_options_by_name(drive_file, tmp_path, flat_estimator, extra, message):
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+
+    extra = [a.format(tmp=tmp_path) for a in extra]
+    r = CliRunner().invoke(app, ["estimate", str(drive_file), "--method", "flat", "-o",
+                                 str(tmp_path / "e.parquet"), *extra])
+    assert r.exit_code != 0
+    assert message in str(r.exception)
+
+
+def test_estimate_rejects_an_unknown_method(drive_file, tmp_path):
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+
+    r = CliRunner().invoke(app, ["estimate", str(drive_file), "--method", "nonexistent", "-o",
+                                 str(tmp_path / "e.parquet")])
+    assert r.exit_code != 0 and "unknown method 'nonexistent'" in str(r.exception)

@@ -7,10 +7,11 @@ import pandas as pd
 import pytest
 from rich.console import Console
 
+from roadgrip.cli.info import render
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.io import describe_drive, nonlinear_fraction, slip_at_fraction_of_peak
-from roadgrip.io.describe import linear_yaw_rate
+from roadgrip.io.describe import format_text, linear_yaw_rate
 from roadgrip.tire import SURFACES, Burckhardt, LinearTire, MagicFormula
 from roadgrip.vehicle import PRESETS, lateral_derivatives, slip_angles, steady_state_linear
 
@@ -142,7 +143,7 @@ def test_describe_renders_everything(tmp_path):
     d = _truth_drive(0.25)
     d = Drive(d.data.assign(vx=10.0, my_extra=1.5), d.meta)
     console = Console(record=True, width=200)
-    console.print(describe_drive(d))
+    console.print(render(describe_drive(d)))
     text = console.export_text()
     assert "duration" in text and "39.96 s" in text
     assert "25.00 Hz" in text and "jitter" in text
@@ -151,6 +152,9 @@ def test_describe_renders_everything(tmp_path):
     assert "25.0%" in text  # truth excitation fraction
     assert "alpha_f_true" in text and "rad" in text
     assert "snow 100%" in text
+    plain = format_text(describe_drive(d))  # the same tables as plain text
+    assert "39.96 s" in plain and "25.0%" in plain and "snow 100%" in plain
+    assert "│" not in plain
 
 
 @pytest.mark.slow
@@ -225,7 +229,7 @@ def test_binned_truth_excitation_is_the_front_utilisation():
 
 def test_describe_reports_utilisation_on_a_binned_truth_drive():
     console = Console(record=True, width=220)
-    console.print(describe_drive(_binned_truth_drive(False)))
+    console.print(render(describe_drive(_binned_truth_drive(False))))
     text = console.export_text()
     assert "friction utilisation" in text and "time > 50%" in text and "time > 80%" in text
     front = next(ln for ln in text.splitlines() if ln.startswith("│ front"))

@@ -38,10 +38,7 @@ def main() -> None:
         if hasattr(exc, "show") and hasattr(exc, "exit_code"):  # usage errors
             exc.show()
             sys.exit(exc.exit_code)
-        if isinstance(exc, ModuleNotFoundError) and exc.name and exc.name.startswith("roadgrip"):
-            msg = f"this command is not available in this build ({exc.name} missing)"
-        else:
-            msg = str(exc) or type(exc).__name__
+        msg = str(exc) or type(exc).__name__
         err_console.print(f"[bold red]error:[/] {msg}", highlight=False, soft_wrap=True)
         sys.exit(2)
 

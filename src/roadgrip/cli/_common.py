@@ -7,6 +7,8 @@ Errors are printed as one line, ``error: ...``, with exit status 2.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Annotated
 
 import typer
@@ -30,8 +32,18 @@ FormatOpt = Annotated[
 
 
 def load_drive(path: str, fmt: str | None, vehicle: str | None):
+    """Read a drive file or data set (:func:`roadgrip.io.read_drive`)."""
     from roadgrip.io import read_drive
 
     return read_drive(path, format=fmt, vehicle=vehicle)
 
 
+@contextmanager
+def progress_bar(label: str, total: int) -> Iterator[Callable[[int], None]]:
+    """A transient progress bar; yields the callback advancing it by a number of steps."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    with Progress(TextColumn(label), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                  TimeRemainingColumn(), console=console, transient=True) as prog:
+        task = prog.add_task(label, total=total)
+        yield lambda k: prog.advance(task, k)

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import fields
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
-from roadgrip.cli._common import FormatOpt, VehicleOpt, app, console, load_drive
+from roadgrip.cli._common import FormatOpt, VehicleOpt, app, console, load_drive, progress_bar
+
+PLOT_CURVE_TIMES = (4.0, 20.0, 40.0, 50.0)
+"""Curve times [s from the drive start] of ``--plot`` when no ``--curve-times`` are given."""
 
 
 @app.command()
@@ -27,29 +31,67 @@ def estimate(
     plot: Annotated[Path | None, typer.Option(help="Write a PNG figure.")] = None,
 ) -> None:
     """Run one estimator over a drive and write its estimates."""
-    from roadgrip.estimators import EstimateRequest, run_estimator
+    from roadgrip import estimators
 
-    times = None
-    if curve_times:
-        try:
-            times = tuple(float(s) for s in curve_times.split(","))
-        except ValueError:
-            raise ValueError(f"--curve-times must be comma-separated seconds, got {curve_times!r}") from None
+    options: dict[str, Any] = {"particles": particles, "basis": basis, "linalg": linalg,
+                               "curve_times": _parse_times(curve_times)}
+    if calibration is not None:
+        from roadgrip.cli.calibrate import read_calibration
+
+        options["calibration"] = read_calibration(calibration)
+    options = {k: v for k, v in options.items() if v is not None}
+    est = estimators.get(method)
+    takes_curves = "curve_times" in {f.name for f in fields(est.Config)}
+    if curves is not None and not takes_curves:
+        raise ValueError(f"option --curves does not apply to {method}")
+    if plot is not None and takes_curves and "curve_times" not in options:
+        options["curve_times"] = PLOT_CURVE_TIMES
+    config = est.Config.from_options(options)
     drive = load_drive(drive_path, fmt, vehicle)
-    request = EstimateRequest(
-        seed=seed,
-        particles=particles,
-        basis=basis,
-        calibration=calibration,
-        curves_path=str(curves) if curves else None,
-        curve_times=times,
-        plot_path=str(plot) if plot else None,
-        progress=True,
-        options={"linalg": linalg} if linalg is not None else {},
-    )
-    result = run_estimator(method, drive, request)
+    with progress_bar(method, drive.n) as advance:
+        result = est.run(drive, config, seed, progress=advance)
     result.to_parquet(output)
-    from roadgrip.report_text import summary_table
+    written = [output]
+    if curves is not None and result.curves is not None and len(result.curves):
+        curves_with_truth(result.curves, drive).to_parquet(curves, index=False)
+        written.append(curves)
+    if plot is not None:
+        from roadgrip.plots import plot_estimate
+
+        plot_estimate(method, drive, result, plot)
+        written.append(plot)
+    from roadgrip.cli.summary import summary_table
 
     console.print(summary_table(result))
-    console.print(f"wrote {output}")
+    console.print(f"wrote {', '.join(str(p) for p in written)}")
+
+
+def _parse_times(text: str | None) -> tuple[float, ...] | None:
+    if not text:
+        return None
+    try:
+        return tuple(float(s) for s in text.split(","))
+    except ValueError:
+        raise ValueError(f"--curve-times must be comma-separated seconds, got {text!r}") from None
+
+
+def curves_with_truth(curves, drive):
+    """The curve table with ``mu_true``, the drive's true curve at each slip, where it has truth.
+
+    Layout of ``--curves``: ``t`` [s from the drive start], ``axle``, ``alpha`` [rad],
+    ``mu_mean``, ``mu_lower``, ``mu_upper``, ``mu_prior`` and, on a drive with truth,
+    ``mu_true`` (NaN where a binned truth visited no slip bin).
+    """
+    if "mu_true" in curves.columns or not drive.has_truth:
+        return curves
+    from roadgrip.truth import true_curve
+
+    out = curves.copy()
+    out["mu_true"] = float("nan")
+    try:
+        for axle in out["axle"].unique():
+            rows = out["axle"] == axle
+            out.loc[rows, "mu_true"] = true_curve(drive, axle)(out.loc[rows, "alpha"].to_numpy(float))
+    except Exception:  # a drive whose truth gives no curve: the column stays NaN
+        return curves
+    return out

@@ -40,8 +40,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from rich.console import Group
-from rich.table import Table
 
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import SIGNAL_COLUMNS, TRUTH_COLUMNS, Drive
@@ -52,8 +50,10 @@ from roadgrip.vehicle.params import VehicleParams
 __all__ = [
     "UTILISATION_LEVELS",
     "Excitation",
+    "Section",
     "UtilisationShare",
     "describe_drive",
+    "format_text",
     "linear_yaw_rate",
     "nonlinear_fraction",
     "slip_at_fraction_of_peak",
@@ -352,8 +352,32 @@ def _fmt(v: float) -> str:
     return f"{v:.4g}"
 
 
-def describe_drive(drive: Drive, *, mu_peak: float | None = None) -> Group:
-    """A rich renderable summary of a drive (``roadgrip info``).
+@dataclass(frozen=True)
+class Section:
+    """One table of a drive description.
+
+    Attributes
+    ----------
+    title : str
+    columns : tuple of str
+        Column names.
+    rows : tuple of tuple of str
+        Formatted cells, one tuple per row.
+    right : frozenset of str
+        Columns aligned right (numbers).
+    header : bool
+        Whether the column names are shown (the overview is a key-value list).
+    """
+
+    title: str
+    columns: tuple[str, ...]
+    rows: tuple[tuple[str, ...], ...]
+    right: frozenset[str] = frozenset()
+    header: bool = True
+
+
+def describe_drive(drive: Drive, *, mu_peak: float | None = None) -> list[Section]:
+    """The summary of a drive that ``roadgrip info`` prints, as formatted tables.
 
     Parameters
     ----------
@@ -363,71 +387,83 @@ def describe_drive(drive: Drive, *, mu_peak: float | None = None) -> Group:
 
     Returns
     -------
-    rich.console.Group
-        An overview table, a per-signal table (unit, min, max, mean), the
-        excitation table and, when the drive carries it, the friction utilisation
-        table (:func:`utilisation_shares`).
+    list of Section
+        An overview, a per-signal table (unit, min, max, mean), the excitation
+        table and, when the drive carries it, the friction utilisation table
+        (:func:`utilisation_shares`). :func:`format_text` renders them as text.
     """
     t = drive.t
     dt = np.diff(t)
-    over = Table(title=f"drive: {drive.meta.source}", show_header=False)
-    over.add_column("item", style="bold")
-    over.add_column("value")
-    over.add_row("vehicle", drive.vehicle.name)
-    over.add_row("samples", str(drive.n))
-    over.add_row("duration", f"{drive.duration:.2f} s")
+    over: list[tuple[str, ...]] = [
+        ("vehicle", drive.vehicle.name),
+        ("samples", str(drive.n)),
+        ("duration", f"{drive.duration:.2f} s"),
+    ]
     if len(dt):
         med = float(np.median(dt))
         jitter = float(np.std(dt)) / med
-        over.add_row(
+        over.append((
             "sample rate",
             f"{1.0 / med:.2f} Hz (dt median {med * 1e3:.2f} ms, jitter std/median {jitter:.1%}, "
             f"min {dt.min() * 1e3:.2f} ms, max {dt.max() * 1e3:.2f} ms)",
-        )
-    over.add_row("truth", "yes" if drive.has_truth else "no")
-    over.add_row("pose", "yes" if drive.has_pose else "no")
-    over.add_row("wheel speeds", "yes" if drive.has_wheel_speeds else "no")
+        ))
+    over.append(("truth", "yes" if drive.has_truth else "no"))
+    over.append(("pose", "yes" if drive.has_pose else "no"))
+    over.append(("wheel speeds", "yes" if drive.has_wheel_speeds else "no"))
     extra_cols = drive.extra_columns
-    over.add_row("extra columns", ", ".join(extra_cols) if extra_cols else "none")
+    over.append(("extra columns", ", ".join(extra_cols) if extra_cols else "none"))
     fmt = drive.meta.extra.get("format") if isinstance(drive.meta.extra, dict) else None
     if fmt:
-        over.add_row("format", str(fmt))
+        over.append(("format", str(fmt)))
 
-    sig = Table(title="signals")
-    for name, just in (("column", "left"), ("unit", "left"), ("min", "right"), ("max", "right"), ("mean", "right")):
-        sig.add_column(name, justify=just)
+    sig: list[tuple[str, ...]] = []
     known = [c for c in (*SIGNAL_COLUMNS, *TRUTH_COLUMNS) if c in drive.data.columns and c != "surface"]
     for c in known:
         v = drive.col(c)
-        sig.add_row(c, UNITS.get(c, ""), _fmt(v.min()), _fmt(v.max()), _fmt(v.mean()))
+        sig.append((c, UNITS.get(c, ""), _fmt(v.min()), _fmt(v.max()), _fmt(v.mean())))
     if "surface" in drive.data.columns:
         counts = drive.data["surface"].astype(str).value_counts(normalize=True)
-        sig.add_row("surface", "-", ", ".join(f"{k} {p:.0%}" for k, p in counts.items()), "", "")
+        sig.append(("surface", "-", ", ".join(f"{k} {p:.0%}" for k, p in counts.items()), "", ""))
     for c in extra_cols:
         col = drive.data[c]
         if col.dtype.kind in "fiub":
             v = col.to_numpy(float)
-            sig.add_row(f"{c} (extra)", "", _fmt(np.nanmin(v)), _fmt(np.nanmax(v)), _fmt(np.nanmean(v)))
+            sig.append((f"{c} (extra)", "", _fmt(np.nanmin(v)), _fmt(np.nanmax(v)), _fmt(np.nanmean(v))))
 
-    exc = Table(title="nonlinear tire excitation")
-    exc.add_column("measure")
-    exc.add_column("time fraction", justify="right")
-    exc.add_column("definition")
-    for e in nonlinear_fraction(drive, mu_peak=mu_peak):
-        exc.add_row(e.method, "n/a" if not np.isfinite(e.fraction) else f"{e.fraction:.1%}", e.detail)
-    parts = [over, sig, exc]
+    exc = [(e.method, "n/a" if not np.isfinite(e.fraction) else f"{e.fraction:.1%}", e.detail)
+           for e in nonlinear_fraction(drive, mu_peak=mu_peak)]
+    sections = [
+        Section(f"drive: {drive.meta.source}", ("item", "value"), tuple(over), header=False),
+        Section("signals", ("column", "unit", "min", "max", "mean"), tuple(sig),
+                right=frozenset({"min", "max", "mean"})),
+        Section("nonlinear tire excitation", ("measure", "time fraction", "definition"), tuple(exc),
+                right=frozenset({"time fraction"})),
+    ]
     shares = utilisation_shares(drive)
     if shares:
-        util = Table(title="friction utilisation |F| / (mu Fz) (truth)")
-        util.add_column("axle")
-        for lv in UTILISATION_LEVELS:
-            util.add_column(f"time > {lv:.0%}", justify="right")
-        util.add_column("from")
+        levels = tuple(f"time > {lv:.0%}" for lv in UTILISATION_LEVELS)
+        rows = []
         for sh in shares:
             src = _UTIL_FROM[sh.source](sh.axle[0])
             if sh.defined < 1.0:
                 src += f" (defined at {sh.defined:.1%} of the samples)"
-            util.add_row(sh.axle, *("n/a" if not np.isfinite(f) else f"{f:.1%}"
-                                    for f in sh.above.values()), src)
-        parts.append(util)
-    return Group(*parts)
+            rows.append((sh.axle, *("n/a" if not np.isfinite(f) else f"{f:.1%}"
+                                    for f in sh.above.values()), src))
+        sections.append(Section("friction utilisation |F| / (mu Fz) (truth)",
+                                ("axle", *levels, "from"), tuple(rows), right=frozenset(levels)))
+    return sections
+
+
+def format_text(sections: list[Section]) -> str:
+    """Plain-text rendering of :func:`describe_drive`: each table titled, columns padded."""
+    out = []
+    for sec in sections:
+        rows = [sec.columns, *sec.rows] if sec.header else list(sec.rows)
+        widths = [max((len(r[i]) for r in rows), default=0) for i in range(len(sec.columns))]
+        out.append(sec.title)
+        for r in rows:
+            cells = [c.rjust(w) if name in sec.right else c.ljust(w)
+                     for c, w, name in zip(r, widths, sec.columns, strict=True)]
+            out.append("  " + "  ".join(cells).rstrip())
+        out.append("")
+    return "\n".join(out)

@@ -1,4 +1,4 @@
-"""Terminal summaries of estimator runs (rich tables)."""
+"""Terminal summary of one estimator run (a rich table), printed by ``roadgrip estimate``."""
 
 from __future__ import annotations
 
