@@ -298,32 +298,6 @@ def test_frictionmaps_calibration(run):
     assert abs(after - 1.0) <= abs(before - 1.0) + 0.01
 
 
-def test_pose_body_velocity_on_a_sliding_circle():
-    """Constant speed V on a circle with a constant body sideslip beta: body velocity V (cos b, sin b)."""
-    from roadgrip.io.frictionmaps import pose_body_velocity
-
-    rate, n, radius, speed, beta = 50.0, 1500, 3.0, 2.0, 0.15
-    t = np.arange(n) / rate
-    w = speed / radius
-    x, y = radius * np.sin(w * t), radius * (1 - np.cos(w * t))
-    psi = w * t - beta  # course angle w t; the body points beta to the right of the velocity
-    bad = np.zeros(n, bool)
-    bad[700] = True  # a localisation jump
-    keep = np.ones(n, bool)
-    keep[1000:1010] = False  # ten missing ticks
-    vx, vy = pose_body_velocity(t[keep], x[keep], y[keep], psi[keep], bad[keep], window=0.3)
-    ok = np.isfinite(vx)
-    # a quadratic fit over 0.3 s of a circle at 0.67 rad/s: error of order (w T)^2 / 10
-    np.testing.assert_allclose(vx[ok], speed * np.cos(beta), atol=2e-3)
-    np.testing.assert_allclose(vy[ok], speed * np.sin(beta), atol=2e-3)
-    tk = t[keep]
-    # NaN within half a window (7 ticks) of the jump and the gap and at the ends, nowhere else
-    near = np.abs(tk - t[700]) <= 7 / rate + 1e-9  # the jump and 7 ticks either side
-    near |= (tk >= t[999] - 6 / rate - 1e-9) & (tk <= t[1010] + 6 / rate + 1e-9)  # 7 ticks each side
-    near |= (tk < 7 / rate - 1e-9) | (tk > t[-1] - 7 / rate + 1e-9)
-    np.testing.assert_array_equal(~ok, near)
-
-
 def test_stream_noise_of_an_upsampled_stream():
     """White noise recorded at 20 Hz and interpolated to 50 Hz: per-tick std s sqrt(50 / 20)."""
     from roadgrip.estimators.cascade import _robust_noise

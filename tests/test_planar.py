@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from roadgrip.constants import GRAVITY
+from roadgrip.signals import axle_loads
 from roadgrip.sim import engine
 from roadgrip.sim.friction import brush_surface, surface_from_preset, tire_table
 from roadgrip.tire import SURFACES
@@ -89,13 +90,13 @@ def test_friction_ellipse_bounds_the_forces():
     np.testing.assert_allclose(f.muy_f[inside], tires.front.mu(f.alpha_f[inside]))
 
 
-def test_load_transfer_matches_axle_loads_and_sums_to_weight():
+def test_load_transfer_matches_signals_axle_loads_and_sums_to_weight():
     p = PRESETS["sedan"]
     rng = np.random.default_rng(2)
     x = _random_states(rng, 500, p)
     f = planar_forces(x, np.zeros(500), p, _tires())
     np.testing.assert_allclose(f.fzf + f.fzr, p.mass * GRAVITY, rtol=1e-12)
-    fzf, fzr = p.axle_loads(f.ax)
+    fzf, fzr = axle_loads(p, f.ax)
     np.testing.assert_allclose(f.fzf, fzf)
     np.testing.assert_allclose(f.fzr, fzr)
     # the solved ax is consistent with the forces it produces

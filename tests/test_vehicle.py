@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import pytest
 import yaml
 
@@ -92,16 +91,6 @@ def test_load_vehicle_errors(tmp_path):
     p.write_text("")
     with pytest.raises(ValueError, match="must be a mapping"):
         load_vehicle(p)
-
-
-def test_axle_loads_transfer():
-    v = PRESETS["suv"]
-    f0, r0 = v.axle_loads(0.0)
-    assert f0 == pytest.approx(v.fz_front) and r0 == pytest.approx(v.fz_rear)
-    ax = np.array([-5.0, 3.0])
-    f, r = v.axle_loads(ax)
-    assert np.allclose(f + r, v.mass * GRAVITY)
-    assert np.allclose(f - v.fz_front, -v.mass * ax * v.cg_height / v.wheelbase)
 
 
 def test_understeer_gradient_formula():

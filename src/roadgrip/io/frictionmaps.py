@@ -33,7 +33,7 @@ and recorded asynchronously at about 18-44 Hz. Conversions, all recorded in
   ``|dp| > |vx| dt + 0.1 m + 0.5 |vx| dt``, or the heading changed more than
   ``|yaw_rate| dt + 0.2 rad``), not repaired.
 * ``vx_pose``, ``vy_pose``: body-frame velocity differentiated from the pose
-  over 0.3 s (:func:`pose_body_velocity`), NaN within half a window of a jump
+  over 0.3 s (:func:`roadgrip.signals.body_velocity_from_pose`), NaN within half a window of a jump
   or a gap. Fused by the cascade's stage 1 (it bounds the drift of the
   integrated lateral velocity). At low lateral acceleration (rear slip below
   0.01 rad) ``vy_pose`` follows ``d r`` with ``d`` = 0.15-0.27 m fitted per
@@ -92,6 +92,7 @@ from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.io._csv import read_csv_exact
 from roadgrip.io.resample import resample
+from roadgrip.signals import body_velocity_from_pose
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
 __all__ = [
@@ -99,7 +100,6 @@ __all__ = [
     "fit_pose_scales",
     "fit_steer_gain",
     "is_frictionmaps_dir",
-    "pose_body_velocity",
     "quaternion_yaw",
     "read_frictionmaps",
 ]
@@ -345,72 +345,6 @@ def fit_steer_gain(
     return float(min(k, 1.0)), int(use.sum())
 
 
-def pose_body_velocity(
-    t: np.ndarray,
-    x: np.ndarray,
-    y: np.ndarray,
-    psi: np.ndarray,
-    bad: np.ndarray,
-    *,
-    window: float = 0.3,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Body-frame velocity ``(vx, vy)`` [m/s] differentiated from a pose.
-
-    A local quadratic (Savitzky-Golay) fit over ``window`` seconds gives the
-    map-frame velocity ``(x', y')`` and the smoothed heading ``psi``; the
-    velocity is rotated into the body frame, ``vx = cos(psi) x' + sin(psi) y'``,
-    ``vy = -sin(psi) x' + cos(psi) y'``. The fit never spans a missing tick (a
-    gap in ``t``) or a sample in ``bad`` (a localisation jump): samples within
-    half a window of either, and segments shorter than a window, get NaN.
-
-    Parameters
-    ----------
-    t : ndarray, shape (n,)
-        Time [s] on a uniform clock with possibly missing ticks.
-    x, y, psi : ndarray, shape (n,)
-        Pose [m, m, rad] (``psi`` unwrapped) of the point the velocity refers to.
-    bad : ndarray of bool, shape (n,)
-        Samples whose pose is not to be used.
-    window : float
-        Fit window [s] (odd number of samples, at least 5).
-
-    Returns
-    -------
-    vx, vy : ndarray, shape (n,)
-        Body velocity [m/s]; NaN where not available.
-    """
-    from scipy.signal import savgol_filter
-
-    t = np.asarray(t, float)
-    n = len(t)
-    vx = np.full(n, np.nan)
-    vy = np.full(n, np.nan)
-    if n < 5:
-        return vx, vy
-    h = float(np.median(np.diff(t)))
-    w = max(round(window / h) // 2 * 2 + 1, 5)
-    half = w // 2
-    bad = np.asarray(bad, bool)
-    # segments between missing ticks and bad samples
-    brk = np.r_[True, np.diff(t) > 1.5 * h] | bad
-    seg = np.cumsum(brk)
-    for s in np.unique(seg):
-        idx = np.flatnonzero((seg == s) & ~bad)
-        if len(idx) < w:
-            continue
-        i0, i1 = idx[0], idx[-1] + 1
-        xd = savgol_filter(x[i0:i1], w, 2, deriv=1, delta=h)
-        yd = savgol_filter(y[i0:i1], w, 2, deriv=1, delta=h)
-        ps = savgol_filter(psi[i0:i1], w, 2)
-        c, sn = np.cos(ps), np.sin(ps)
-        bx, by = c * xd + sn * yd, -sn * xd + c * yd
-        # the edges use a one-sided fit: keep only the centred part
-        bx[:half] = bx[-half:] = np.nan
-        by[:half] = by[-half:] = np.nan
-        vx[i0:i1], vy[i0:i1] = bx, by
-    return vx, vy
-
-
 def read_frictionmaps(
     path: str | Path,
     vehicle: str | Path | VehicleParams | None = None,
@@ -445,7 +379,7 @@ def read_frictionmaps(
         Window [s] of the pose calibration (:func:`fit_pose_scales`).
     pose_velocity_window : float
         Fit window [s] of the body velocity differentiated from the pose
-        (:func:`pose_body_velocity`, columns ``vx_pose, vy_pose``).
+        (:func:`roadgrip.signals.body_velocity_from_pose`, columns ``vx_pose, vy_pose``).
 
     Returns
     -------
@@ -546,8 +480,8 @@ def read_frictionmaps(
         "imu_rate_hz": r_imu,
         "odom_rate_hz": r_odo,
     }
-    df["vx_pose"], df["vy_pose"] = pose_body_velocity(
-        t, df["x"].to_numpy(), df["y"].to_numpy(), df["psi"].to_numpy(), jump, window=pose_velocity_window
+    df["vx_pose"], df["vy_pose"] = body_velocity_from_pose(
+        t, df["x"].to_numpy(), df["y"].to_numpy(), df["psi"].to_numpy(), window=pose_velocity_window, bad=jump
     )
 
     # exact grid times from the tick numbers
@@ -585,7 +519,7 @@ def read_frictionmaps(
             "speed_cmd": "commandData.V (command, zero-order hold)",
             "x/y/psi": "pfPoseData (particle filter), psi from the quaternion, unwrapped",
             "vx_pose/vy_pose": f"body velocity differentiated from the pose over {pose_velocity_window} s "
-            "(pose_body_velocity); NaN near jumps and gaps",
+            "(roadgrip.signals.body_velocity_from_pose); NaN near jumps and gaps",
             "pose_jump": "1 where the pose step exceeds 1.5 |vx| dt + 0.1 m or the heading "
             "step exceeds |yaw_rate| dt + 0.2 rad (not repaired)",
             **({"vx_motor": "-coreData.RPM / 7800 [m/s]"} if has_core else {}),

@@ -72,9 +72,9 @@ from numpy.typing import NDArray
 
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
+from roadgrip.signals import wheel_centre_speeds
 from roadgrip.sim.engine import nearest_on_path, surface_index
 from roadgrip.sim.friction import FrictionField
-from roadgrip.sim.runner import wheel_centre_speeds
 from roadgrip.sim.sensors import SensorSpec, apply_sensors, sensors_to_dict
 from roadgrip.vehicle.params import VehicleParams
 from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
@@ -864,7 +864,7 @@ def _drive_from_run(vp, p_pkg, states, derivs, inputs, wheels, surf, labels, mu,
     fxf, fyf, fzf, uf = _axle_truth(wheels, [0, 1])
     fxr, fyr, fzr, ur = _axle_truth(wheels, [2, 3])
     mu_arr = np.array([float(mu[lab]) for lab in labels])
-    centre = dict(zip(("fl", "fr", "rl", "rr"), wheel_centre_speeds(vx, vy_cg, r, steer, vp), strict=True))
+    centre = dict(zip(("fl", "fr", "rl", "rr"), wheel_centre_speeds(vx, vy_cg, r, steer, vp).T, strict=True))
     cols: dict[str, Any] = {"t": t}
     cols.update({k: measured[k] for k in MB_SENSOR_COLUMNS})
     cols.update(vx_true=vx, vy_true=vy_cg, yaw_rate_true=r, alpha_f_true=af, alpha_r_true=ar)

@@ -41,6 +41,7 @@ import pandas as pd
 
 from roadgrip.constants import GRAVITY, V_EPS
 from roadgrip.drive import Drive
+from roadgrip.signals import wheel_centre_speeds
 from roadgrip.sim import engine
 from roadgrip.sim.friction import FrictionField, SurfaceTires, tire_table
 from roadgrip.sim.maneuvers import Maneuver
@@ -58,7 +59,7 @@ from roadgrip.vehicle.planar import (
 )
 from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
 
-__all__ = ["MEASURED_COLUMNS", "MIN_INTERNAL_RATE", "simulate", "wheel_centre_speeds"]
+__all__ = ["MEASURED_COLUMNS", "MIN_INTERNAL_RATE", "simulate"]
 
 MIN_INTERNAL_RATE = 500.0
 """Lowest internal integration rate [Hz]."""
@@ -84,14 +85,6 @@ def _surface_list(friction: FrictionField, surfaces: Mapping[str, SurfaceTires])
     if missing:
         raise ValueError(f"friction field uses surface(s) {missing} with no tire curves; given {sorted(surfaces)}")
     return [surfaces[s] for s in friction.labels]
-
-
-def wheel_centre_speeds(vx, vy, r, steer, vehicle):
-    """Longitudinal wheel-centre speeds in the wheel frames ``(fl, fr, rl, rr)`` [m/s]."""
-    hb = 0.5 * vehicle.track_width * r
-    c, s = np.cos(steer), np.sin(steer)
-    lat_f = (vy + vehicle.lf * r) * s
-    return (vx - hb) * c + lat_f, (vx + hb) * c + lat_f, vx - hb, vx + hb
 
 
 def simulate(
@@ -276,7 +269,7 @@ def _run_lateral(vehicle, maneuver, n, dt, table, field_args, surf_list, v_eps, 
 
 def _common_truth(vehicle, vx, vy, r, steer, x, y, psi, wf, wr, v_eps):
     w = wheel_speeds(wf, wr, r, steer, vehicle)
-    vc = wheel_centre_speeds(vx, vy, r, steer, vehicle)
+    vc = wheel_centre_speeds(vx, vy, r, steer, vehicle).T
     kap = [longitudinal_slip(wi, vi, vehicle.wheel_radius, v_eps=v_eps) for wi, vi in zip(w, vc, strict=True)]
     return {
         "yaw_rate": r, "steer": steer, "vx": vx, "x": x, "y": y, "psi": psi,

@@ -111,25 +111,6 @@ class VehicleParams:
             self.lr / self.cornering_stiffness_front - self.lf / self.cornering_stiffness_rear
         )
 
-    def axle_loads(self, ax: Any) -> tuple[Any, Any]:
-        """Axle normal loads with longitudinal load transfer.
-
-        Parameters
-        ----------
-        ax : array_like
-            Longitudinal acceleration [m/s²], positive forward.
-
-        Returns
-        -------
-        fz_front, fz_rear : ndarray
-            ``m (g lr - ax h) / l`` and ``m (g lf + ax h) / l`` [N], clipped at zero.
-        """
-        import numpy as np
-
-        ax = np.asarray(ax, dtype=float)
-        dfz = self.mass * ax * self.cg_height / self.wheelbase
-        return np.maximum(self.fz_front - dfz, 0.0), np.maximum(self.fz_rear + dfz, 0.0)
-
     # -- (de)serialisation -------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

@@ -25,7 +25,7 @@ leaves the ellipse ``(mu_x/D_x)² + (mu_y/D_y)² <= 1``; in particular
 Axle forces in body axes are ``F_z (mu_x cos delta - mu_y sin delta,
 mu_x sin delta + mu_y cos delta)`` at the front and ``F_z (mu_x, mu_y)`` at the
 rear. The normal loads follow the longitudinal specific force ``a_x`` through
-:meth:`VehicleParams.axle_loads` (quasi-static load transfer, ``F_zf = m (g lr
+:func:`roadgrip.signals.axle_loads` (quasi-static load transfer, ``F_zf = m (g lr
 - a_x h)/l``). Because every force is its load times a load-independent
 ``mu``, ``a_x = (F_zf g_xf + F_zr g_xr)/m`` with ``g_x`` the normalised x
 forces is linear in ``a_x`` and is solved exactly,
@@ -60,6 +60,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from roadgrip.constants import GRAVITY, V_EPS
+from roadgrip.signals import axle_loads, driven_wheels
 from roadgrip.tire import FrictionModel
 from roadgrip.vehicle.params import VehicleParams
 from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
@@ -145,7 +146,8 @@ def axle_torques(
     """Split total torques [N m] into ``(drive_f, drive_r, brake_f, brake_r)``."""
     td = np.asarray(drive_torque, float)
     tb = np.asarray(brake_torque, float)
-    share = {"fwd": 1.0, "rwd": 0.0, "awd": AWD_FRONT_SHARE}[params.drive]
+    front, rear = driven_wheels(params.drive)[[0, 2]]
+    share = AWD_FRONT_SHARE if (front and rear) else float(front)
     return share * td, (1.0 - share) * td, BRAKE_FRONT_SHARE * tb, (1.0 - BRAKE_FRONT_SHARE) * tb
 
 
@@ -197,7 +199,7 @@ def planar_forces(
     gxr = mxr
     wb, h = params.wheelbase, params.cg_height
     ax = GRAVITY * (params.lr * gxf + params.lf * gxr) / np.maximum(wb + h * (gxf - gxr), 0.1 * wb)
-    fzf, fzr = params.axle_loads(ax)
+    fzf, fzr = axle_loads(params, ax)
     ax = (fzf * gxf + fzr * gxr) / params.mass
     gyf = mxf * s + myf * c
     fyf, fyr = fzf * gyf, fzr * myr
