@@ -240,13 +240,16 @@ def _hand_drive(n=800, dt=0.05):
     return Drive.from_frame(df, PRESETS["sedan"], source="hand-made", truth=truth)
 
 
-def _stand_in(method, drive, request):
+def _stand_in(method, drive, options=None, *, seed=0, progress=None):
     """A seeded stand-in estimator: truth plus noise, or a class trace 1 s late."""
     from roadgrip.estimators.base import EstimateResult, conform
 
     if method == "broken":
         raise RuntimeError("diverged")
-    rng = np.random.default_rng(request.seed)
+    if method == "cascade":
+        raise ValueError("unknown method 'cascade'")
+    options = options or {}
+    rng = np.random.default_rng(seed)
     t = drive.t
     if method == "brls":
         cls = np.where((t >= t[drive.n // 2] + 1.0), "low", "high")
@@ -255,10 +258,10 @@ def _stand_in(method, drive, request):
     tab = pd.DataFrame({"t": t, "mu_front": mu, "mu_rear": mu, "mu_front_lower": mu - 0.1,
                         "mu_front_upper": mu + 0.1, "mu_rear_lower": mu - 0.1, "mu_rear_upper": mu + 0.1,
                         "peak_observed_front": True,
-                        "peak_observed_rear": not request.options.get("lower_bound", False)})
-    if request.options.get("offset"):
+                        "peak_observed_rear": not options.get("lower_bound", False)})
+    if options.get("offset"):
         for c in ("mu_front", "mu_front_lower", "mu_front_upper"):
-            tab[c] = tab[c] + request.options["offset"]
+            tab[c] = tab[c] + options["offset"]
     return EstimateResult(method, conform(tab), {})
 
 
@@ -268,7 +271,6 @@ def stand_ins(monkeypatch):
     from roadgrip.evaluate import suite
 
     monkeypatch.setattr(est, "run_estimator", _stand_in)
-    monkeypatch.setattr(suite, "method_available", lambda m: m != "cascade")
     return suite
 
 
@@ -278,7 +280,8 @@ def test_suite_runs_scores_and_isolates_failures(stand_ins):
              suite.Case("hand", "cascade", "cascade"), suite.Case("hand", "broken", "broken")]
     recs = suite.run_suite(cases, suite.QUICK, seed=3, drives={"hand": _hand_drive()})
     status = [r.status for r in recs]
-    assert status[:3] == ["ok", "ok", "not available"]
+    assert status[:2] == ["ok", "ok"]
+    assert status[2] == "error: ValueError: unknown method 'cascade'"
     assert status[3].startswith("error: RuntimeError: diverged")
     g, b = recs[0].metrics, recs[1].metrics
     assert abs(g["peak_err_f"]) < 0.1 and g["mu_band_cov"] > 0.99
@@ -314,9 +317,9 @@ def test_bench_is_reproducible_by_seed_and_writes_markdown_and_csv(stand_ins, tm
     cases = [suite.Case("hand", "gpssm", "gpssm"), suite.Case("hand", "brls", "brls")]
     drives = {"hand": _hand_drive()}
     acc = ["peak_err_f", "peak_err_r", "mu_band_cov", "class_acc", "max_delay_s", "conf_wrong"]
-    a = suite.bench_cli(tmp_path / "a", seed=1, cases=cases, drives=drives)[acc]
-    b = suite.bench_cli(tmp_path / "b", seed=1, cases=cases, drives=drives)[acc]
-    c = suite.bench_cli(tmp_path / "c", seed=2, cases=cases, drives=drives)[acc]
+    a = suite.bench(tmp_path / "a", suite.QUICK, seed=1, cases=cases, drives=drives)[0][acc]
+    b = suite.bench(tmp_path / "b", suite.QUICK, seed=1, cases=cases, drives=drives)[0][acc]
+    c = suite.bench(tmp_path / "c", suite.QUICK, seed=2, cases=cases, drives=drives)[0][acc]
     pd.testing.assert_frame_equal(a, b)
     assert a["peak_err_f"].iloc[0] != c["peak_err_f"].iloc[0]
     csv = pd.read_csv(tmp_path / "a" / "bench.csv")
@@ -354,8 +357,6 @@ def test_dart_classifier_runs_on_the_second_half_with_a_first_half_calibration(m
 
     monkeypatch.setenv("ROADGRIP_SHARED_DATA", str(DATA))
     case = next(c for c in suite.default_cases(suite.QUICK) if c.format == "dart" and c.method == "brls")
-    if not suite.method_available("brls"):
-        pytest.skip("brls not available")
     rec = suite.run_suite([case], suite.QUICK)[0]
     assert rec.status == "ok"
     from roadgrip.io import read_drive
@@ -370,7 +371,6 @@ def test_dart_classifier_runs_on_the_second_half_with_a_first_half_calibration(m
 
 @pytest.mark.slow
 def test_real_estimators_are_reproducible_by_seed():
-    pytest.importorskip("roadgrip.sim.scenarios")
     from dataclasses import replace
 
     from roadgrip.evaluate import suite
@@ -378,9 +378,7 @@ def test_real_estimators_are_reproducible_by_seed():
     settings = replace(suite.QUICK, particles=20, real_data=False,
                        durations={"snow-slalom": 20.0, "f1tenth-patches": 20.0},
                        scenarios=("snow-slalom", "f1tenth-patches"), gpssm_variants=("gpssm-sep-odd",))
-    cases = [c for c in suite.default_cases(settings) if suite.method_available(c.method)]
-    if not cases:
-        pytest.skip("no estimator available")
+    cases = suite.default_cases(settings)
     speed = ["samples_per_s", "rtf"]
     a = suite.bench_table(suite.run_suite(cases, settings, seed=4)).drop(columns=speed)
     b = suite.bench_table(suite.run_suite(cases, settings, seed=4)).drop(columns=speed)
@@ -391,14 +389,14 @@ def test_real_estimators_are_reproducible_by_seed():
 def test_cell_truth_is_the_field_at_the_observations_the_grid_fused():
     # against an independent computation: the true field fused into a grid with the
     # observations' own precisions (the value each cell's estimate converges to)
-    from roadgrip.estimators import cascade as C
+    from roadgrip.estimators import run_estimator
     from roadgrip.evaluate.maps import cells_from_result, true_cell_friction
     from roadgrip.mapping import empty_grid, fuse, observations_from_estimates
     from roadgrip.sim.friction import mu_at
     from roadgrip.sim.scenarios import simulate_scenario
 
     drive = simulate_scenario("f1tenth-patches", 0, duration=30.0)
-    res = C.run_cli(drive, C.EstimateRequest())
+    res = run_estimator("cascade", drive)
     cells, cell, _ = cells_from_result(res, drive)
     truth = true_cell_friction(drive, cells, cell, table=res.table)
     area = true_cell_friction(drive, cells, cell)

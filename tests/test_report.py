@@ -13,8 +13,9 @@ import pytest
 
 from roadgrip.drive import Drive
 from roadgrip.estimators.base import EstimateResult, conform
-from roadgrip.evaluate.suite import Case, RunRecord, score
-from roadgrip.report import SECTIONS, build_report, report_cli
+from roadgrip.evaluate.cases import Case, RunRecord
+from roadgrip.evaluate.scoring import score
+from roadgrip.report import SECTIONS, build_report, write_report
 from roadgrip.tire import SURFACES
 from roadgrip.vehicle import PRESETS
 
@@ -131,19 +132,19 @@ def test_empty_sections_say_so(tmp_path):
     assert len(p.imgs) == 1  # the signals of the drive
 
 
-def test_report_cli_reads_estimates_and_pairs_them_with_the_drive(tmp_path):
+def test_write_report_reads_estimates_and_pairs_them_with_the_drive(tmp_path):
     drive = _drive(300)
     drive.save(tmp_path / "drive.parquet")
     rec = _records(drive)[0]
     rec.result.to_parquet(tmp_path / "est.parquet")
     rec.result.curves.to_parquet(tmp_path / "curves.parquet")
-    path = report_cli([str(tmp_path / "drive.parquet"), str(tmp_path / "est.parquet"),
+    path = write_report([str(tmp_path / "drive.parquet"), str(tmp_path / "est.parquet"),
                        str(tmp_path / "curves.parquet")], tmp_path / "out")
     text = path.read_text()
     assert "drive / gpssm" in text  # paired with the drive by its clock
     assert "curves-drive-gpssm.png" in text
     with pytest.raises(ValueError, match="no such file"):
-        report_cli([str(tmp_path / "missing.parquet")], tmp_path / "out2")
+        write_report([str(tmp_path / "missing.parquet")], tmp_path / "out2")
 
 
 # -- headless browser -------------------------------------------------------------------
@@ -195,7 +196,8 @@ def test_report_command_with_a_benchmark_folder(tmp_path):
     from typer.testing import CliRunner
 
     from roadgrip.cli import app
-    from roadgrip.evaluate.suite import QUICK, bench_table, write_outputs
+    from roadgrip.evaluate.cases import QUICK
+    from roadgrip.evaluate.table import bench_table, write_outputs
 
     drive = _drive(200)
     drive.save(tmp_path / "drive.parquet")

@@ -247,7 +247,7 @@ def test_true_peak_series_falls_back_to_mu_true_on_binned_truth():
                                           truth=d.meta.truth, check_units=False))
 
 
-def _curve_stand_in(method, drive, request):
+def _curve_stand_in(method, drive, options=None, *, seed=0, progress=None):
     """Friction trace = mu_true; posterior curves = the analytic truth of the surface under
     the vehicle + 0.02 on the GP-SSM's slip grid, band +-0.05, at the requested curve times."""
     from roadgrip.estimators.base import EstimateResult, conform
@@ -260,7 +260,7 @@ def _curve_stand_in(method, drive, request):
                         "peak_observed_rear": True})
     grid = np.linspace(-0.3, 0.3, 161)
     frames = []
-    for tc in request.curve_times or ():
+    for tc in options["curve_times"] or ():
         surface = drive.data["surface"].iloc[np.searchsorted(t - t[0], tc + 1e-9) - 1]
         mu_c = (_mu_a if surface == "snow" else _mu_b)(grid)
         frames += [pd.DataFrame({"t": tc, "axle": axle, "alpha": grid, "mu_mean": mu_c + 0.02,

@@ -16,9 +16,11 @@ def report(
     output: Annotated[Path, typer.Option("-o", "--output", help="Report folder.")] = Path("report"),
 ) -> None:
     """Write a self-contained HTML report."""
-    from roadgrip.report import report_cli
+    from roadgrip.report import write_report
 
-    report_cli(inputs, output, console=console)
+    path = write_report(inputs, output,
+                        on_run=lambda method, name: console.print(f"running {method} on {name} ..."))
+    console.print(f"report: {path.resolve()}")
 
 
 @app.command()
@@ -27,6 +29,11 @@ def demo(
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
 ) -> None:
     """Simulate the built-in drives, run every estimator, write the report."""
-    from roadgrip.report import demo_cli
+    from roadgrip.cli.bench import bench_renderable, case_progress
+    from roadgrip.evaluate.cases import DEMO, default_cases
+    from roadgrip.report import run_demo
 
-    demo_cli(out, seed=seed, console=console)
+    with case_progress("demo", len(default_cases(DEMO))) as (on_case, on_done):
+        path, table = run_demo(out, seed=seed, settings=DEMO, on_case=on_case, on_done=on_done)
+    console.print(bench_renderable(table, title=f"roadgrip demo benchmark (seed {seed})"))
+    console.print(f"report written to {path.resolve()}")

@@ -1,8 +1,13 @@
 """Evaluation: accuracy metrics against truth, the scenario suite and the benchmark.
 
-* :mod:`roadgrip.evaluate.metrics`: metric functions on plain arrays.
-* :mod:`roadgrip.evaluate.suite`: which estimator runs on which scenario or
-  real data set, how each run is scored, and ``roadgrip bench``.
+* :mod:`roadgrip.evaluate.metrics`: metric functions on plain arrays, and the
+  truth series of a simulated drive they are compared with.
+* :mod:`roadgrip.evaluate.map_metrics`: accuracy and calibration of a friction grid.
+* :mod:`roadgrip.evaluate.cases`: which estimator runs on which scenario or real
+  data set (:class:`~roadgrip.evaluate.cases.BenchSettings`, ``default_cases``).
+* :mod:`roadgrip.evaluate.suite`: running the cases (``run_suite``, ``bench``).
+* :mod:`roadgrip.evaluate.scoring`: how each run is scored.
+* :mod:`roadgrip.evaluate.table`: the benchmark table and its Markdown/CSV files.
 * :mod:`roadgrip.evaluate.maps`: friction grids of a run and their cell truth.
 * :mod:`roadgrip.truth`: the true axle friction curve of a simulated drive,
   parametric or binned from its truth columns, and the axles' friction utilisation.
@@ -10,13 +15,12 @@
 The output contract the metrics read is described in ``docs/output-contract.md``.
 """
 
+from roadgrip.evaluate.map_metrics import MapMetrics, cell_truth, map_metrics
 from roadgrip.evaluate.metrics import (
     ClassificationMetrics,
     CurveMetrics,
     DetectionEvent,
-    MapMetrics,
     band_coverage,
-    cell_truth,
     classification_accuracy,
     confident_wrong_class_rate,
     confident_wrong_rate,
@@ -24,10 +28,10 @@ from roadgrip.evaluate.metrics import (
     covered_mask,
     curve_error,
     detection_delays,
-    map_metrics,
     peak_error,
     sustained,
     true_peak_series,
+    truth_at_estimates,
     truth_excitation,
     truth_grip_class,
 )
@@ -46,7 +50,6 @@ __all__ = [
     "DetectionEvent",
     "MapMetrics",
     "band_coverage",
-    "bench_cli",
     "binned_truth_curve",
     "cell_truth",
     "classification_accuracy",
@@ -63,13 +66,8 @@ __all__ = [
     "sustained",
     "true_curve",
     "true_peak_series",
+    "truth_at_estimates",
     "truth_excitation",
     "truth_grip_class",
 ]
 
-
-def bench_cli(output, *, quick: bool = False, seed: int = 0, console=None):
-    """``roadgrip bench``: see :func:`roadgrip.evaluate.suite.bench_cli`."""
-    from roadgrip.evaluate.suite import bench_cli as _bench_cli
-
-    return _bench_cli(output, quick=quick, seed=seed, console=console)

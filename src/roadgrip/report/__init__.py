@@ -16,6 +16,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +24,7 @@ import pandas as pd
 
 from roadgrip.report.builder import SECTIONS, build_report
 
-__all__ = ["SECTIONS", "build_report", "demo_cli", "report_cli"]
+__all__ = ["SECTIONS", "build_report", "run_demo", "write_report"]
 
 
 def _kind(path: Path) -> str:
@@ -56,7 +57,7 @@ def _same_clock(drive, table: pd.DataFrame) -> bool:
 
 
 def _cases_for(name: str, drive, fmt: str | None):
-    from roadgrip.evaluate.suite import CLASSIFIERS, Case
+    from roadgrip.evaluate.cases import CLASSIFIERS, Case
 
     scenario = (drive.meta.truth or {}).get("scenario")
     if scenario is None and drive.meta.source.startswith("sim:"):
@@ -72,16 +73,31 @@ def _cases_for(name: str, drive, fmt: str | None):
     return [Case(name, m, m) for m in methods]
 
 
-def report_cli(inputs, output, *, console=None) -> Path:
-    """``roadgrip report``: read drives, estimates and benchmark tables; write the report."""
-    from rich.console import Console
+def write_report(inputs, output, *, on_run: Callable[[str, str], None] | None = None) -> Path:
+    """``roadgrip report``: read drives, estimates and benchmark tables; write the report.
 
+    Parameters
+    ----------
+    inputs : sequence of path
+        Drives, estimates files, curve files and benchmark folders or tables.
+    output : path
+        Report folder.
+    on_run : callable, optional
+        Called with ``(method, drive name)`` before an estimator runs on a drive
+        that came without estimates.
+
+    Returns
+    -------
+    Path
+        The written ``index.html``.
+    """
     from roadgrip.estimators.base import EstimateResult
-    from roadgrip.evaluate.suite import FULL, Case, RunRecord, run_case, score
+    from roadgrip.evaluate.cases import FULL, Case, RunRecord
+    from roadgrip.evaluate.scoring import score
+    from roadgrip.evaluate.suite import run_case
     from roadgrip.io import read_drive
     from roadgrip.io.read import detect_format
 
-    console = console or Console()
     if not inputs:
         raise ValueError("give at least one drive, estimates file or benchmark folder")
     drives: dict[str, tuple[object, str | None]] = {}
@@ -126,17 +142,16 @@ def report_cli(inputs, output, *, console=None) -> Path:
         if name in paired:
             continue
         for case in _cases_for(name, drive, fmt):
-            console.print(f"running {case.method} on {name} ...")
+            if on_run is not None:
+                on_run(case.method, name)
             records.append(run_case(case, FULL, 0, cache))
     notes = [f"inputs: {', '.join(str(i) for i in inputs)}"]
-    path = build_report(records, output, title="roadgrip report", notes=notes, bench=bench,
+    return build_report(records, output, title="roadgrip report", notes=notes, bench=bench,
                         extra_drives={n: d for n, (d, _) in drives.items()})
-    console.print(f"report: {path.resolve()}")
-    return path
 
 
-def demo_cli(out, *, seed: int = 0, console=None, settings=None) -> Path:
-    """``roadgrip demo``: simulate the three scenarios, run every estimator, benchmark, report.
+def run_demo(out, *, seed: int = 0, settings=None, on_case=None, on_done=None) -> tuple[Path, pd.DataFrame]:
+    """``roadgrip demo``: simulate the scenarios, run every estimator, benchmark, report.
 
     Parameters
     ----------
@@ -145,28 +160,22 @@ def demo_cli(out, *, seed: int = 0, console=None, settings=None) -> Path:
     seed : int
         Seed of the simulations and the estimators.
     settings : BenchSettings, optional
-        Default :data:`roadgrip.evaluate.suite.DEMO`.
+        Default :data:`roadgrip.evaluate.cases.DEMO`.
+    on_case, on_done : callable, optional
+        Progress callbacks of :func:`roadgrip.evaluate.suite.run_suite`.
+
+    Returns
+    -------
+    (Path, DataFrame)
+        The written ``index.html`` and the benchmark table.
     """
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from roadgrip.evaluate.cases import DEMO
+    from roadgrip.evaluate.suite import bench
 
-    from roadgrip.evaluate.suite import DEMO, default_cases, rich_table, run_suite, write_outputs
-
-    console = console or Console()
     settings = settings or DEMO
-    cases = default_cases(settings)
-    t0 = time.perf_counter()
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                  TimeElapsedColumn(), console=console, transient=True) as progress:
-        task = progress.add_task("demo", total=len(cases))
-        records = run_suite(
-            cases, settings, seed=seed,
-            on_case=lambda c: progress.update(task, description=f"{c.drive} / {c.label}"),
-            on_done=lambda r: progress.advance(task),
-        )
     out = Path(out)
-    table = write_outputs(records, out, settings, seed)
-    console.print(rich_table(table, title=f"roadgrip demo benchmark (seed {seed})"))
+    t0 = time.perf_counter()
+    table, records = bench(out, settings, seed=seed, on_case=on_case, on_done=on_done)
     wall = time.perf_counter() - t0
     notes = [
         f"seed {seed}; {settings.describe()}",
@@ -178,5 +187,4 @@ def demo_cli(out, *, seed: int = 0, console=None, settings=None) -> Path:
     missing = [r for r in records if r.status != "ok"]
     notes += [f"{r.case.drive} / {r.case.label}: {r.status}" for r in missing]
     path = build_report(records, out, title="roadgrip demo report", notes=notes)
-    console.print(f"report written to {path.resolve()}")
-    return path
+    return path, table

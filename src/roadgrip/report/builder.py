@@ -24,15 +24,8 @@ import numpy as np
 import pandas as pd
 
 from roadgrip.evaluate import metrics as M
-from roadgrip.evaluate.suite import (
-    BENCH_COLUMNS,
-    CLASSIFIERS,
-    COLUMN_NOTES,
-    PEAK_FLAG_METHODS,
-    RunRecord,
-    bench_table,
-    format_cell,
-)
+from roadgrip.evaluate.cases import CLASSIFIERS, PEAK_FLAG_METHODS, RunRecord
+from roadgrip.evaluate.table import BENCH_COLUMNS, COLUMN_NOTES, bench_table, format_cell
 
 __all__ = ["SECTIONS", "Figure", "build_report"]
 
@@ -99,10 +92,9 @@ def _truth_peaks(rec: RunRecord) -> dict[str, np.ndarray] | None:
     drive, tab = rec.drive, rec.result.table
     if drive is None or not drive.has_truth:
         return None
-    from roadgrip.evaluate.suite import _truth_on
-
     try:
-        return {a: _truth_on(drive, tab, M.true_peak_series(drive, a)) for a in ("front", "rear")}
+        return {a: M.truth_at_estimates(drive, tab, M.true_peak_series(drive, a))
+                for a in ("front", "rear")}
     except ValueError:
         return None
 

@@ -1,0 +1,153 @@
+"""The benchmark table: one row per run, its Markdown and CSV files and its notes."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from roadgrip.evaluate.cases import BenchSettings, RunRecord
+
+__all__ = [
+    "BENCH_COLUMNS",
+    "COLUMN_NOTES",
+    "accuracy_summary",
+    "bench_table",
+    "format_cell",
+    "suite_notes",
+    "table_markdown",
+    "write_outputs",
+]
+
+BENCH_COLUMNS: dict[str, tuple[str, str]] = {
+    # key: (header, format)
+    "samples": ("samples", "{:.0f}"),
+    "samples_per_s": ("samples/s", "{:,.0f}"),
+    "rtf": ("real-time ×", "{:,.0f}"),
+    "curve_mae": ("curve MAE", "{:.3f}"),
+    "curve_cov": ("curve band cov.", "{:.0%}"),
+    "peak_err_f": ("peak err. front", "{:+.3f}"),
+    "peak_err_r": ("peak err. rear", "{:+.3f}"),
+    "peak_ref_err": ("peak − reference", "{:+.3f}"),
+    "mu_band_cov": ("μ band cov.", "{:.0%}"),
+    "class_acc": ("class acc.", "{:.0%}"),
+    "class_acc_exc": ("class acc. (excited)", "{:.0%}"),
+    "max_delay_s": ("max delay [s]", "{:.2f}"),
+    "switches": ("switches", "{:.0f}"),
+    "conf_wrong": ("confident wrong", "{:.1%}"),
+    "map_cells": ("map cells", "{:.0f}"),
+    "map_mae": ("map MAE", "{:.3f}"),
+    "map_cov95": ("map 95 % cov.", "{:.0%}"),
+}
+"""Metric key -> (column header, format) of the benchmark table."""
+
+
+COLUMN_NOTES = (
+    "Columns: curve MAE / band cov. = worst over axles and times (t = 50 s and end) of the "
+    "posterior-mean curve error and 95 % band coverage over 0.5° slip bins visited ≥ 20 times; "
+    "peak err. = final peak estimate − true peak (only where the estimator reports the peak as "
+    "observed; otherwise it is judged as a lower bound in the notes); peak − reference = largest "
+    "final axle peak − the floor's approximate friction (DART: 0.8 high, 0.35 low); μ band cov. = "
+    "fraction of time the true peak lies in the 95 % band; class acc. = fraction of time "
+    "classified correctly ('unknown' counts as wrong), (excited) = on sufficiently excited "
+    "samples (|a| ≥ 2 m/s² for ≥ 0.3 s; DART: the estimator's excited samples after 10 s); max "
+    "delay = worst detection delay (the new class held ≥ 0.5 s) after the first sample the "
+    "estimator flags as excited following a surface change; confident wrong = fraction of "
+    "samples with a confident claim outside tolerance (a band no wider than 0.2 with the "
+    "estimate more than 0.1 off, or a wrong 'high'/'low' class; a class held through the "
+    "unexcited seconds after a surface change counts); map = cells with ≥ 10 excited "
+    "observations, their mean absolute error and the fraction inside mean ± 1.96 std."
+)
+"""What the benchmark columns mean (shown under the table)."""
+
+
+def bench_table(records: Sequence[RunRecord]) -> pd.DataFrame:
+    """One row per run: drive, method, status and every metric (NaN where it does not apply)."""
+    rows = []
+    for r in records:
+        row: dict[str, Any] = {"drive": r.case.drive, "method": r.case.label, "status": r.status}
+        for k in BENCH_COLUMNS:
+            row[k] = r.metrics.get(k, np.nan)
+        rows.append(row)
+    return pd.DataFrame(rows, columns=["drive", "method", "status", *BENCH_COLUMNS])
+
+
+def format_cell(key: str, value: Any) -> str:
+    if key not in BENCH_COLUMNS:
+        return str(value)
+    if value is None or (isinstance(value, float) and np.isnan(value)):
+        return ""
+    if isinstance(value, float) and np.isinf(value):
+        return "missed"
+    return BENCH_COLUMNS[key][1].format(value)
+
+
+def table_markdown(table: pd.DataFrame) -> str:
+    """The benchmark table as GitHub Markdown (columns that are empty everywhere dropped)."""
+    keys = ["drive", "method"] + [k for k in BENCH_COLUMNS if table[k].notna().any()] + ["status"]
+    head = [BENCH_COLUMNS[k][0] if k in BENCH_COLUMNS else k for k in keys]
+    lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in keys) + "|"]
+    for _, row in table.iterrows():
+        lines.append("| " + " | ".join(format_cell(k, row[k]) for k in keys) + " |")
+    return "\n".join(lines) + "\n"
+
+
+_SUMMARY_KEYS = (
+    ("curve_mae", "curve MAE"), ("curve_cov", "band"), ("peak_err_f", "peak err f"),
+    ("peak_err_r", "r"), ("peak_ref_err", "peak − ref."), ("mu_band_cov", "μ band"), ("class_acc", "acc"),
+    ("class_acc_exc", "acc exc."), ("max_delay_s", "delay"), ("switches", "switches"),
+    ("conf_wrong", "conf. wrong"), ("map_mae", "map MAE"), ("map_cov95", "map cov"),
+)
+
+
+def accuracy_summary(row) -> str:
+    """The accuracy figures of one table row as one short line (for the terminal)."""
+    parts = []
+    for key, short in _SUMMARY_KEYS:
+        v = row.get(key, np.nan)
+        if isinstance(v, float) and np.isnan(v):
+            continue
+        parts.append(f"{short} {format_cell(key, v)}")
+    return ", ".join(parts)
+
+
+def write_outputs(records: Sequence[RunRecord], out_dir: Path, settings: BenchSettings,
+                  seed: int) -> pd.DataFrame:
+    """Write ``bench.csv`` and ``bench.md`` (table plus the per-run details) to ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    table = bench_table(records)
+    table.to_csv(out_dir / "bench.csv", index=False)
+    md = [f"# roadgrip benchmark\n\nseed {seed}; {settings.describe()}\n\n", table_markdown(table)]
+    md.extend(f"\n{n}\n" for n in suite_notes(records))
+    md.append("\n" + COLUMN_NOTES + "\n")
+    for r in records:
+        if r.details:
+            md.append(f"\n**{r.case.drive} / {r.case.label}**\n")
+            md.extend(f"- {d}\n" for d in r.details)
+    (out_dir / "bench.md").write_text("".join(md))
+    return table
+
+
+def suite_notes(records: Sequence[RunRecord]) -> list[str]:
+    """Findings across runs: agreement of the frictionmaps DS3-DS5 maps on common cells."""
+    notes = []
+    loop = [r for r in records if r.grid is not None and r.case.drive in
+            ("frictionmaps:DS3", "frictionmaps:DS4", "frictionmaps:DS5")]
+    if len(loop) >= 2:
+        from roadgrip.mapping import compare_grids
+
+        cmp = compare_grids([r.grid for r in loop], min_obs=10)
+        names = ", ".join(r.case.drive.split(":")[1] for r in loop)
+        if len(cmp.cells):
+            notes.append(
+                f"frictionmaps {names} (same loop): {len(cmp.cells)} common cells with ≥ 10 excited "
+                f"observations each; mean spread (std across runs) {cmp.spread_std:.3f}, largest "
+                f"difference {cmp.max_abs_diff:.3f}"
+            )
+        else:
+            notes.append(f"frictionmaps {names}: no common cell with ≥ 10 excited observations in every run")
+    return notes
+
