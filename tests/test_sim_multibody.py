@@ -12,27 +12,29 @@ from vehiclemodels.utils import tire_model
 from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb
 
 from roadgrip.constants import GRAVITY
-from roadgrip.sim import multibody as mb
+from roadgrip.sim import mb_model
 from roadgrip.sim.friction import ConstantFriction
+from roadgrip.sim.mb_driver import Path
+from roadgrip.sim.multibody import simulate_multibody
 from roadgrip.sim.scenarios import MB_VEHICLES, SCENARIOS, simulate_scenario
 from roadgrip.vehicle.params import PRESETS
 
-S = mb.MBState
+S = mb_model.MBState
 MB_SCENARIOS = [name for name, sc in SCENARIOS.items() if "multibody" in sc.engines]
 
 
 def _package_params(vehicle_id: int, mu: float | None):
     """The package's own parameter object with roadgrip's tire changes applied to a copy."""
-    p = mb.commonroad_parameters(vehicle_id)
+    p = mb_model.commonroad_parameters(vehicle_id)
     over = dict.fromkeys(("p_hy1", "p_hy3", "p_vy1", "p_vy3"), 0.0)
     if mu is not None:
-        over = mb.tire_overrides(p, mu)
+        over = mb_model.tire_overrides(p, mu)
     return dataclasses.replace(p, tire=dataclasses.replace(p.tire, **over))
 
 
 def _random_states(vehicle_id: int, n: int, rng) -> np.ndarray:
     """States around a settled car at 5-25 m/s: every state perturbed."""
-    p = mb.commonroad_parameters(vehicle_id)
+    p = mb_model.commonroad_parameters(vehicle_id)
     out = []
     for _ in range(n):
         v = rng.uniform(5.0, 25.0)
@@ -51,8 +53,8 @@ def _random_states(vehicle_id: int, n: int, rng) -> np.ndarray:
 @pytest.mark.parametrize("mu", [None, 1.0, 0.3])
 def test_compiled_rhs_equals_the_package_function(vehicle_id, mu):
     rng = np.random.default_rng(vehicle_id)
-    rhs = mb.compiled_rhs().mb
-    p_tuple = mb.parameter_tuple(vehicle_id, mu)
+    rhs = mb_model.compiled_rhs().mb
+    p_tuple = mb_model.parameter_tuple(vehicle_id, mu)
     p_pkg = _package_params(vehicle_id, mu)
     for x in _random_states(vehicle_id, 40, rng):
         u = rng.uniform([-0.5, -6.0], [0.5, 4.0])
@@ -62,9 +64,9 @@ def test_compiled_rhs_equals_the_package_function(vehicle_id, mu):
 
 
 def test_camber_shifts_are_kept_when_asked():
-    p = mb.parameter_tuple(1, None, camber_shifts=True)
-    assert p.tire.p_vy1 == mb.commonroad_parameters(1).tire.p_vy1 != 0.0
-    assert mb.parameter_tuple(1, None).tire.p_vy1 == 0.0
+    p = mb_model.parameter_tuple(1, None, camber_shifts=True)
+    assert p.tire.p_vy1 == mb_model.commonroad_parameters(1).tire.p_vy1 != 0.0
+    assert mb_model.parameter_tuple(1, None).tire.p_vy1 == 0.0
 
 
 @pytest.mark.parametrize("vehicle_id", [1, 3])
@@ -72,14 +74,14 @@ def test_wheel_forces_reproduce_the_package_accelerations(vehicle_id):
     """The per-wheel truth, summed as the package sums it, gives the package's d vx/dt and
     d r/dt: the truth's kinematics, loads and tire calls are the ones inside the model."""
     rng = np.random.default_rng(10 + vehicle_id)
-    p = mb.parameter_tuple(vehicle_id, 0.6)
-    rhs = mb.compiled_rhs().mb
-    w = np.empty((4, mb.WHEEL_SIZE))
+    p = mb_model.parameter_tuple(vehicle_id, 0.6)
+    rhs = mb_model.compiled_rhs().mb
+    w = np.empty((4, mb_model.WHEEL_SIZE))
     for x in _random_states(vehicle_id, 30, rng):
         u = np.zeros(2)
         f = np.array(rhs(x.copy(), u, p))
-        mb.wheel_forces(x, p, w)
-        fx, fy = w[:, mb.WHEEL_FX], w[:, mb.WHEEL_FY]
+        mb_model.wheel_forces(x, p, w)
+        fx, fy = w[:, mb_model.WHEEL_FX], w[:, mb_model.WHEEL_FY]
         c, s = np.cos(x[S.STEER]), np.sin(x[S.STEER])
         sum_x = fx[2] + fx[3] + (fx[0] + fx[1]) * c - (fy[0] + fy[1]) * s
         assert f[S.VX] == pytest.approx(sum_x / p.m + x[S.YAW_RATE] * x[S.VY], rel=1e-9, abs=1e-9)
@@ -91,7 +93,7 @@ def test_wheel_forces_reproduce_the_package_accelerations(vehicle_id):
 def test_friction_scaling_sets_the_pure_slip_peaks(mu):
     """In pure slip the force never exceeds mu_y Fz (to 1e-6), the peak over slip equals mu
     at zero camber, and the slip of the peak shrinks with mu (stiffness kept)."""
-    p = mb.parameter_tuple(1, mu).tire
+    p = mb_model.parameter_tuple(1, mu).tire
     alphas = np.linspace(-0.4, 0.4, 4001)
     peaks = []
     for fz in (1500.0, 4000.0, 7000.0):
@@ -106,11 +108,11 @@ def test_friction_scaling_sets_the_pure_slip_peaks(mu):
         assert np.max(np.abs(fx)) / fz <= mu * (1 + 1e-6)
         assert np.max(np.abs(fx)) / fz == pytest.approx(mu, abs=2e-3)
     if mu < 1.0:
-        p1 = mb.parameter_tuple(1, 1.0).tire
+        p1 = mb_model.parameter_tuple(1, 1.0).tire
         a_peak_1 = abs(alphas[np.argmax([tire_model.formula_lateral(a, 0.0, 4000.0, p1)[0] for a in alphas])])
         assert peaks[0] < 0.8 * a_peak_1
     # without zeroing the camber-gated shifts the bound fails: the adaptation matters
-    raw = mb.parameter_tuple(1, mu, camber_shifts=True).tire
+    raw = mb_model.parameter_tuple(1, mu, camber_shifts=True).tire
     fy_raw = max(tire_model.formula_lateral(a, 0.01, 4000.0, raw)[0] for a in alphas)
     assert fy_raw / (mu * 4000.0) > 1.01
 
@@ -121,8 +123,8 @@ def _circle_drive(vehicle: str, radius: float, speed: float, mu: float, duration
     th = np.clip(s - lead, 0.0, None) / radius
     x = np.where(s < lead, s, lead + radius * np.sin(th))
     y = np.where(s < lead, 0.0, radius * (1 - np.cos(th)))
-    path = mb.Path(x, y, np.full_like(s, speed))
-    return mb.simulate_multibody(vehicle, path, ConstantFriction("road"), {"road": mu}, duration=duration)
+    path = Path(x, y, np.full_like(s, speed))
+    return simulate_multibody(vehicle, path, ConstantFriction("road"), {"road": mu}, duration=duration)
 
 
 @pytest.mark.parametrize("vehicle", MB_VEHICLES)
@@ -147,7 +149,7 @@ def test_steady_circle_lateral_acceleration_is_v2_over_r(vehicle):
     assert np.mean(late["omega_fr"] - late["omega_fl"]) > 0
     r = np.mean(late["yaw_rate_true"])
     dw = np.mean(late["omega_rr"] - late["omega_rl"]) * d.vehicle.wheel_radius
-    assert dw == pytest.approx(r * mb.commonroad_parameters(mb.COMMONROAD_VEHICLES[vehicle]).T_r, rel=0.05)
+    assert dw == pytest.approx(r * mb_model.commonroad_parameters(mb_model.COMMONROAD_VEHICLES[vehicle]).T_r, rel=0.05)
 
 
 def _sustained(values: np.ndarray, rate: float, window: float = 1.0) -> np.ndarray:
@@ -169,7 +171,7 @@ def test_truth_curve_is_reproduced_from_the_truth_columns():
     """Binned Fy/Fz of the front axle against its single-track slip angle equals the package's
     pure-slip tire function at the drive's axle loads (split evenly, zero camber)."""
     d = simulate_scenario("snow-slalom", seed=1, engine="multibody", duration=60.0)
-    tire = mb.parameter_tuple(1, 0.3).tire
+    tire = mb_model.parameter_tuple(1, 0.3).tire
     a = d.col("alpha_f_true")
     fz = d.col("Fzf_true")
     pure = np.abs(d.col("Fxf_true")) < 0.02 * fz
@@ -236,7 +238,7 @@ def test_bad_requests_are_named():
     with pytest.raises(ValueError, match="applies to the multibody engine"):
         simulate_scenario("snow-slalom", vehicle="vw-vanagon")
     with pytest.raises(ValueError, match="no mu"):
-        mb.simulate_multibody("ford-escort", mb.Path([0, 1, 2], [0, 0, 0], [5, 5, 5]),
+        simulate_multibody("ford-escort", Path([0, 1, 2], [0, 0, 0], [5, 5, 5]),
                               ConstantFriction("ice"), {"snow": 0.3}, duration=1.0)
 
 

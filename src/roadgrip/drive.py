@@ -25,7 +25,7 @@ Extra columns are kept, ignored by the estimators and listed by ``roadgrip info`
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -305,9 +305,6 @@ class Drive:
         """Same metadata, new frame (validated)."""
         validate_frame(df, ("t",), check_units=False)
         return Drive(df.reset_index(drop=True), self.meta)
-
-    def with_vehicle(self, vehicle: VehicleParams) -> Drive:
-        return Drive(self.data, replace(self.meta, vehicle=vehicle))
 
     # -- access ------------------------------------------------------------------------
     @property

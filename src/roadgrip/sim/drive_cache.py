@@ -26,15 +26,18 @@ __all__ = ["CACHE_ENV", "cache_key", "cached"]
 CACHE_ENV = "ROADGRIP_DRIVE_CACHE"
 """Environment variable naming the cache folder."""
 
-_SOURCES = ("multibody.py", "mb_scenarios.py", "sensors.py", "friction.py", "track.py", "engine.py")
+_SOURCES = (
+    "sim/multibody.py", "sim/mb_model.py", "sim/mb_driver.py", "sim/mb_scenarios.py", "sim/sensors.py",
+    "sim/friction.py", "sim/track.py", "sim/engine.py", "signals.py",
+)
 
 
 def cache_key(**request: Any) -> str:
     """Hex digest of the request and of the simulator's source text."""
     h = hashlib.sha256(json.dumps(request, sort_keys=True).encode())
-    here = Path(__file__).parent
+    package = Path(__file__).parents[1]
     for name in _SOURCES:
-        h.update((here / name).read_bytes())
+        h.update((package / name).read_bytes())
     for dist in ("commonroad-vehicle-models", "numpy"):
         try:
             h.update(metadata.version(dist).encode())

@@ -141,10 +141,6 @@ class SpeedPhases:
             raise ValueError("SpeedPhases reaches zero or negative speed; shorten the braking phases")
         return v, a
 
-    @property
-    def end_time(self) -> float:
-        return float(sum(d for d, _ in self.phases))
-
 
 @dataclass(frozen=True)
 class RandomSpeed:

@@ -28,7 +28,8 @@ from numpy.typing import NDArray
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.sim.friction import ConstantFriction, Patch, PatchFriction, PiecewiseTime
-from roadgrip.sim.multibody import Path, simulate_multibody
+from roadgrip.sim.mb_driver import Path
+from roadgrip.sim.multibody import simulate_multibody
 from roadgrip.sim.scenarios import DGD_SEGMENT, dgd_truth
 from roadgrip.sim.sensors import SensorSpec
 from roadgrip.sim.track import ClosedTrack

@@ -180,7 +180,7 @@ PRESET_SOURCES: dict[str, str] = {
     ),
     "ford-escort": (
         "CommonRoad vehicle 1 (Ford Escort, multi-body parameters from the US DOT vehicle "
-        "dynamics data) as roadgrip.sim.multibody.vehicle_from_commonroad derives it: total "
+        "dynamics data) as roadgrip.sim.mb_model.vehicle_from_commonroad derives it: total "
         "mass, CG and yaw inertia of the sprung and unsprung masses, the package's CG height, "
         "rolling radius and wheel inertia, mean track, cornering stiffness |p_ky1| Fz."
     ),
