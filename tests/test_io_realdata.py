@@ -300,8 +300,8 @@ def test_frictionmaps_calibration(run):
 
 def test_stream_noise_of_an_upsampled_stream():
     """White noise recorded at 20 Hz and interpolated to 50 Hz: per-tick std s sqrt(50 / 20)."""
-    from roadgrip.estimators.cascade import _robust_noise
     from roadgrip.io.frictionmaps import _stream_noise
+    from roadgrip.signals import white_noise_std
 
     rng = np.random.default_rng(6)
     t = np.arange(20000) / 20.0
@@ -311,7 +311,7 @@ def test_stream_noise_of_an_upsampled_stream():
     assert s == pytest.approx(0.3 * np.sqrt(50 / 20), rel=0.05)
     # the same estimator on the interpolated signal sees a fraction of the noise
     fine = np.arange(0, t[-1], 1 / 50.0)
-    assert _robust_noise(np.interp(fine, t, x)) < 0.3 * 0.3
+    assert white_noise_std(np.interp(fine, t, x)) < 0.3 * 0.3
 
 
 @needs_fm

@@ -175,3 +175,12 @@ def test_axle_loads_by_hand():
     # a front axle that would carry a negative load under hard acceleration is lifted
     f, r = signals.axle_loads(v, 2.0 * g * lr / h)
     assert f == 0.0 and r > m * g
+
+
+def test_white_noise_std_of_noise_on_a_smooth_signal():
+    rng = np.random.default_rng(3)
+    t = np.arange(20000) * 0.01
+    x = 5.0 * np.sin(0.7 * t) + 0.1 * t + rng.normal(0.0, 0.2, len(t))
+    assert signals.white_noise_std(x) == pytest.approx(0.2, rel=0.03)
+    assert signals.white_noise_std(np.sin(0.7 * t)) < 1e-4
+    assert np.isnan(signals.white_noise_std(x[:11]))

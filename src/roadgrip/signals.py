@@ -17,6 +17,7 @@ function                          what
 :func:`body_velocity_from_pose`   body-frame ``(vx, vy)`` differentiated from a pose
 :func:`pose_velocity`             the same from a drive's ``x, y, psi`` columns
 :func:`axle_loads`                axle normal loads with longitudinal load transfer
+:func:`white_noise_std`           white-noise level of a sampled signal
 ================================  ======================================================
 
 The 95 % normal quantile is :data:`roadgrip.constants.Z95`.
@@ -49,6 +50,7 @@ __all__ = [
     "wheel_centre_speeds",
     "wheel_cg_speeds",
     "wheel_speed_vx",
+    "white_noise_std",
 ]
 
 WHEELS = ("fl", "fr", "rl", "rr")
@@ -397,3 +399,32 @@ def axle_loads(params: VehicleParams, ax: ArrayLike = 0.0) -> tuple[NDArray, NDA
     ax = np.asarray(ax, dtype=float)
     dfz = params.mass * ax * params.cg_height / params.wheelbase
     return np.maximum(params.fz_front - dfz, 0.0), np.maximum(params.fz_rear + dfz, 0.0)
+
+
+# ---------------------------------------------------------------------------------------
+# noise
+# ---------------------------------------------------------------------------------------
+def white_noise_std(x: ArrayLike) -> float:
+    """Standard deviation of the white noise on a sampled signal [unit of ``x``].
+
+    The robust scale (1.4826 times the median absolute deviation) of the second
+    differences, divided by ``sqrt(6)``: white noise of standard deviation
+    ``s`` gives second differences of variance ``6 s²``, while a signal that is
+    smooth at the sampling rate contributes little to them. Linear
+    interpolation has zero second difference, so the signal must be taken as
+    sampled, not resampled onto a finer clock.
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        Samples on a (roughly) uniform clock.
+
+    Returns
+    -------
+    float
+        NaN when there are fewer than 10 second differences (``n < 12``).
+    """
+    d2 = np.diff(np.asarray(x, dtype=float), 2)
+    if d2.size < 10:
+        return float("nan")
+    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))

@@ -92,7 +92,7 @@ from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.io._csv import read_csv_exact
 from roadgrip.io.resample import resample
-from roadgrip.signals import body_velocity_from_pose
+from roadgrip.signals import body_velocity_from_pose, white_noise_std
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
 __all__ = [
@@ -188,10 +188,8 @@ def _kinematic_checks(df: pd.DataFrame, jump: np.ndarray) -> dict[str, float]:
 def _stream_noise(t: np.ndarray, x: np.ndarray, rate: float) -> tuple[float, float]:
     """White-noise standard deviation of a raw stream, expressed per tick of the output clock.
 
-    The robust scale (1.4826 MAD) of the second differences of the samples as
-    recorded, divided by ``sqrt(6)``, is the noise of one native sample
-    (:func:`roadgrip.estimators.cascade.noise_from_drive` uses the same
-    estimator). Estimated on the resampled signal it would be far too small:
+    :func:`roadgrip.signals.white_noise_std` of the samples as recorded is the
+    noise of one native sample. Estimated on the resampled signal it would be far too small:
     linear interpolation between native samples has zero second difference.
     Interpolated onto a faster clock, the noise of one native sample persists
     over ``rate / native_rate`` ticks; as white noise per tick with the same
@@ -205,9 +203,7 @@ def _stream_noise(t: np.ndarray, x: np.ndarray, rate: float) -> tuple[float, flo
         Median rate of the stream [Hz].
     """
     native = 1.0 / float(np.median(np.diff(t)))
-    d2 = np.diff(np.asarray(x, float), 2)
-    s = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6.0)
-    return s * np.sqrt(max(rate / native, 1.0)), native
+    return white_noise_std(x) * np.sqrt(max(rate / native, 1.0)), native
 
 
 def _robust_slope(y: np.ndarray, x: np.ndarray) -> float:
