@@ -10,24 +10,44 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from roadgrip.estimators import brls
-from roadgrip.estimators.base import EstimateRequest, EstimateResult
-from roadgrip.estimators.brls import (
-    BRLSClassifier,
-    BRLSConfig,
-    ChannelCalibration,
-    brls_batch,
-    brls_init,
-    brls_step,
-    default_config,
-    load_calibration,
-    save_calibration,
-    sufficiently_excited,
-)
-from roadgrip.evaluate.metrics import count_switches, detection_delays, truth_grip_class
-from roadgrip.inference.kinematic import KinematicEstimator
+from roadgrip.cli.calibrate import read_calibration, write_calibration
+from roadgrip.estimators import run_estimator
+from roadgrip.estimators.base import EstimateResult
+from roadgrip.estimators.classify import BRLS, Calibration, brls, calibrate, common
+from roadgrip.estimators.classify.brls_config import BRLSConfig, ChannelCalibration, default_config
+from roadgrip.estimators.classify.brls_kernel import brls_batch, brls_init, brls_step
+from roadgrip.estimators.protocol import rows_to_table
+from roadgrip.evaluate.metrics import count_switches, detection_delays, sustained, truth_grip_class
 
 OFF = ChannelCalibration(1.0, 0.0, 0.5, 1.0, enabled=False)
+
+
+def sufficiently_excited(t, phi_long, phi_lat, config: BRLSConfig, min_duration=0.2):
+    """Samples inside a *sufficiently excited manoeuvre* (the acceptance tests' definition).
+
+    For an enabled channel the measurement weight of eq. 6 is at least 1/2,
+    ``|phi| >= gamma ln 2``, and this has held for at least ``min_duration``
+    [s]. With true slips (simulator truth) this marks the manoeuvres that
+    carry friction information, independently of the classifier's own slips.
+    """
+    ln2 = math.log(2.0)
+    ex = np.zeros(len(t), bool)
+    if config.long.enabled:
+        ex |= np.abs(phi_long) >= config.long.gamma * ln2
+    if config.lat.enabled:
+        ex |= np.abs(phi_lat) >= config.lat.gamma * ln2
+    return sustained(ex, t, min_duration)
+
+
+def stepped(est, drive, config):
+    """The table of ``est``'s prepare / init / step over ``drive``."""
+    prepared = est.prepare(drive, config)
+    state = est.init(prepared.info, config, 0)
+    rows = []
+    for sample in prepared.samples:
+        state, row = est.step(state, sample)
+        rows.append(row)
+    return rows_to_table(rows), prepared.info
 
 
 def _fig6(seed=0):
@@ -167,10 +187,10 @@ def test_theoretical_slip_regressor():
 def test_settled_counts_from_the_first_moving_sample():
     t = np.arange(0.0, 40.0, 0.1)
     moving = t >= 12.0
-    m = brls.settled(t, moving)
-    assert t[m][0] == pytest.approx(12.0 + brls.CALIBRATION_SETTLING_S)
+    m = common.settled(t, moving)
+    assert t[m][0] == pytest.approx(12.0 + common.CALIBRATION_SETTLING_S)
     assert m[t >= 22.05].all()
-    assert brls.settled(t, np.zeros(t.size, bool)).all()  # never moves: everything
+    assert common.settled(t, np.zeros(t.size, bool)).all()  # never moves: everything
 
 
 def test_lateral_acceleration_setting_is_validated():
@@ -182,29 +202,38 @@ def test_lateral_acceleration_setting_is_validated():
 def test_summary_maps_the_class_to_its_friction_reference():
     fr = {"high": 0.9, "low": 0.3}
     t = pd.DataFrame({"grip_class": ["unknown", "high"], "grip_index": [0.5, 0.9]})
-    s = brls.summary_meta(t, fr)
+    s = common.summary_meta(t, fr)
     assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.9, 0.6, 0.9)
-    s = brls.summary_meta(t.assign(grip_class=["high", "low"]), fr)
+    s = common.summary_meta(t.assign(grip_class=["high", "low"]), fr)
     assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.3, 0.3, 0.6)
-    s = brls.summary_meta(t.assign(grip_class=["high", "unknown"]), fr)
+    s = common.summary_meta(t.assign(grip_class=["high", "unknown"]), fr)
     assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.6, 0.3, 0.9)
     assert s["FractionHigh"] == 0.5
 
 
 def test_calibration_file_roundtrip_and_errors(tmp_path):
-    cal = brls.Calibration(default_config(), {"config": {}}, "sedan", ({"label": "high"},), {"x": 1.0})
+    from roadgrip.estimators.classify.slipmap_config import default_config as slipmap_default
+
+    cal = Calibration(default_config(), slipmap_default(), {"score": 0.5}, "sedan",
+                      ({"label": "high"},), {"x": 1.0})
+    assert Calibration.from_dict(cal.to_dict()) == cal
     p = tmp_path / "cal.yaml"
-    save_calibration(cal, p)
-    back = load_calibration(p)
+    write_calibration(cal, p)
+    back = read_calibration(p)
     assert back.brls == cal.brls
+    assert back.slipmap == cal.slipmap
     assert back.vehicle == "sedan"
     assert back.friction == cal.friction
     bad = tmp_path / "bad.yaml"
     bad.write_text("a: 1\n")
     with pytest.raises(ValueError, match="not a roadgrip calibration"):
-        load_calibration(bad)
+        read_calibration(bad)
     with pytest.raises(ValueError, match="does not exist"):
-        load_calibration(tmp_path / "none.yaml")
+        read_calibration(tmp_path / "none.yaml")
+    with pytest.raises(ValueError, match="calibration must be a Calibration"):
+        BRLS.Config(calibration=str(p))
+    with pytest.raises(ValueError, match="no slip-map settings"):
+        run_estimator("slipmap", None, {"calibration": Calibration(default_config())})
 
 
 # --------------------------------------------------------------------------- simulator
@@ -235,8 +264,7 @@ def detection_report(drive, table, config=None):
 
 
 def test_dry_gravel_dry_detection_and_no_false_switch(dgd):
-    result = brls.run_cli(dgd, EstimateRequest(progress=False))
-    table = result.table
+    table = run_estimator("brls", dgd).table
     events, acc, truth = detection_report(dgd, table)
     assert [e.new_class for e in events] == ["low", "high"]
     for e in events:
@@ -257,33 +285,30 @@ def test_straight_cruise_never_switches():
     from roadgrip.sim.scenarios import simulate_scenario
 
     drive = simulate_scenario("straight-cruise", seed=0)
-    table = brls.run_cli(drive, EstimateRequest(progress=False)).table
+    table = run_estimator("brls", drive).table
     assert count_switches(table["grip_class"]) == 0
     assert not (table["grip_class"] == "low").any()
 
 
-@pytest.mark.parametrize("options", [
-    {},
-    {"prefilter_tau_s": 0.3, "error_clip": 1.0, "lateral_regressor": "rear"},
-])
-def test_run_equals_stepping(dgd, options):
+def test_run_equals_stepping_with_the_options(dgd):
+    """Prefilter, error clip and rear regressor (the common check runs the defaults)."""
     short = dgd.slice_time(55.0, 75.0)
-    clf = BRLSClassifier(short.vehicle, replace(default_config(), **options))
-    batch = clf.run(short)
-    rows = [clf.step(s) for s in KinematicEstimator.samples(short)]
-    np.testing.assert_array_equal(batch["grip_class"].to_numpy(), [r.grip_class for r in rows])
-    np.testing.assert_allclose(batch["theta_lat"], [r.theta_lat for r in rows], rtol=1e-12)
-    np.testing.assert_allclose(batch["theta_long"], [r.theta_long for r in rows], rtol=1e-12)
-    np.testing.assert_allclose(batch["grip_index"], [r.grip_index for r in rows], rtol=1e-12)
+    options = {"prefilter_tau_s": 0.3, "error_clip": 1.0, "lateral_regressor": "rear"}
+    config = BRLS.Config(calibration=Calibration(replace(default_config(), **options)))
+    batch = BRLS.run(short, config).table
+    rows, _ = stepped(BRLS, short, config)
+    np.testing.assert_array_equal(batch["grip_class"].to_numpy(), rows["grip_class"].to_numpy())
+    for col in ("theta_lat", "theta_long", "grip_index"):
+        np.testing.assert_allclose(batch[col], rows[col], rtol=1e-12)
     assert (batch["grip_class"] == "low").any()  # the window contains the detection
 
 
-def test_calibrate_on_one_seed_classify_another(dgd, tmp_path):
+def test_calibrate_on_one_seed_classify_another(dgd):
     from roadgrip.sim.scenarios import simulate_scenario
 
     d1 = simulate_scenario("dry-gravel-dry", seed=1)
-    cal = brls.calibrate([(d1.slice_time(0, 60), "high"), (d1.slice_time(60, 120), "low"),
-                          (d1.slice_time(120, 1e9), "high")])
+    cal = calibrate([(d1.slice_time(0, 60), "high"), (d1.slice_time(60, 120), "low"),
+                     (d1.slice_time(120, 1e9), "high")])
     lat, lon = cal.brls.lat, cal.brls.long
     # learned references bracket the physics-based defaults' ordering
     for ch in (lat, lon):
@@ -291,35 +316,29 @@ def test_calibrate_on_one_seed_classify_another(dgd, tmp_path):
     # friction references from the simulator truth of the labelled drives
     assert cal.friction["high"] == pytest.approx(1.0, abs=0.02)
     assert cal.friction["low"] == pytest.approx(0.6, abs=0.02)
-    path = tmp_path / "cal.yaml"
-    save_calibration(cal, path)
-    result = brls.run_cli(dgd, EstimateRequest(calibration=str(path), progress=False))
+    result = run_estimator("brls", dgd, {"calibration": cal})
     events, acc, _ = detection_report(dgd, result.table)
     assert all(e.detected for e in events)
     assert acc > 0.8
     assert count_switches(result.table["grip_class"]) == 2
 
 
-def test_run_cli_output_contract_and_options(dgd, tmp_path):
+def test_extras_summary_figure_and_file(dgd, tmp_path):
+    from roadgrip.plots.classification import plot_result
+
     short = dgd.slice_time(0.0, 30.0)
-    png = tmp_path / "trace.png"
-    res = brls.run_cli(short, EstimateRequest(plot_path=str(png), progress=False))
-    for col in ("t", "grip_class", "grip_index", "excited", "theta_long", "theta_lat", "mu_front"):
+    res = run_estimator("brls", short)
+    for col in ("theta_long", "theta_lat", "phi_long", "phi_lat", "w_long", "w_lat", "ay_used"):
         assert col in res.table.columns
-    assert res.table["grip_index"].between(0, 1).all()
     assert np.isfinite(res.table["theta_lat"]).all()
-    assert set(res.table["grip_class"]) <= {"high", "low", "unknown"}
-    assert res.meta["timing"]["samples"] == short.n
-    summ = res.meta["summary"]
-    assert summ["GripClass"] in ("high", "low", "unknown")
-    assert summ["LowerBound"] <= summ["MostProbable"] <= summ["UpperBound"]
+    assert res.meta["summary"]["GripClass"] in ("high", "low", "unknown")
+    png = tmp_path / "trace.png"
+    plot_result(short, res, png)
     assert png.stat().st_size > 10_000
     out = tmp_path / "est.parquet"
     res.to_parquet(out)
     back = EstimateResult.read_parquet(out)
     assert isinstance(back.table, pd.DataFrame) and len(back.table) == short.n
-    with pytest.raises(ValueError, match="--particles"):
-        brls.run_cli(short, EstimateRequest(particles=10))
 
 
 # --------------------------------------------------------------------------- real data (DART)
@@ -382,17 +401,15 @@ def excited_accuracy(table, label):
 
 
 @pytest.mark.realdata
-def test_dart_calibrate_first_halves_classify_second_halves(tmp_path):
+def test_dart_calibrate_first_halves_classify_second_halves():
     cal_set, test_set = dart_split()
     # friction references from the data's description: rubbery floor ~0.85, tape ~0.35
-    cal = brls.calibrate(cal_set, friction={"high": 0.85, "low": 0.35})
-    path = tmp_path / "dart.yaml"
-    save_calibration(cal, path)
+    cal = calibrate(cal_set, friction={"high": 0.85, "low": 0.35})
     # the pose gives the lateral acceleration (r vx + dvy/dt), not the noisy accelerometer
     assert cal.brls.lateral_acceleration == "auto"
     accs = {}
     for drive, label in test_set:
-        result = brls.run_cli(drive, EstimateRequest(calibration=str(path), progress=False))
+        result = run_estimator("brls", drive, {"calibration": cal})
         table = result.table
         acc = excited_accuracy(table, label)
         assert result.meta["summary"]["MostProbable"] == (0.85 if label == "high" else 0.35)
@@ -408,13 +425,13 @@ def test_dart_calibrate_first_halves_classify_second_halves(tmp_path):
 
 
 @pytest.mark.realdata
-def test_dart_concatenation_high_low_high_is_tracked(tmp_path):
+def test_dart_concatenation_high_low_high_is_tracked():
     cal_set, test_set = dart_split()
-    cal = brls.calibrate(cal_set)
+    cal = calibrate(cal_set)
     highs = [d for d, lab in test_set if lab == "high"]
     lows = [d for d, lab in test_set if lab == "low"]
     drive, starts = concatenate([highs[1], lows[0], highs[0]])
-    table, _ = brls._run_table(drive, cal.brls, KinematicEstimator(drive.vehicle).config)
+    table, _ = brls.brls_table(drive, cal.brls)
     t = drive.t
     truth = np.where((t >= starts[1]) & (t < starts[2]), "low", "high")
     events = detection_delays(t, table["grip_class"].to_numpy(), truth, np.ones(t.size, bool), hold=1.0)
@@ -445,7 +462,7 @@ def test_cli_calibrate_and_estimate(dgd, tmp_path):
     cal = tmp_path / "cal.yaml"
     r = runner.invoke(app, ["calibrate", f"{hi}:high", f"{lo}:low", "-o", str(cal)])
     assert r.exit_code == 0, r.output
-    assert load_calibration(cal).brls.lat.ref_high > load_calibration(cal).brls.lat.ref_low
+    assert read_calibration(cal).brls.lat.ref_high > read_calibration(cal).brls.lat.ref_low
     for method in ("brls", "slipmap"):
         out = tmp_path / f"{method}.parquet"
         r = runner.invoke(app, ["estimate", str(test), "--method", method, "--calibration",
@@ -458,7 +475,7 @@ def test_cli_calibrate_and_estimate(dgd, tmp_path):
     assert r.exit_code != 0
     r = runner.invoke(app, ["calibrate", f"{hi}:high=0.9", f"{lo}:low=0.4", "-o", str(cal)])
     assert r.exit_code == 0, r.output
-    assert load_calibration(cal).friction == {"high": 0.9, "low": 0.4}
+    assert read_calibration(cal).friction == {"high": 0.9, "low": 0.4}
 
 
 @pytest.mark.realdata
@@ -466,9 +483,9 @@ def test_dart_run_equals_stepping_with_pose_aid():
     cal_set, _ = dart_split()
     drive = cal_set[0][0]
     cfg = replace(default_config(), prefilter_tau_s=0.5, lateral_regressor="rear")
-    clf = BRLSClassifier.for_drive(drive, cfg)
-    assert clf.kinematic.aid == "pose"  # rear wheel speeds only: the pose gives the speed
-    batch = clf.run(drive)
-    rows = [clf.step(s) for s in KinematicEstimator.samples(drive)]
-    np.testing.assert_allclose(batch["theta_lat"], [r.theta_lat for r in rows], rtol=1e-10)
-    np.testing.assert_array_equal(batch["grip_class"].to_numpy(), [r.grip_class for r in rows])
+    config = BRLS.Config(calibration=Calibration(cfg))
+    rows, info = stepped(BRLS, drive, config)
+    assert info.derived["aid"] == "pose"  # rear wheel speeds only: the pose gives the speed
+    batch = BRLS.run(drive, config).table
+    np.testing.assert_allclose(batch["theta_lat"], rows["theta_lat"], rtol=1e-10)
+    np.testing.assert_array_equal(batch["grip_class"].to_numpy(), rows["grip_class"].to_numpy())

@@ -6,23 +6,16 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from test_brls import stepped, sufficiently_excited
 
 from roadgrip.constants import GRAVITY
-from roadgrip.estimators import slipmap
-from roadgrip.estimators.base import EstimateRequest
-from roadgrip.estimators.brls import default_config as brls_default
-from roadgrip.estimators.brls import sufficiently_excited
-from roadgrip.estimators.slipmap import (
-    SlipMapClassifier,
-    SlipMapConfig,
-    default_config,
-    evidence,
-    slipmap_batch,
-    slipmap_init,
-    slipmap_step,
-)
+from roadgrip.estimators import run_estimator
+from roadgrip.estimators.classify import SLIPMAP, Calibration, calibrate, slipmap
+from roadgrip.estimators.classify.brls_config import default_config as brls_default
+from roadgrip.estimators.classify.slipmap_config import SlipMapConfig, default_config
+from roadgrip.estimators.classify.slipmap_evidence import SlipMapEvidence, evidence
+from roadgrip.estimators.classify.slipmap_kernel import slipmap_batch, slipmap_init, slipmap_step
 from roadgrip.evaluate.metrics import count_switches, detection_delays, truth_grip_class
-from roadgrip.inference.kinematic import KinematicEstimator
 from roadgrip.vehicle import PRESETS
 
 SEDAN = PRESETS["sedan"]  # front-wheel drive
@@ -93,7 +86,7 @@ def test_recursion_eq16_converges_and_says_unknown_without_information():
     n = 300
     t = np.arange(n) * 0.01
     z = np.zeros(n)
-    ev = slipmap.SlipMapEvidence(z, z, np.full(n, 0.4), z, np.full(n, 0.2), z, np.full(n, 0.8), z)
+    ev = SlipMapEvidence(z, z, np.full(n, 0.4), z, np.full(n, 0.2), z, np.full(n, 0.8), z)
     _, out = slipmap_batch(t, ev, cfg)
     assert out.grip_index[-1] == pytest.approx(1.0, abs=1e-3)  # F -> v^H
     assert out.grip_class[-1] == "high"
@@ -109,7 +102,7 @@ def test_recursion_eq16_converges_and_says_unknown_without_information():
     st = slipmap_init()
     _, outb = slipmap_batch(t, ev, cfg)
     for i in range(n):
-        e1 = slipmap.SlipMapEvidence(*(np.atleast_1d(np.asarray(f)[i]) for f in ev))
+        e1 = SlipMapEvidence(*(np.atleast_1d(np.asarray(f)[i]) for f in ev))
         st, o = slipmap_step(st, 0.01, e1, cfg)
         assert o.grip_index == pytest.approx(outb.grip_index[i], rel=1e-12)
         assert o.grip_class == outb.grip_class[i]
@@ -137,7 +130,7 @@ def dgd():
 
 
 def test_dry_gravel_dry_detection_and_no_false_switch(dgd):
-    table = slipmap.run_cli(dgd, EstimateRequest(progress=False)).table
+    table = run_estimator("slipmap", dgd).table
     assert table["theta_lat"].isna().all()
     kappa = sum(dgd.col(f"kappa_{w}_true") for w in ("fl", "fr", "rl", "rr"))
     phi_lat = dgd.col("alpha_f_true") * np.cos(dgd.col("steer")) + dgd.col("alpha_r_true")
@@ -160,20 +153,24 @@ def test_straight_cruise_never_switches():
     from roadgrip.sim.scenarios import simulate_scenario
 
     drive = simulate_scenario("straight-cruise", seed=0)
-    table = slipmap.run_cli(drive, EstimateRequest(progress=False)).table
+    table = run_estimator("slipmap", drive).table
     assert count_switches(table["grip_class"]) == 0
     assert not (table["grip_class"] == "low").any()
 
 
-@pytest.mark.parametrize("prefilter", [0.0, 0.5])
-def test_run_equals_stepping(dgd, prefilter):
+def _config(settings):
+    return SLIPMAP.Config(calibration=Calibration(brls_default(), settings))
+
+
+def test_run_equals_stepping_with_the_prefilter(dgd):
+    """The prefilter on (the common check runs the defaults, prefilter off)."""
     short = dgd.slice_time(60.0, 75.0)
-    clf = SlipMapClassifier(short.vehicle, replace(default_config(), prefilter_tau_s=prefilter))
-    batch = clf.run(short)
-    rows = [clf.step(s) for s in KinematicEstimator.samples(short)]
-    np.testing.assert_array_equal(batch["grip_class"].to_numpy(), [r.grip_class for r in rows])
-    np.testing.assert_allclose(batch["grip_index"], [r.grip_index for r in rows], rtol=1e-12)
-    np.testing.assert_allclose(batch["w_y"], [r.w_y for r in rows], rtol=1e-10, atol=1e-15)
+    config = _config(replace(default_config(), prefilter_tau_s=0.5))
+    batch = SLIPMAP.run(short, config).table
+    rows, _ = stepped(SLIPMAP, short, config)
+    np.testing.assert_array_equal(batch["grip_class"].to_numpy(), rows["grip_class"].to_numpy())
+    np.testing.assert_allclose(batch["grip_index"], rows["grip_index"], rtol=1e-12)
+    np.testing.assert_allclose(batch["w_y"], rows["w_y"], rtol=1e-10, atol=1e-15)
     assert (batch["grip_class"] == "low").any()
 
 
@@ -185,30 +182,26 @@ def test_dart_run_equals_stepping_with_pose_kinematic_acceleration():
     from test_brls import dart_split
 
     drive = dart_split()[1][2][0].slice_time(50.0, 70.0)
-    clf = SlipMapClassifier.for_drive(drive, replace(default_config(0.5), prefilter_tau_s=0.5))
-    assert clf.kinematic.aid == "pose"
-    batch = clf.run(drive)
-    rows = [clf.step(s) for s in KinematicEstimator.samples(drive)]
-    np.testing.assert_allclose(batch["grip_index"], [r.grip_index for r in rows], rtol=1e-10)
-    np.testing.assert_allclose(batch["w_y"], [r.w_y for r in rows], rtol=1e-10, atol=1e-15)
+    settings = replace(default_config(0.5), prefilter_tau_s=0.5)
+    rows, info = stepped(SLIPMAP, drive, _config(settings))
+    assert info.derived["aid"] == "pose"
+    batch = SLIPMAP.run(drive, _config(settings)).table
+    np.testing.assert_allclose(batch["grip_index"], rows["grip_index"], rtol=1e-10)
+    np.testing.assert_allclose(batch["w_y"], rows["w_y"], rtol=1e-10, atol=1e-15)
     # the lateral map sees the pose-kinematic ay, not the accelerometer's
-    imu = slipmap._run_table(drive, replace(clf.config, lateral_acceleration="imu"),
-                             clf.kinematic.config)
+    imu = slipmap.slipmap_table(drive, replace(settings, lateral_acceleration="imu"))
     assert not np.allclose(batch["w_y"], imu["w_y"])
 
 
 @pytest.mark.realdata
-def test_dart_calibrate_first_halves_classify_second_halves(tmp_path):
+def test_dart_calibrate_first_halves_classify_second_halves():
     from test_brls import concatenate, dart_split, excited_accuracy
 
-    from roadgrip.estimators.brls import calibrate, save_calibration
-
     cal_set, test_set = dart_split()
-    path = tmp_path / "dart.yaml"
-    save_calibration(calibrate(cal_set), path)
+    options = {"calibration": calibrate(cal_set)}
     accs = {}
     for drive, label in test_set:
-        table = slipmap.run_cli(drive, EstimateRequest(calibration=str(path), progress=False)).table
+        table = run_estimator("slipmap", drive, options).table
         acc = excited_accuracy(table, label)
         name = drive.meta.source.rsplit('/', 1)[-1]
         print(f"slipmap {label:4s} {name}: excited "
@@ -220,7 +213,7 @@ def test_dart_calibrate_first_halves_classify_second_halves(tmp_path):
     highs = [d for d, lab in test_set if lab == "high"]
     lows = [d for d, lab in test_set if lab == "low"]
     drive, starts = concatenate([highs[1], lows[0], highs[0]])
-    table = slipmap.run_cli(drive, EstimateRequest(calibration=str(path), progress=False)).table
+    table = run_estimator("slipmap", drive, options).table
     t = drive.t
     truth = np.where((t >= starts[1]) & (t < starts[2]), "low", "high")
     events = detection_delays(t, table["grip_class"].to_numpy(), truth, np.ones(t.size, bool), hold=1.0)

@@ -8,8 +8,9 @@ import numpy as np
 import pandas as pd
 
 from roadgrip.drive import Drive
+from roadgrip.estimators.base import EstimateResult
 
-__all__ = ["plot_classification"]
+__all__ = ["plot_result"]
 
 
 def _shade(ax, t: np.ndarray, mask: np.ndarray, color: str, label: str | None = None) -> None:
@@ -23,9 +24,7 @@ def _shade(ax, t: np.ndarray, mask: np.ndarray, color: str, label: str | None = 
                    label=label if k == 0 else None)
 
 
-def plot_classification(
-    drive: Drive, table: pd.DataFrame, path: str | Path, *, method: str = ""
-) -> None:
+def plot_result(drive: Drive, result: EstimateResult, path: str | Path) -> None:
     """Write a PNG: accelerations, slips, the channel estimates, and the class trace.
 
     Panels (time on the shared axis): measured ``ax``/``ay`` (and the kinematic
@@ -39,19 +38,18 @@ def plot_classification(
     ----------
     drive : Drive
         The classified drive.
-    table : DataFrame
-        ``run_cli`` / ``run`` output of :mod:`~roadgrip.estimators.brls` or
-        :mod:`~roadgrip.estimators.slipmap`.
+    result : EstimateResult
+        Output of the ``brls`` or ``slipmap`` estimator
+        (:mod:`roadgrip.estimators.classify`) on ``drive``.
     path : str or Path
         Output PNG.
-    method : str
-        Title label.
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    table = result.table
     t = table["t"].to_numpy(float)
     fig, axs = plt.subplots(4, 1, figsize=(11, 9), sharex=True)
     exc = table["excited"].to_numpy(bool)
@@ -104,7 +102,7 @@ def plot_classification(
     a3.set_ylabel("grip")
     a3.set_xlabel("time [s]")
     a3.legend(loc="lower right", fontsize=8)
-    fig.suptitle(f"{method} friction classification: {drive.meta.source}", fontsize=10)
+    fig.suptitle(f"{result.method} friction classification: {drive.meta.source}", fontsize=10)
     fig.tight_layout()
     fig.savefig(str(path), dpi=110)
     plt.close(fig)

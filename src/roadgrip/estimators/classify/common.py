@@ -1,0 +1,139 @@
+"""Pieces shared by the two friction-state classifiers of paper 002 (bRLS and slip map).
+
+* the peak-friction references of the two classes and the VSS-style summary
+  (:func:`summary_meta`, :func:`prior_band`);
+* the class labels of a run (:func:`classes`);
+* the settling rule of the calibration scores (:func:`settled`);
+* the first-order low-pass used as prefilter (:func:`lowpass`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from roadgrip.tire import SURFACES
+
+__all__ = [
+    "CALIBRATION_SETTLING_S",
+    "CLASS_SWITCH_PENALTY",
+    "DEFAULT_FRICTION",
+    "classes",
+    "extra_switches",
+    "friction_refs",
+    "lowpass",
+    "prior_band",
+    "settled",
+    "summary_meta",
+]
+
+DEFAULT_FRICTION: dict[str, float] = {
+    "high": SURFACES["dry_asphalt"].mu_peak,
+    "low": SURFACES["gravel"].mu_peak,
+}
+"""Peak-friction references of the classes without calibration: dry asphalt and gravel."""
+
+CALIBRATION_SETTLING_S = 10.0
+"""Calibration scores judge each drive from this time after it first moves [s]."""
+
+CLASS_SWITCH_PENALTY = 0.01
+"""Calibration score penalty per class switch beyond the first (fraction of time)."""
+
+
+def friction_refs(d: Mapping[str, Any], where: str) -> dict[str, float]:
+    """``{'high': float, 'low': float}`` from ``d``, checked (``0 < low < high``).
+
+    Raises
+    ------
+    ValueError
+        Naming ``where`` when a reference is missing, not a number or out of order.
+    """
+    try:
+        hi, lo = float(d["high"]), float(d["low"])
+    except (KeyError, TypeError, ValueError):
+        raise ValueError(f"{where}: 'friction' must give numbers for 'high' and 'low'") from None
+    if not (0.0 < lo < hi):
+        raise ValueError(f"{where}: friction references need 0 < low < high, got {lo}, {hi}")
+    return {"high": hi, "low": lo}
+
+
+def prior_band(friction: Mapping[str, float] | None = None) -> tuple[float, float]:
+    """The band reported while the class is 'unknown': ``(low, high)`` references [-]."""
+    fr = friction or DEFAULT_FRICTION
+    return float(fr["low"]), float(fr["high"])
+
+
+def summary_meta(table: pd.DataFrame, friction: Mapping[str, float] | None = None) -> dict[str, Any]:
+    """``meta['summary']`` of a classification run.
+
+    VSS-style friction (the output contract): the final class mapped to its
+    friction reference, ``MostProbable = friction[class]`` with the band
+    ``[mid, high]`` for 'high' and ``[low, mid]`` for 'low' (``mid`` halfway
+    between the references); while 'unknown', ``MostProbable = mid`` and the
+    band spans both references. Also the final class and grip index and the
+    share of time in each class.
+    """
+    fr = friction or DEFAULT_FRICTION
+    hi, lo = fr["high"], fr["low"]
+    mid = 0.5 * (hi + lo)
+    last = table.iloc[-1]
+    cls = table["grip_class"].astype(str).to_numpy()
+    final = str(last["grip_class"])
+    band = {"high": (hi, mid, hi), "low": (lo, lo, mid)}.get(final, (mid, lo, hi))
+    return {
+        "MostProbable": float(band[0]),
+        "LowerBound": float(band[1]),
+        "UpperBound": float(band[2]),
+        "GripClass": str(last["grip_class"]),
+        "GripIndex": float(last["grip_index"]),
+        "FractionHigh": float((cls == "high").mean()),
+        "FractionLow": float((cls == "low").mean()),
+        "FractionUnknown": float((cls == "unknown").mean()),
+    }
+
+
+def classes(high: NDArray, known: NDArray) -> NDArray[np.str_]:
+    """'high' / 'low' where ``known``, else 'unknown' (elementwise)."""
+    return np.where(known, np.where(high, "high", "low"), "unknown")
+
+
+def extra_switches(cls: NDArray) -> int:
+    """Class switches beyond the first among the known classes (a labelled drive has one class)."""
+    known = cls[cls != "unknown"]
+    return max(int(np.sum(known[1:] != known[:-1])) - 1, 0)
+
+
+def settled(t: NDArray, moving: NDArray) -> NDArray[np.bool_]:
+    """Moving samples from :data:`CALIBRATION_SETTLING_S` after the vehicle first moves.
+
+    The settling period counts from the first moving sample: before it no
+    classifier has information, so a drive that starts at a standstill is not
+    judged on its first seconds of motion. All samples when it never moves.
+
+    Parameters
+    ----------
+    t : ndarray, shape (T,)
+        Sample times [s].
+    moving : ndarray of bool, shape (T,)
+    """
+    moving = np.asarray(moving, bool)
+    if not moving.any():
+        return np.ones(moving.shape, bool)
+    t0 = t[int(np.argmax(moving))]
+    m = moving & (t >= t0 + CALIBRATION_SETTLING_S)
+    return m if m.any() else moving
+
+
+def lowpass(x: NDArray, dt: float, tau: float) -> NDArray:
+    """First-order low-pass at a constant step ``dt`` [s] with time constant ``tau`` [s] (0 = none)."""
+    if tau <= 0:
+        return x
+    from scipy.signal import lfilter
+
+    k = 1.0 - math.exp(-dt / tau)
+    return lfilter([k], [1.0, k - 1.0], x)

@@ -1,0 +1,147 @@
+"""Kinematic front end of the classifiers: friction-independent slips from the sensors.
+
+Both classifiers of paper 002 read the slips and the speed of the kinematic
+stage (:mod:`roadgrip.inference.kinematic`, the paper's ref. [26]). This module
+runs that stage sample by sample for the online step (:func:`front_step`,
+state :class:`FrontState`) and over a whole drive for the batch run
+(:func:`front_batch`); the two give the same slips, step and kinematic lateral
+acceleration.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from roadgrip.drive import Drive
+from roadgrip.inference.kinematic import (
+    KinematicConfig,
+    KinematicInput,
+    KinematicOutput,
+    KinematicState,
+    drive_lateral_acceleration,
+    estimate_kinematics,
+    inputs_from_drive,
+    kinematic_init,
+    kinematic_step,
+    resolve_aid,
+    select_lateral_acceleration,
+)
+from roadgrip.vehicle.params import VehicleParams
+
+__all__ = [
+    "FIRST_STEP_S",
+    "Front",
+    "FrontBatch",
+    "FrontState",
+    "front_batch",
+    "front_init",
+    "front_step",
+    "kinematic_samples",
+]
+
+FIRST_STEP_S = 0.01
+"""Time step [s] assumed for the first sample (no previous sample)."""
+
+
+@dataclass(frozen=True)
+class Front:
+    """What the front end needs to know about a drive: vehicle, kinematic tuning, velocity aid.
+
+    Attributes
+    ----------
+    params : VehicleParams
+    kinematic : KinematicConfig
+    aid : {'wheels', 'pose'}
+        Velocity aid of the kinematic stage, resolved for the drive
+        (:func:`roadgrip.inference.kinematic.resolve_aid`).
+    lateral_acceleration : {'auto', 'imu', 'kinematic'}
+        Source of the lateral acceleration
+        (:func:`roadgrip.inference.kinematic.select_lateral_acceleration`).
+    """
+
+    params: VehicleParams
+    kinematic: KinematicConfig
+    aid: str
+    lateral_acceleration: str
+
+    @classmethod
+    def for_drive(cls, drive: Drive, lateral_acceleration: str,
+                  kinematic: KinematicConfig = KinematicConfig()) -> Front:
+        return cls(drive.vehicle, kinematic, resolve_aid(drive, kinematic), lateral_acceleration)
+
+
+class FrontState(NamedTuple):
+    """Kinematic stage state and the previous sample time [s] (NaN before the first sample)."""
+
+    kin: KinematicState
+    t_prev: float
+
+
+class FrontBatch(NamedTuple):
+    """The front end over a whole drive (arrays with leading axis time, T samples).
+
+    Attributes
+    ----------
+    kin : KinematicOutput
+    ay : ndarray, shape (T,)
+        Lateral acceleration the classifier uses [m/s²].
+    """
+
+    kin: KinematicOutput
+    ay: NDArray[np.float64]
+
+
+def front_init() -> FrontState:
+    """State before the first sample."""
+    return FrontState(kinematic_init(), math.nan)
+
+
+def front_step(
+    state: FrontState, sample: KinematicInput, front: Front
+) -> tuple[FrontState, KinematicOutput, float, float]:
+    """Run the kinematic stage on one sample (pure).
+
+    Returns
+    -------
+    state : FrontState
+    kin : KinematicOutput
+        Scalars for this sample.
+    dt : float
+        Step since the previous sample [s] (:data:`FIRST_STEP_S` at the first).
+    ay : float
+        Lateral acceleration the classifier uses [m/s²]: the accelerometer's or
+        the kinematic ``r vx + dvy/dt`` (same backward difference as
+        :func:`roadgrip.inference.kinematic.kinematic_lateral_acceleration`).
+    """
+    prev = state.kin
+    kst, kin = kinematic_step(prev, sample, front.params, front.kinematic, aid=front.aid)
+    dt = FIRST_STEP_S if math.isnan(state.t_prev) else float(sample.t) - state.t_prev
+    dvy = (float(kin.vy) - prev.vy) / dt if prev.started else 0.0
+    ay_kin = float(sample.yaw_rate) * float(kin.vx) + dvy
+    ay = float(select_lateral_acceleration(front.lateral_acceleration, front.aid, float(sample.ay), ay_kin))
+    return FrontState(kst, float(sample.t)), kin, dt, ay
+
+
+def front_batch(drive: Drive, front: Front) -> FrontBatch:
+    """The kinematic stage and the lateral acceleration over a whole drive (equals stepping)."""
+    kin = estimate_kinematics(drive, front.kinematic)
+    ay = drive_lateral_acceleration(drive, kin, front.lateral_acceleration, front.kinematic)
+    return FrontBatch(kin, ay)
+
+
+def kinematic_samples(drive: Drive) -> list[KinematicInput]:
+    """The drive as :class:`~roadgrip.inference.kinematic.KinematicInput` samples."""
+    a = inputs_from_drive(drive)
+    return [
+        KinematicInput(
+            float(a["t"][i]), float(a["ax"][i]), float(a["ay"][i]), float(a["yaw_rate"][i]),
+            float(a["steer"][i]), a["omega"][i], float(a["x"][i]), float(a["y"][i]),
+            float(a["psi"][i]), float(a["vx_meas"][i]),
+        )
+        for i in range(drive.n)
+    ]
