@@ -33,7 +33,7 @@ and recorded asynchronously at about 18-44 Hz. Conversions, all recorded in
   ``|dp| > |vx| dt + 0.1 m + 0.5 |vx| dt``, or the heading changed more than
   ``|yaw_rate| dt + 0.2 rad``), not repaired.
 * ``vx_pose``, ``vy_pose``: body-frame velocity differentiated from the pose
-  over 0.3 s (:func:`roadgrip.signals.body_velocity_from_pose`), NaN within half a window of a jump
+  over 0.3 s (:func:`roadgrip.io.derived.body_velocity_from_pose`), NaN within half a window of a jump
   or a gap. Fused by the cascade's stage 1 (it bounds the drift of the
   integrated lateral velocity). At low lateral acceleration (rear slip below
   0.01 rad) ``vy_pose`` follows ``d r`` with ``d`` = 0.15-0.27 m fitted per
@@ -91,8 +91,8 @@ import pandas as pd
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.io._csv import read_csv_exact
+from roadgrip.io.derived import body_velocity_from_pose, white_noise_std
 from roadgrip.io.resample import resample
-from roadgrip.signals import body_velocity_from_pose, white_noise_std
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
 __all__ = [
@@ -188,7 +188,7 @@ def _kinematic_checks(df: pd.DataFrame, jump: np.ndarray) -> dict[str, float]:
 def _stream_noise(t: np.ndarray, x: np.ndarray, rate: float) -> tuple[float, float]:
     """White-noise standard deviation of a raw stream, expressed per tick of the output clock.
 
-    :func:`roadgrip.signals.white_noise_std` of the samples as recorded is the
+    :func:`roadgrip.io.derived.white_noise_std` of the samples as recorded is the
     noise of one native sample. Estimated on the resampled signal it would be far too small:
     linear interpolation between native samples has zero second difference.
     Interpolated onto a faster clock, the noise of one native sample persists
@@ -375,7 +375,7 @@ def read_frictionmaps(
         Window [s] of the pose calibration (:func:`fit_pose_scales`).
     pose_velocity_window : float
         Fit window [s] of the body velocity differentiated from the pose
-        (:func:`roadgrip.signals.body_velocity_from_pose`, columns ``vx_pose, vy_pose``).
+        (:func:`roadgrip.io.derived.body_velocity_from_pose`, columns ``vx_pose, vy_pose``).
 
     Returns
     -------
@@ -515,7 +515,7 @@ def read_frictionmaps(
             "speed_cmd": "commandData.V (command, zero-order hold)",
             "x/y/psi": "pfPoseData (particle filter), psi from the quaternion, unwrapped",
             "vx_pose/vy_pose": f"body velocity differentiated from the pose over {pose_velocity_window} s "
-            "(roadgrip.signals.body_velocity_from_pose); NaN near jumps and gaps",
+            "(roadgrip.io.derived.body_velocity_from_pose); NaN near jumps and gaps",
             "pose_jump": "1 where the pose step exceeds 1.5 |vx| dt + 0.1 m or the heading "
             "step exceeds |yaw_rate| dt + 0.2 rad (not repaired)",
             **({"vx_motor": "-coreData.RPM / 7800 [m/s]"} if has_core else {}),

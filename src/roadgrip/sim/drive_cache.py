@@ -28,7 +28,7 @@ CACHE_ENV = "ROADGRIP_DRIVE_CACHE"
 
 _SOURCES = (
     "sim/multibody.py", "sim/mb_model.py", "sim/mb_driver.py", "sim/mb_scenarios.py", "sim/sensors.py",
-    "sim/friction.py", "sim/track.py", "sim/engine.py", "signals.py",
+    "sim/friction.py", "sim/track.py", "sim/engine.py", "vehicle/slip.py",
 )
 
 

@@ -22,6 +22,7 @@ measurement models of :mod:`roadgrip.sim.sensors`, and the truth columns.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping
 from typing import Any
 
@@ -30,7 +31,6 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from roadgrip.drive import Drive
-from roadgrip.signals import wheel_centre_speeds
 from roadgrip.sim.friction import FrictionField
 from roadgrip.sim.mb_driver import SLIP_LIMIT, Path, integrate_mb
 from roadgrip.sim.mb_model import (
@@ -47,7 +47,7 @@ from roadgrip.sim.mb_model import (
     vehicle_from_commonroad,
 )
 from roadgrip.sim.sensors import SensorSpec, apply_sensors, sensors_to_dict
-from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
+from roadgrip.vehicle.slip import longitudinal_slip, slip_angles, wheel_centre_speeds
 
 __all__ = ["INTERNAL_RATE", "MAX_SURFACES", "MB_SENSOR_COLUMNS", "SETTLE_TIME", "simulate_multibody"]
 
@@ -134,7 +134,7 @@ def simulate_multibody(
     lookahead : (float, float)
         Pure-pursuit look-ahead at standstill [m] and its growth with speed [s].
     progress : bool
-        Show a status line while integrating.
+        Print a line to stderr before integrating.
 
     Returns
     -------
@@ -171,23 +171,15 @@ def simulate_multibody(
     x0 = np.asarray(init_mb([0.0, 0.0, 0.0, float(path.v[0]), 0.0, 0.0, 0.0], p_pkg), float)
     dt = 1.0 / INTERNAL_RATE
     n = round(duration * INTERNAL_RATE)
-    status = None
     if progress:
-        from rich.console import Console
-
-        status = Console(stderr=True).status(f"simulating {name} (multi-body, {duration:.0f} s at 1 kHz)")
-        status.start()
-    try:
-        states, derivs, inputs, wheels, surf = integrate_mb(
-            x0, dt, n, round(SETTLE_TIME * INTERNAL_RATE), stride, params,
-            path.x, path.y, path.v, path.acceleration(), bool(path.closed),
-            float(lookahead[0]), float(lookahead[1]), 0.6, 20.0, 1.0, 0.2, SLIP_LIMIT,
-            enc["mode"], enc["times"], enc["time_idx"], enc["rects"], enc["rect_idx"],
-            enc.get("n_rects", 0), enc["base"],
-        )
-    finally:
-        if status is not None:
-            status.stop()
+        print(f"simulating {name} (multi-body, {duration:.0f} s at 1 kHz)", file=sys.stderr, flush=True)
+    states, derivs, inputs, wheels, surf = integrate_mb(
+        x0, dt, n, round(SETTLE_TIME * INTERNAL_RATE), stride, params,
+        path.x, path.y, path.v, path.acceleration(), bool(path.closed),
+        float(lookahead[0]), float(lookahead[1]), 0.6, 20.0, 1.0, 0.2, SLIP_LIMIT,
+        enc["mode"], enc["times"], enc["time_idx"], enc["rects"], enc["rect_idx"],
+        enc.get("n_rects", 0), enc["base"],
+    )
     if not np.all(np.isfinite(states)):
         bad = int(np.argmax(~np.isfinite(states).all(1)))
         raise RuntimeError(f"multi-body simulation diverged (first non-finite state at t = {bad / output_rate:.2f} s)")

@@ -33,6 +33,7 @@ Truth conventions
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -41,7 +42,6 @@ import pandas as pd
 
 from roadgrip.constants import GRAVITY, V_EPS
 from roadgrip.drive import Drive
-from roadgrip.signals import wheel_centre_speeds
 from roadgrip.sim import engine
 from roadgrip.sim.friction import FrictionField, SurfaceTires, tire_table
 from roadgrip.sim.maneuvers import Maneuver
@@ -57,7 +57,7 @@ from roadgrip.vehicle.planar import (
     planar_forces,
     wheel_speeds,
 )
-from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
+from roadgrip.vehicle.slip import longitudinal_slip, slip_angles, wheel_centre_speeds
 
 __all__ = ["MEASURED_COLUMNS", "MIN_INTERNAL_RATE", "simulate"]
 
@@ -138,7 +138,7 @@ def simulate(
     truth_extra : mapping, optional
         Extra JSON-serialisable entries for ``meta.truth``.
     progress : bool
-        Show a status line while integrating.
+        Print a line to stderr before integrating.
 
     Returns
     -------
@@ -168,24 +168,16 @@ def simulate(
     if unknown:
         raise ValueError(f"sensor models for unknown column(s) {unknown}; measured columns: {MEASURED_COLUMNS}")
 
-    status = None
     if progress:
-        from rich.console import Console
-
-        status = Console(stderr=True).status(f"simulating {name} ({duration:.0f} s at {rate:.0f} Hz)")
-        status.start()
-    try:
-        if model == "lateral":
-            if not isinstance(maneuver, Maneuver):
-                raise ValueError("the lateral model needs an open-loop Maneuver (it has no path follower)")
-            true, extra = _run_lateral(vehicle, maneuver, n, dt, table, field_args, surf_list, v_eps,
-                                       initial_pose, rng_man)
-        else:
-            true, extra = _run_planar(vehicle, maneuver, n, dt, table, peaks, field_args, surf_list,
-                                      v_eps, initial_pose, rng_man)
-    finally:
-        if status is not None:
-            status.stop()
+        print(f"simulating {name} ({duration:.0f} s at {rate:.0f} Hz)", file=sys.stderr, flush=True)
+    if model == "lateral":
+        if not isinstance(maneuver, Maneuver):
+            raise ValueError("the lateral model needs an open-loop Maneuver (it has no path follower)")
+        true, extra = _run_lateral(vehicle, maneuver, n, dt, table, field_args, surf_list, v_eps,
+                                   initial_pose, rng_man)
+    else:
+        true, extra = _run_planar(vehicle, maneuver, n, dt, table, peaks, field_args, surf_list,
+                                  v_eps, initial_pose, rng_man)
 
     t_int = np.arange(n + 1) * dt
     step = round(rate / output_rate)

@@ -331,7 +331,7 @@ def simulate_scenario(
     seed : int
         Same seed, same drive.
     progress : bool
-        Show a status line.
+        Print a line to stderr before integrating.
     duration : float, optional
         Override the scenario's duration [s] (short runs for tests).
     engine : str, optional

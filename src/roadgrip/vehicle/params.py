@@ -13,13 +13,20 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
+from numpy.typing import ArrayLike, NDArray
 
 from roadgrip.constants import GRAVITY
 
-__all__ = ["PRESETS", "PRESET_SOURCES", "VehicleParams", "load_vehicle"]
+__all__ = ["PRESETS", "PRESET_SOURCES", "VehicleParams", "axle_loads", "driven_wheels", "load_vehicle"]
 
-_DRIVES = ("fwd", "rwd", "awd")
+_DRIVEN = {
+    "fwd": (True, True, False, False),
+    "rwd": (False, False, True, True),
+    "awd": (True, True, True, True),
+}
+_DRIVES = tuple(_DRIVEN)
 
 
 @dataclass(frozen=True)
@@ -223,3 +230,52 @@ def load_vehicle(spec: str | Path | VehicleParams) -> VehicleParams:
     if p.suffix in (".yaml", ".yml") or p.exists():
         return VehicleParams.from_yaml(p)
     raise ValueError(f"unknown vehicle {s!r}: not a preset ({sorted(PRESETS)}) nor a YAML file")
+
+
+def driven_wheels(drive: str) -> NDArray[np.bool_]:
+    """Which wheels the drive layout drives.
+
+    Parameters
+    ----------
+    drive : {'fwd', 'rwd', 'awd'}
+        ``VehicleParams.drive``.
+
+    Returns
+    -------
+    ndarray of bool, shape (4,)
+        Order ``fl, fr, rl, rr`` (``WHEELS`` of :mod:`roadgrip.signals`); a new array on each call.
+
+    Raises
+    ------
+    ValueError
+        An unknown layout (named in the message).
+    """
+    try:
+        return np.array(_DRIVEN[drive], dtype=bool)
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown drive layout {drive!r}; known: {sorted(_DRIVEN)}") from None
+
+
+def axle_loads(params: VehicleParams, ax: ArrayLike = 0.0) -> tuple[NDArray, NDArray]:
+    """Axle normal loads with quasi-steady longitudinal load transfer.
+
+    ``F_zf = m g lr / l - m a_x h / l`` and ``F_zr = m g lf / l + m a_x h / l``
+    (``l = lf + lr``, ``h`` the CG height), each clipped at zero (a lifted
+    axle); ``ax = 0`` gives the static loads ``params.fz_front``,
+    ``params.fz_rear``.
+
+    Parameters
+    ----------
+    params : VehicleParams
+        ``mass``, ``lf``, ``lr``, ``cg_height`` are used.
+    ax : array_like, shape (...)
+        Longitudinal acceleration (specific force) at the CG [m/s²], positive forward.
+
+    Returns
+    -------
+    fz_front, fz_rear : ndarray, shape (...)
+        [N].
+    """
+    ax = np.asarray(ax, dtype=float)
+    dfz = params.mass * ax * params.cg_height / params.wheelbase
+    return np.maximum(params.fz_front - dfz, 0.0), np.maximum(params.fz_rear + dfz, 0.0)

@@ -25,7 +25,7 @@ leaves the ellipse ``(mu_x/D_x)² + (mu_y/D_y)² <= 1``; in particular
 Axle forces in body axes are ``F_z (mu_x cos delta - mu_y sin delta,
 mu_x sin delta + mu_y cos delta)`` at the front and ``F_z (mu_x, mu_y)`` at the
 rear. The normal loads follow the longitudinal specific force ``a_x`` through
-:func:`roadgrip.signals.axle_loads` (quasi-static load transfer, ``F_zf = m (g lr
+:func:`roadgrip.vehicle.params.axle_loads` (quasi-static load transfer, ``F_zf = m (g lr
 - a_x h)/l``). Because every force is its load times a load-independent
 ``mu``, ``a_x = (F_zf g_xf + F_zr g_xr)/m`` with ``g_x`` the normalised x
 forces is linear in ``a_x`` and is solved exactly,
@@ -60,9 +60,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from roadgrip.constants import GRAVITY, V_EPS
-from roadgrip.signals import axle_loads, driven_wheels
 from roadgrip.tire import FrictionModel
-from roadgrip.vehicle.params import VehicleParams
+from roadgrip.vehicle.params import VehicleParams, axle_loads, driven_wheels
 from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
 
 __all__ = [

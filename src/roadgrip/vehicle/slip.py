@@ -1,4 +1,4 @@
-r"""Tire slip quantities: axle slip angles and wheel longitudinal slip.
+r"""Tire slip quantities: axle slip angles, wheel longitudinal slip, wheel-centre speeds.
 
 Sign convention (ISO 8855, as paper 000 eq. 4): the slip angle of a wheel is
 ``alpha = -arctan(v_y,w / v_x,w)`` with the velocities in the wheel frame, so a
@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from roadgrip.constants import V_EPS
 from roadgrip.vehicle.params import VehicleParams
 
-__all__ = ["longitudinal_slip", "regularized_speed", "slip_angles"]
+__all__ = ["longitudinal_slip", "regularized_speed", "slip_angles", "wheel_centre_speeds"]
 
 
 def regularized_speed(vx: ArrayLike, v_eps: float = V_EPS) -> NDArray[np.float64]:
@@ -112,3 +112,41 @@ def longitudinal_slip(
     vx = np.asarray(vx_wheel, dtype=float)
     den = np.sqrt(np.maximum(np.abs(vx), np.abs(rw)) ** 2 + v_eps * v_eps)
     return (rw - vx) / den
+
+
+def wheel_centre_speeds(
+    vx: ArrayLike, vy: ArrayLike, yaw_rate: ArrayLike, steer: ArrayLike, params: VehicleParams
+) -> NDArray[np.float64]:
+    """Speed of each wheel centre along its wheel's heading (the free-rolling ``R omega``).
+
+    The wheels sit at ``x = lf`` (front), ``x = -lr`` (rear) and ``y = ± b/2``
+    (``b`` the track width, left positive); a rigid body moving with
+    ``(vx, vy, r)`` at the CG moves a wheel centre with ``(vx - r y, vy + r x)``,
+    which is projected on the wheel heading (``steer`` at the front, 0 at the rear):
+
+    ``v_fl = (vx - r b/2) cos(delta) + (vy + lf r) sin(delta)``, ``v_rl = vx - r b/2``,
+    and ``+ r b/2`` on the right.
+
+    Parameters
+    ----------
+    vx, vy : array_like, shape (...)
+        CG velocity in body axes [m/s].
+    yaw_rate : array_like, shape (...)
+        [rad/s].
+    steer : array_like, shape (...)
+        Front road-wheel angle [rad].
+    params : VehicleParams
+        ``lf`` and ``track_width`` [m] are used.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Wheel-centre speeds ``fl, fr, rl, rr`` [m/s].
+    """
+    vx = np.asarray(vx, float)
+    hb = 0.5 * params.track_width * np.asarray(yaw_rate, float)
+    steer = np.asarray(steer, float)
+    c, s = np.cos(steer), np.sin(steer)
+    lat_f = (np.asarray(vy, float) + params.lf * np.asarray(yaw_rate, float)) * s
+    vl, vr = vx - hb, vx + hb
+    return np.stack(np.broadcast_arrays(vl * c + lat_f, vr * c + lat_f, vl, vr), axis=-1)
