@@ -42,20 +42,20 @@ import tracemalloc
 import numba
 import numpy as np
 
-from roadgrip.estimators import gpssm_linalg as la
-from roadgrip.estimators.gpssm import GPSSM, GPSSMConfig, curve_accuracy
-from roadgrip.inference.basis import make_basis
+from roadgrip.estimators.gpssm import GPSSMConfig, run_filter
+from roadgrip.estimators.gpssm import linalg as la
+from roadgrip.estimators.gpssm.accuracy import curve_accuracy
 from roadgrip.sim.scenarios import simulate_scenario
 
 
 def timed_run(drive, basis: str, n: int, mode: str, steps: int | None = None, curves=(), **config):
     d = drive if steps is None else drive.slice_time(drive.t[0], drive.t[0] + steps / 25.0 - 1e-9)
-    cfg = GPSSMConfig(d.vehicle, basis=make_basis(basis), particles=n, linalg=mode, **config)
-    f = GPSSM(cfg, seed=0)
+    cfg = GPSSMConfig(basis=basis, particles=n, linalg=mode, **config)
     # warm up the compiled kernels outside the timing
-    GPSSM(cfg, seed=0).run(d.slice_time(d.t[0], d.t[0] + 0.2))
+    run_filter(d.slice_time(d.t[0], d.t[0] + 0.2), cfg, seed=0)
     t0 = time.perf_counter()
-    table, cv = f.run(d, curve_times=curves, curve_alpha=np.radians(np.linspace(-20, 20, 161)))
+    table, cv = run_filter(d, cfg, seed=0, curve_times=curves,
+                           curve_alpha=np.radians(np.linspace(-20, 20, 161)))
     wall = time.perf_counter() - t0
     return d, table, cv, wall
 
@@ -129,10 +129,10 @@ def accuracy(seeds=(0, 1)) -> None:
         t_end = float(drive.t[-1])
         for basis, mode in (("tensor:10x10", "exact"), ("tensor:10x10", "fast"), ("tensor-odd:10x10", "exact"),
                             ("separable:20", "exact"), ("separable-odd:20", "exact")):
-            cfg = GPSSMConfig(drive.vehicle, basis=make_basis(basis), particles=200, linalg=mode)
+            cfg = GPSSMConfig(basis=basis, particles=200, linalg=mode)
             t0 = time.perf_counter()
-            table, cv = GPSSM(cfg, seed=seed).run(
-                drive, curve_times=(50.0, t_end), curve_alpha=np.radians(np.linspace(-20, 20, 161)))
+            table, cv = run_filter(drive, cfg, seed=seed, curve_times=(50.0, t_end),
+                                   curve_alpha=np.radians(np.linspace(-20, 20, 161)))
             wall = time.perf_counter() - t0
             err = table["vy"].to_numpy() - drive.col("vy_true")
             print(f"seed {seed} {basis:17s} {mode:5s} vy rmse {np.sqrt(np.mean(err**2)):.3f} m/s "
@@ -185,9 +185,9 @@ def main() -> None:
           "(the fast mode's prior weight c differs from 1 by up to 0.8 %, which moves the "
           "weights; the paths are independent after that)")
     # Monte Carlo reference: the same exact filter with another seed
-    cfg1 = GPSSMConfig(d.vehicle, basis=make_basis("tensor:10x10"), particles=200, linalg="exact")
-    _, cv1 = GPSSM(cfg1, seed=1).run(d, curve_times=(1e9,),
-                                     curve_alpha=np.radians(np.linspace(-20, 20, 161)))
+    cfg1 = GPSSMConfig(basis="tensor:10x10", particles=200, linalg="exact")
+    _, cv1 = run_filter(d, cfg1, seed=1, curve_times=(1e9,),
+                        curve_alpha=np.radians(np.linspace(-20, 20, 161)))
     c1 = next(iter(cv1.values()))
     mc = curve_difference(ce, c1, acc)
     print(f"exact seed 0 vs exact seed 1 (Monte Carlo spread), largest / mean: "

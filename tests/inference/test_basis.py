@@ -61,10 +61,10 @@ def test_tensor_basis_approximates_2d_kernel():
 
 
 def test_make_basis_parses_and_rejects():
-    assert make_basis(None) == TensorBasis(10)
+    assert make_basis("tensor") == TensorBasis(10)
     assert make_basis("tensor:6x6").m == 36
     sep = make_basis("separable:12")
     assert (sep.groups, sep.outputs, sep.m) == (2, 1, 12)
-    for bad in ("tensor:3x4", "separable:x", "radial:5", "tensor:0x0"):
+    for bad in ("tensor:3x4", "separable:x", "radial:5", "tensor:0x0", None):
         with pytest.raises(ValueError, match="bad basis"):
             make_basis(bad)

@@ -140,7 +140,7 @@ class TensorBasis:
     L : float
         Half-width of the domain [rad] (paper: 30 deg).
     s_f : float
-        Kernel variance (see :class:`roadgrip.estimators.gpssm.GPSSMConfig` for its scale).
+        Kernel variance (see :class:`roadgrip.estimators.gpssm.config.GPSSMConfig` for its scale).
     ell : float
         Length scale [rad] (paper: 2 deg).
     kernel : {'se', 'matern52'}
@@ -244,7 +244,7 @@ class SeparableBasis:
 
 
 def make_basis(
-    spec: str | None,
+    spec: str,
     *,
     L: float = math.radians(30.0),
     s_f: float = 500.0,
@@ -253,13 +253,15 @@ def make_basis(
 ) -> TensorBasis | SeparableBasis:
     """Parse ``'tensor:10x10'``, ``'separable:20'`` or ``'separable-odd:20'``.
 
-    ``None`` gives ``tensor:10x10``. The ``-odd`` variants keep only the eigenfunctions
+    A missing size is the paper's (``'tensor'`` is ``'tensor:10x10'``, ``'separable'``
+    ``'separable:20'``). The ``-odd`` variants keep only the eigenfunctions
     (products) that are odd in the slip angles, ``mu(-alpha) = -mu(alpha)`` and
     ``mu(0) = 0``: a tire and vehicle symmetric left to right. With it a bias of the
     lateral-velocity estimate (which shifts both turning directions the same way) no
     longer fits the data, so the slip angles become identifiable.
     """
-    spec = spec or "tensor:10x10"
+    if not isinstance(spec, str):
+        raise ValueError(f"bad basis {spec!r}: expected a string such as 'separable-odd:20'")
     kind, _, size = spec.partition(":")
     try:
         if kind in ("tensor", "tensor-odd"):

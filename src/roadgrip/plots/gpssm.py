@@ -5,11 +5,13 @@ the estimated front and rear slip angles visited up to that time. The posterior 
 black, the 95 % band grey, the truth (where the drive carries it) dashed red, the prior
 dash-dotted black; green dashed lines mark the range of the visited slip angles.
 Friction is in absolute units (force over load), slip angles in degrees.
+:func:`plot_result` draws it from an estimator run (the result's table and curves).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -18,7 +20,27 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-__all__ = ["plot_curves"]
+__all__ = ["plot_curves", "plot_result"]
+
+
+def plot_result(drive: Any, result: Any, path: str | Path) -> None:
+    """Write the Fig. 1 reproduction of a GP-SSM run as a PNG.
+
+    Parameters
+    ----------
+    drive : Drive
+        The drive the result was computed on (its source names the figure).
+    result : EstimateResult
+        Its ``curves`` (run with ``curve_times``) and ``table`` (``t``, ``alpha_f``,
+        ``alpha_r``).
+    path : str or Path
+
+    Raises
+    ------
+    ValueError
+        The result carries no curves.
+    """
+    plot_curves(result.curves, result.table, path, title=str(drive.meta.source))
 
 
 def plot_curves(curves: pd.DataFrame, table: pd.DataFrame, path: str | Path, title: str = "") -> Path:
@@ -36,7 +58,7 @@ def plot_curves(curves: pd.DataFrame, table: pd.DataFrame, path: str | Path, tit
     title : str
     """
     if curves is None or len(curves) == 0:
-        raise ValueError("no posterior curves to plot: give curve times")
+        raise ValueError("no posterior curves to plot: run the GP-SSM filter with curve_times")
     times = sorted(curves["t"].unique())
     n = len(times)
     fig, axes = plt.subplots(3, n, figsize=(3.2 * n, 7.5), squeeze=False, sharex=True)

@@ -1,4 +1,8 @@
-"""GP-SSM particle filter (roadgrip.estimators.gpssm)."""
+"""GP-SSM particle filter (roadgrip.estimators.gpssm).
+
+The output contract, run against stepping, seed determinism, the unexcited drive and
+option rejection are the common check's (tests/estimators/test_common.py).
+"""
 
 import math
 
@@ -7,21 +11,21 @@ import pandas as pd
 import pytest
 
 from roadgrip.drive import Drive
-from roadgrip.estimators import gpssm_linalg as la
-from roadgrip.estimators.base import EstimateRequest
 from roadgrip.estimators.gpssm import (
     GPSSM,
+    Context,
     GPSSMConfig,
     Sample,
     copy_state,
-    curve_accuracy,
     drive_inputs,
+    filter_step,
     resample,
-    run_cli,
-    step,
+    run,
+    run_filter,
     step_reference,
 )
-from roadgrip.inference.basis import make_basis
+from roadgrip.estimators.gpssm import linalg as la
+from roadgrip.estimators.gpssm.accuracy import curve_accuracy
 from roadgrip.sim.scenarios import simulate_scenario
 from roadgrip.vehicle import PRESETS
 
@@ -37,32 +41,32 @@ def snow60():
 
 
 def _cfg(drive, basis="separable:8", n=24, **kw):
-    return GPSSMConfig(drive.vehicle, basis=make_basis(basis), particles=n, **kw)
+    return GPSSMConfig(basis=basis, particles=n, **kw)
 
 
 def _samples(drive):
     return [Sample(*row) for row in drive_inputs(drive)]
 
 
-def test_run_equals_stepping_sample_by_sample(snow20):
-    d = snow20.slice_time(0.0, 6.0)
-    cfg = _cfg(d, "tensor:4x4")
-    table, _ = GPSSM(cfg, seed=5).run(d)
-    state, rows = None, []
-    for s in _samples(d):
-        state, est = step(state, s, cfg, seed=5)
-        rows.append(est)
-    stepped = pd.DataFrame(rows)
-    pd.testing.assert_frame_equal(table, stepped, check_exact=True)
+def _online(cfg, drive, seed=0, curve_times=(), curve_alpha=None):
+    """A :class:`GPSSM` fed every sample of ``drive``, and its curves at ``curve_times``."""
+    f = GPSSM(cfg, drive.vehicle, seed=seed)
+    if curve_alpha is None:
+        curve_alpha = np.linspace(-cfg.peak_range, cfg.peak_range, 161)
+    pending, curves = sorted(curve_times), {}
+    samples = _samples(drive)
+    for i, s in enumerate(samples):
+        f.step(s)
+        while pending and (s.t >= pending[0] or i == len(samples) - 1):
+            curves[pending.pop(0)] = f.curves(curve_alpha)
+    return f, curves
 
 
-def test_same_seed_same_result_other_seed_differs(snow20):
+def test_other_seed_differs(snow20):
     d = snow20.slice_time(0.0, 4.0)
     cfg = _cfg(d)
-    a, _ = GPSSM(cfg, seed=11).run(d)
-    b, _ = GPSSM(cfg, seed=11).run(d)
-    c, _ = GPSSM(cfg, seed=12).run(d)
-    pd.testing.assert_frame_equal(a, b, check_exact=True)
+    a, _ = run_filter(d, cfg, seed=11)
+    c, _ = run_filter(d, cfg, seed=12)
     assert not np.allclose(a["vy"], c["vy"])
 
 
@@ -85,11 +89,12 @@ def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measu
     if measured_vy:
         rows[100:, 5] = d.col("vy_true")[100:]
     rows[40:48, 4] = 0.3  # below min_speed
+    ctx = Context(cfg, d.vehicle)
     a_state = b_state = None
     a_rows, b_rows = [], []
     for r in rows:
-        a_state, ea = step_reference(a_state, Sample(*r), cfg, seed=3)
-        b_state, eb = step(b_state, Sample(*r), cfg, seed=3)
+        a_state, ea = step_reference(ctx, a_state, Sample(*r), seed=3)
+        b_state, eb = filter_step(ctx, b_state, Sample(*r), seed=3)
         a_rows.append(ea)
         b_rows.append(eb)
     a, b = pd.DataFrame(a_rows), pd.DataFrame(b_rows)
@@ -100,8 +105,8 @@ def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measu
     c = np.radians(np.linspace(-10, 10, 9))
     from roadgrip.estimators.gpssm import posterior_curves
 
-    np.testing.assert_allclose(posterior_curves(b_state, cfg, c).mean,
-                               posterior_curves(a_state, cfg, c).mean, atol=1e-8)
+    np.testing.assert_allclose(posterior_curves(ctx, b_state, c).mean,
+                               posterior_curves(ctx, a_state, c).mean, atol=1e-8)
 
 
 @pytest.mark.parametrize("basis", ["tensor:4x4", "separable:5"])
@@ -111,11 +116,12 @@ def test_fast_step_carries_the_posterior_the_reference_solves_for(snow20, basis)
     # solves for M and forms Lambda from Phi and Psi every step
     d = snow20.slice_time(0.0, 8.0)
     cfg = _cfg(d, basis, n=24, linalg="fast", refactor_every=30, forgetting=0.995)
+    ctx = Context(cfg, d.vehicle)
     a_state = b_state = None
     a_rows, b_rows = [], []
     for smp in _samples(d):
-        a_state, ea = step_reference(a_state, smp, cfg, seed=3)
-        b_state, eb = step(b_state, smp, cfg, seed=3)
+        a_state, ea = step_reference(ctx, a_state, smp, seed=3)
+        b_state, eb = filter_step(ctx, b_state, smp, seed=3)
         a_rows.append(ea)
         b_rows.append(eb)
     a, b = pd.DataFrame(a_rows), pd.DataFrame(b_rows)
@@ -172,7 +178,7 @@ def test_take_rows_equals_fancy_indexing(seed):
 
 @pytest.mark.parametrize("seed", range(5))
 def test_slot_plan_updates_in_place_only_after_the_copies_have_read(seed):
-    from roadgrip.estimators.gpssm_kernel import slot_plan
+    from roadgrip.estimators.gpssm.kernel_ops import slot_plan
 
     rng = np.random.default_rng(seed)
     N = 12
@@ -198,8 +204,7 @@ def test_slot_plan_updates_in_place_only_after_the_copies_have_read(seed):
 def test_resampling_keeps_statistics_attached_to_particles(snow20):
     d = snow20.slice_time(0.0, 3.0)
     cfg = _cfg(d, n=10, linalg="direct")
-    f = GPSSM(cfg, seed=2)
-    f.run(d)
+    f, _ = _online(cfg, d, seed=2)
     old = copy_state(f.state_)
     idx = np.array([3, 3, 0, 9, 1, 1, 1, 7, 2, 5])
     new = resample(copy_state(old), idx)
@@ -221,8 +226,8 @@ def test_resampling_keeps_statistics_attached_to_particles(snow20):
 
 def test_covariances_stay_spd_and_finite_over_a_long_run(snow60):
     cfg = _cfg(snow60, "tensor:5x5", n=16, forgetting=0.99, refactor_every=9)
-    f = GPSSM(cfg, seed=4)
-    table, curves = f.run(snow60, curve_times=(30.0, 60.0))
+    table, _ = run_filter(snow60, cfg, seed=4)
+    f, curves = _online(cfg, snow60, seed=4, curve_times=(30.0, 60.0))
     assert np.isfinite(table.select_dtypes("number").to_numpy()).all()
     st = f.state_
     H = la.information(st.lin)
@@ -251,7 +256,7 @@ def _straight_drive(n=400, seed=0):
 
 def test_straight_drive_leaves_the_prior_and_says_so():
     d = _straight_drive()
-    res = run_cli(d, EstimateRequest(seed=0, particles=30, progress=False))
+    res = run(d, GPSSMConfig(particles=30), seed=0)
     t = res.table
     assert not t["excited"].any()
     assert not t["peak_observed_front"].any() and not t["peak_observed_rear"].any()
@@ -260,9 +265,8 @@ def test_straight_drive_leaves_the_prior_and_says_so():
     assert t["mu_front"].iloc[-1] < 0.05
     # and nothing bounds it from above but the physical limit
     assert (t["mu_front_upper"] == GPSSMConfig.peak_max).all() and (t["mu_rear_upper"] == 2.0).all()
-    cfg = GPSSMConfig(d.vehicle, particles=30)
-    f = GPSSM(cfg, seed=0)
-    f.run(d)
+    cfg = GPSSMConfig(basis="tensor:10x10", particles=30)
+    f, _ = _online(cfg, d)
     alpha = np.radians(np.r_[-12.0:-5.0:1.0, 6.0:13.0:1.0])
     c = f.curves(alpha)
     np.testing.assert_allclose(c.mean, c.prior, atol=0.05)
@@ -271,8 +275,8 @@ def test_straight_drive_leaves_the_prior_and_says_so():
 
 def test_learns_the_snow_curve_where_the_data_went(snow60):
     cfg = _cfg(snow60, "separable-odd:14", n=80)
-    table, curves = GPSSM(cfg, seed=1).run(snow60, curve_times=(60.0,),
-                                            curve_alpha=np.radians(np.linspace(-15, 15, 121)))
+    table, curves = run_filter(snow60, cfg, seed=1, curve_times=(60.0,),
+                               curve_alpha=np.radians(np.linspace(-15, 15, 121)))
     acc = curve_accuracy(curves[60.0], snow60, min_visits=20)
     for axle in ("front", "rear"):
         assert acc[axle]["bins"] >= 5
@@ -296,27 +300,42 @@ def test_upsampling_keeps_recorded_rows_and_interpolates():
 
 
 def test_bad_inputs_raise_clear_errors(snow20):
-    cfg = _cfg(snow20)
+    ctx = Context(_cfg(snow20), snow20.vehicle)
     s0 = Sample(0.0, 0.0, 0.0, 0.0, 10.0)
     with pytest.raises(ValueError, match="non-finite"):
-        step(None, s0._replace(ay=math.nan), cfg)
-    st, _ = step(None, s0, cfg)
+        filter_step(ctx, None, s0._replace(ay=math.nan))
+    st, _ = filter_step(ctx, None, s0)
     with pytest.raises(ValueError, match="increasing time"):
-        step(st, s0, cfg)
+        filter_step(ctx, st, s0)
     with pytest.raises(ValueError, match="forgetting"):
-        GPSSMConfig(PRESETS["suv"], forgetting=1.5)
+        GPSSMConfig(forgetting=1.5)
     with pytest.raises(ValueError, match="nu0"):
-        GPSSMConfig(PRESETS["suv"], nu0=2.0)
-    with pytest.raises(ValueError, match="calibration"):
-        run_cli(snow20, EstimateRequest(calibration="x.yaml", progress=False))
+        GPSSMConfig(nu0=2.0)
+    with pytest.raises(ValueError, match="basis"):
+        GPSSMConfig(basis="radial:5")
+    with pytest.raises(ValueError, match="curve_times"):
+        GPSSMConfig(curve_times=(-1.0,))
 
 
-def test_cli_writes_estimates_curves_and_plot(snow20, tmp_path):
+def test_config_default_is_the_command_default_and_run_leaves_it_alone(snow20):
+    assert GPSSMConfig().basis.label() == "separable-odd:20"
+    assert GPSSMConfig.from_options({"basis": "separable-odd:20"}) == GPSSMConfig()
+    # 6 Hz data: four sub-steps per sample, the noise widened by sqrt(3) for the run only
+    d = snow20.slice_time(0.0, 3.0)
+    slow = Drive.from_frame(d.data.iloc[::4].reset_index(drop=True), d.vehicle, source="10 Hz")
+    cfg = _cfg(slow, "separable:5", n=12)
+    res = run(slow, cfg, seed=0)
+    assert len(res.table) == slow.n and cfg == _cfg(slow, "separable:5", n=12)
+    assert cfg.sigma_ay == 0.15 and res.meta["config"]["sigma_ay"] == 0.15
+
+
+def test_run_returns_estimates_curves_and_plot(snow20, tmp_path):
     from roadgrip.estimators.base import EstimateResult
+    from roadgrip.plots.gpssm import plot_result
 
-    req = EstimateRequest(seed=0, particles=20, basis="separable:8", curves_path=str(tmp_path / "c.parquet"),
-                          curve_times=(4.0, 10.0), plot_path=str(tmp_path / "f.png"), progress=False)
-    res = run_cli(snow20, req)
+    res = run(snow20, GPSSMConfig(particles=20, basis="separable:8", curve_times=(4.0, 10.0)), seed=0)
+    res.curves.to_parquet(tmp_path / "c.parquet", index=False)
+    plot_result(snow20, res, tmp_path / "f.png")
     res.to_parquet(tmp_path / "e.parquet")
     back = EstimateResult.read_parquet(tmp_path / "e.parquet")
     for col in ("t", "mu_front", "mu_rear", "mu_front_lower", "mu_front_upper", "mu_rear_lower",
@@ -342,12 +361,12 @@ def test_sideslip_bound_holds_where_the_unbounded_estimate_exceeds_it():
         "steer": np.full(n, 0.05), "vx": np.full(n, 19.6),
     })
     d = Drive.from_frame(df, PRESETS["sedan"], source="over the limit")
-    free, _ = GPSSM(_cfg(d), seed=0).run(d)
+    free, _ = run_filter(d, _cfg(d), seed=0)
     beta = math.radians(1.0)
-    cfg = _cfg(d, max_sideslip=beta)
+    ctx = Context(_cfg(d, max_sideslip=beta), d.vehicle)
     state = None
     for s in _samples(d):
-        state, est = step(state, s, cfg, 0)
+        state, est = filter_step(ctx, state, s, 0)
         assert np.all(np.abs(state.x[:, 0]) <= math.tan(beta) * s.vx + 1e-12)
         assert np.isfinite(est.vy) and np.isfinite(est.mu_front)
     assert free["vy"].abs().max() > 1.5 * math.tan(beta) * 19.6  # the bound is active
@@ -363,7 +382,7 @@ def test_pose_lateral_velocity_is_measured_and_taken_by_every_particle(snow20):
     # the simulated pose is exact: its derivative is the lateral velocity to discretisation
     assert np.sqrt(np.mean((vy - d.col("vy_true")) ** 2)) < 0.005
     cfg = _cfg(d, "separable-odd:6", n=24, vy_source="pose", ay_source="kinematic")
-    table, _ = GPSSM(cfg, seed=1).run(d)
+    table, _ = run_filter(d, cfg, seed=1)
     moving = d.col("vx") >= cfg.min_speed
     np.testing.assert_allclose(table["vy"].to_numpy()[moving], vy[moving], atol=1e-12)
     assert table["vy_std"].to_numpy()[moving].max() < 1e-12
@@ -399,8 +418,8 @@ def test_command_chooses_the_linear_algebra(snow20, tmp_path):
 def test_reading_curves_mid_run_does_not_change_the_filter(snow20, basis):
     d = snow20.slice_time(0.0, 10.0)
     cfg = _cfg(d, basis, n=24)
-    plain, _ = GPSSM(cfg, seed=4).run(d)
-    with_curves, curves = GPSSM(cfg, seed=4).run(d, curve_times=(2.0, 3.0, 5.0, 7.5))
+    plain, _ = run_filter(d, cfg, seed=4)
+    with_curves, curves = run_filter(d, cfg, seed=4, curve_times=(2.0, 3.0, 5.0, 7.5))
     assert len(curves) == 4
     pd.testing.assert_frame_equal(plain, with_curves, check_exact=True)
 
@@ -408,21 +427,24 @@ def test_reading_curves_mid_run_does_not_change_the_filter(snow20, basis):
 def test_writing_the_pending_updates_out_mid_run_does_not_change_the_filter(snow20):
     d = snow20.slice_time(0.0, 8.0)
     cfg = _cfg(d, "tensor:4x4", n=24)
-    plain, _ = GPSSM(cfg, seed=6).run(d)
+    plain, _ = run_filter(d, cfg, seed=6)
+    ctx = Context(cfg, d.vehicle)
     state, rows = None, []
     for i, s in enumerate(_samples(d)):
-        state, est = step(state, s, cfg, seed=6)
-        rows.append(est)
+        state, est = filter_step(ctx, state, s, seed=6)
+        rows.append(est._asdict() | {"yaw_rate_est": est.yaw_rate})
         if i in (50, 51, 120):
             la.settle(state.lin)  # ancestors' matrices, pending rank-1 terms, carried P_B f
             assert np.array_equal(state.lin.panc, np.arange(cfg.particles))
-    pd.testing.assert_frame_equal(plain, pd.DataFrame(rows), check_exact=False, rtol=1e-9, atol=1e-12)
+    stepped = pd.DataFrame(rows)
+    for col in stepped.columns.drop("yaw_rate"):
+        np.testing.assert_allclose(plain[col].to_numpy(float), stepped[col].to_numpy(float), rtol=1e-9, atol=1e-12)
 
 
 def test_step_and_run_hold_blas_to_one_thread(snow20, monkeypatch, two_blas_threads, blas_threads):
     """The kernel and the curves see one BLAS thread however the filter is driven, and the
     caller's setting is back afterwards."""
-    from roadgrip.estimators import gpssm_kernel as gk
+    from roadgrip.estimators.gpssm import stepping as gk
 
     d = snow20.slice_time(0.0, 1.0)
     cfg = _cfg(d)
@@ -434,10 +456,10 @@ def test_step_and_run_hold_blas_to_one_thread(snow20, monkeypatch, two_blas_thre
         return real(*args)
 
     monkeypatch.setattr(gk, "peak_summary", spy)
-    GPSSM(cfg, seed=0).run(d.slice_time(0.0, 0.3))
-    f = GPSSM(cfg, seed=0)
+    run_filter(d.slice_time(0.0, 0.3), cfg, seed=0)
+    f = GPSSM(cfg, d.vehicle, seed=0)
     f.step(_samples(d)[0])
-    step(None, _samples(d)[0], cfg)
+    filter_step(Context(cfg, d.vehicle), None, _samples(d)[0])
     assert blas_threads() == two_blas_threads
     assert len(seen) == len(_samples(d.slice_time(0.0, 0.3))) + 2
     assert set(seen) == {1}
@@ -448,8 +470,7 @@ def test_curve_is_held_flat_beyond_the_slip_limit(snow20):
     cfg = _cfg(d, "separable-odd:8")
     b = cfg.basis
     assert cfg.alpha_limit == pytest.approx(b.L - 2.0 * b.ell)  # 26 deg
-    f = GPSSM(cfg, seed=0)
-    f.run(d)
+    f, _ = _online(cfg, d)
     lim = cfg.alpha_limit
     a = np.array([0.5 * lim, lim, lim + math.radians(2.0), b.L, 1.5 * b.L])
     c = f.curves(np.concatenate([a, -a]))
@@ -479,8 +500,8 @@ def test_slip_past_the_basis_domain_does_not_run_away():
     assert np.abs(d.col("alpha_f_true")).max() > math.radians(31.0)
     rms = {}
     for name, limit in (("default", None), ("at L", math.radians(30.0))):
-        cfg = GPSSMConfig(d.vehicle, basis=make_basis("tensor-odd:10x10"), particles=200, slip_limit=limit)
-        table, _ = GPSSM(cfg, seed=2).run(d)
+        cfg = GPSSMConfig(basis="tensor-odd:10x10", particles=200, slip_limit=limit)
+        table, _ = run_filter(d, cfg, seed=2)
         err = table["vy"].to_numpy() - d.col("vy_true")
         t = table["t"].to_numpy()
         rms[name] = [float(np.sqrt(np.mean(err[t >= t0] ** 2))) for t0 in (20.0, 27.0)]
@@ -495,7 +516,7 @@ def test_unobserved_peak_is_bounded_from_below_only():
     d = simulate_scenario("dry-gravel-dry", seed=0).slice_time(0.0, 40.0)
     true_peak = d.true_tire("front", surface="dry_asphalt").peak()[1]
     cfg = _cfg(d, "separable-odd:12", n=60, peak_max=1.6)
-    t, _ = GPSSM(cfg, seed=0).run(d)
+    t, _ = run_filter(d, cfg, seed=0)
     for axle in ("front", "rear"):
         unobs = t[~t[f"peak_observed_{axle}"]]
         assert len(unobs) > 0.5 * len(t)

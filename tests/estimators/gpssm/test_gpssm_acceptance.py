@@ -8,8 +8,8 @@ t = 50 s and at the end of the drive.
 import numpy as np
 import pytest
 
-from roadgrip.estimators.gpssm import GPSSM, GPSSMConfig, curve_accuracy
-from roadgrip.inference.basis import make_basis
+from roadgrip.estimators.gpssm import GPSSMConfig, run_filter
+from roadgrip.estimators.gpssm.accuracy import curve_accuracy
 from roadgrip.sim.scenarios import simulate_scenario
 
 pytestmark = pytest.mark.slow
@@ -22,10 +22,10 @@ def drive():
 
 @pytest.mark.parametrize("basis", ["tensor:10x10", "separable-odd:20"])
 def test_paper_study_curves_within_003_and_covered(drive, basis):
-    cfg = GPSSMConfig(drive.vehicle, basis=make_basis(basis), particles=200)
+    cfg = GPSSMConfig(basis=basis, particles=200)
     t_end = float(drive.t[-1])
-    table, curves = GPSSM(cfg, seed=0).run(drive, curve_times=(50.0, t_end),
-                                           curve_alpha=np.radians(np.linspace(-20, 20, 161)))
+    table, curves = run_filter(drive, cfg, seed=0, curve_times=(50.0, t_end),
+                               curve_alpha=np.radians(np.linspace(-20, 20, 161)))
     assert np.isfinite(table.select_dtypes("number").to_numpy()).all()
     for t in (50.0, t_end):
         acc = curve_accuracy(curves[t], drive, t)
@@ -45,8 +45,8 @@ def test_peak_band_holds_the_true_peak_on_other_drives(seed):
     # error (curve_sigma_floor) as the curve band does: without it the observed front peak,
     # 0.303-0.306 against 0.300, had a band of +-0.003 that held the truth 11 % of the time
     d = simulate_scenario("snow-slalom", seed=seed)
-    cfg = GPSSMConfig(d.vehicle, basis=make_basis("separable-odd:20"), particles=200)
-    table, _ = GPSSM(cfg, seed=seed).run(d)
+    cfg = GPSSMConfig(basis="separable-odd:20", particles=200)
+    table, _ = run_filter(d, cfg, seed=seed)
     late = table[table["t"] >= 40.0]
     for axle in ("front", "rear"):
         true_peak = d.true_tire(axle).peak()[1]

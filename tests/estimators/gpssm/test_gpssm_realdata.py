@@ -5,10 +5,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from roadgrip.estimators.gpssm import DART_OPTIONS, GPSSM, GPSSMConfig, drive_vx
-from roadgrip.inference.basis import make_basis
+from roadgrip.estimators.gpssm import (
+    GPSSMConfig,
+    dart_options,
+    drive_vx,
+    options_for_drive,
+    run_filter,
+)
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dart"
+DART_OPTIONS = dart_options()
+DATA = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "dart"
 FILES = {
     "rubbery": "high_grip_rubbery_floor/car_1_Datarecording_09_09_2024_16_53_03steering_neg03_ramp.csv",
     "tiles": "low_grip_tape_and_tiles/car_1_Datarecording_09_09_2024_17_58_23steer_neg03_ramp.csv",
@@ -24,8 +30,9 @@ def _run(name, seed=0):
     if not path.exists():
         pytest.skip(f"DART data not found at {path}")
     d = read_drive(path, format="dart", vehicle="jetracer")
-    cfg = GPSSMConfig(d.vehicle, basis=make_basis("separable-odd:20"), particles=200, **DART_OPTIONS)
-    table, _ = GPSSM(cfg, seed=seed).run(d)
+    assert options_for_drive(d) == DART_OPTIONS
+    cfg = GPSSMConfig(basis="separable-odd:20", particles=200, **DART_OPTIONS)
+    table, _ = run_filter(d, cfg, seed=seed)
     return d, table
 
 

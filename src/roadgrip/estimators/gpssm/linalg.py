@@ -37,10 +37,10 @@ Three interchangeable backends (``GPSSMConfig.linalg``):
       ``P_B`` (``panc``), ``Sigma`` slot (``sanc``) and history rows (``hanc``);
     * the Sherman-Morrison update is deferred: a particle's own ``P_B`` is written once
       per step as its ancestor's ``P_B`` minus the ancestor's pending rank-1 term
-      (``pend``, ``pgain``), by the compiled step (:mod:`roadgrip.estimators.gpssm_kernel`):
+      (``pend``, ``pgain``), by the compiled step (:mod:`roadgrip.estimators.gpssm.kernel`):
       in place in the ancestor's slot for the first particle that reads it, into a slot
       that nobody reads for the other copies of a resampled particle
-      (:func:`roadgrip.estimators.gpssm_kernel.slot_plan`), so one buffer serves and a
+      (:func:`roadgrip.estimators.gpssm.kernel_ops.slot_plan`), so one buffer serves and a
       step without resampling moves no matrix between buffers.
 
     :func:`settle` writes the pending terms out (for the NumPy path and for checks).
@@ -71,7 +71,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from roadgrip.estimators.gpssm_kernel import neumann_solve
+from roadgrip.estimators.gpssm.kernel_ops import neumann_solve
 
 __all__ = ["LINALG_MODES", "LinAlgState", "flush", "forget", "init", "inverse", "refactor", "reserve",
            "settle", "solve", "take", "update"]
@@ -381,7 +381,7 @@ def solve(st: LinAlgState, R: NDArray, n_exact: int | None = None) -> tuple[NDAr
 @numba.njit(cache=True, fastmath=True)
 def _neumann(pinv, p_scale, delta, Rt, n_exact, tol, max_terms):  # pragma: no cover - compiled
     """Per batch element: X = sum_n (-delta)^n P_B^{n+1} R, with ``Rt = R^T`` (B, nr, m),
-    by the compiled step's :func:`roadgrip.estimators.gpssm_kernel.neumann_solve` (the first
+    by the compiled step's :func:`roadgrip.estimators.gpssm.kernel_ops.neumann_solve` (the first
     ``n_exact`` right-hand sides to ``tol``, the others one correction term). Also returns
     ``P_B R[:, 0]``."""
     B, nr, m = Rt.shape

@@ -1,0 +1,244 @@
+"""Configuration of the GP-SSM filter (paper 000): :class:`GPSSMConfig`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from roadgrip.estimators.gpssm import linalg as la
+from roadgrip.estimators.protocol import EstimatorConfig
+from roadgrip.inference.basis import SeparableBasis, TensorBasis, make_basis
+from roadgrip.tire import SURFACES, MagicFormula
+
+__all__ = ["AXLES", "DEFAULT_BASIS", "DEFAULT_PRIOR_TIRE", "GPSSMConfig"]
+
+AXLES = ("front", "rear")
+
+DEFAULT_BASIS = "separable-odd:20"
+"""Default basis: 20 odd functions per axle.
+
+On the simulated snow drive it learns the curves an order of magnitude more
+accurately than the paper's ``tensor:10x10`` (the odd symmetry makes the lateral
+velocity identifiable) and runs about ten times faster.
+"""
+
+DEFAULT_PRIOR_TIRE = SURFACES["ice"].lateral.with_peak(0.05)
+"""Prior mean friction curve: the ice preset's shape scaled to a 0.05 peak (paper Sec. 4)."""
+
+
+@dataclass(frozen=True)
+class GPSSMConfig(EstimatorConfig):
+    """Hyperparameters of the GP-SSM filter (SI units).
+
+    The vehicle is not part of the configuration: it comes with the drive
+    (:class:`~roadgrip.estimators.protocol.DriveInfo`).
+
+    Attributes
+    ----------
+    basis : TensorBasis or SeparableBasis
+        Reduced-rank basis, given as an object or as its
+        :func:`~roadgrip.inference.basis.make_basis` string (stored as the object);
+        default :data:`DEFAULT_BASIS`, 20 odd functions per axle (SE kernel, ``s_f =
+        500``, ``L = 30 deg``, ``ell = 2 deg``). The paper's basis is ``'tensor:10x10'``.
+    particles : int
+        ``N``.
+    curve_times : tuple of float
+        Times [s from the drive start] at which :func:`run` returns the posterior
+        curves (:attr:`EstimateResult.curves`); a time past the end gives the curves
+        at the last sample.
+    forgetting : float
+        ``lam`` in (0, 1] (eq. 29); memory about ``1 / (1 - lam)`` steps.
+    nu0 : float
+        Prior degrees of freedom of ``Q`` (eq. 24), ``> d + 1``.
+    sigma_w0 : float
+        Prior mean standard deviation of the friction process noise ``w`` [-]; sets
+        ``Lambda_0 = sigma_w0² (nu0 - d - 1) I``.
+    sigma_ay : float
+        Lateral-acceleration noise std in ``R`` [m/s²].
+    sigma_yaw_rate : float
+        Yaw-rate noise std in ``R`` [rad/s].
+    sigma_vy0 : float
+        Initial lateral-velocity spread [m/s] (``vy_0 ~ N(0, sigma_vy0²)``).
+    prior_tire : MagicFormula
+        Prior mean ``mu_prior(alpha)`` on both axles.
+    ess_threshold : float
+        Resample when ``N_eff <= ess_threshold * N``.
+    linalg : {'exact', 'fast', 'direct'}
+        Backend of :mod:`roadgrip.estimators.gpssm.linalg`.
+    refactor_every : int
+        Steps between refactorisations (``'exact'``, ``'fast'``).
+    peak_grid : int
+        Points of the slip grid on ``[0, peak_range]`` used for the peak each step.
+    peak_range : float
+        Largest slip angle searched for the peak [rad]; capped at :attr:`alpha_limit`,
+        past which the curve is flat by construction.
+    bin_width : float
+        Width of the slip-angle histogram bins [rad].
+    peak_visits : int
+        Samples per bin for a bin to count as visited (peak observability).
+    excitation_slip : float
+        ``excited`` when an estimated axle slip angle exceeds this [rad].
+    proposal : {'conditional', 'prior'}
+        ``'prior'``: the paper's bootstrap proposal (eq. 22). ``'conditional'``: the
+        friction sample is drawn conditioned on the lateral acceleration, which is linear
+        in it (the locally optimal proposal for that part of ``y``, eq. 20-21); see
+        :func:`_conditional_sample`.
+    min_speed : float
+        Below this speed [m/s] the statistics are not updated (slip angles carry no
+        friction information near standstill) and the lateral velocity is set to zero.
+    vy_source : {'none', 'pose'}
+        ``'pose'``: the lateral velocity is measured (the body-axis projection of the
+        pose derivative, :func:`drive_vy`, e.g. from motion capture) and every particle
+        takes it instead of its propagated value. The slip angles are then measured
+        rather than inferred; the friction is learned from the lateral acceleration and
+        the yaw dynamics against them.
+    ay_source : {'imu', 'kinematic'}
+        The lateral acceleration measured: the accelerometer, or ``r vx + dvy/dt`` from
+        the gyro and the measured velocity (:func:`roadgrip.inference.kinematic.
+        kinematic_lateral_acceleration`; needs ``vy_source='pose'``), which on a small car
+        with a hobby-grade IMU and motion capture is about ten times less noisy.
+    vx_source : {'auto', 'wheels', 'column', 'pose'}
+        Where the longitudinal speed comes from (:func:`~roadgrip.estimators.gpssm.inputs.drive_vx`).
+    max_dt : float
+        Longest Euler step [s]; slower data are interpolated
+        (:func:`~roadgrip.estimators.gpssm.inputs.upsample_inputs`), and the
+        measurement noise is widened by ``sqrt(k)`` for ``k`` sub-steps per sample.
+    slip_sigma : float
+        Slip-angle uncertainty of the state estimate added to the curve band [rad]
+        (:func:`posterior_curves`); about the error of the lateral-velocity estimate over
+        the speed (0.05 m/s at 12 m/s is 0.24 deg on the simulated snow drive).
+    curve_sigma_floor : float
+        Standard deviation [-] added in quadrature to every particle's function posterior
+        in the curve band and the peak band: the error of representing a tire curve with a
+        truncated basis, which the posterior of the basis weights does not contain (a few
+        thousandths for the Magic Formula with 20 functions per axle).
+    max_sideslip : float or None
+        Largest body sideslip angle ``|arctan(vy / vx)|`` [rad] a particle may take after
+        the propagation; ``None`` for no bound. Where the data demand more lateral force
+        than a particle's sampled curve gives (at and past the friction limit), nothing in
+        eq. 7 pulls ``vy`` back: it integrates ``-vx r`` and runs away (hundreds of m/s on
+        the DART recordings from the IMU alone). The other way into such a run-away, a
+        slip past the basis domain, is closed by ``slip_limit``. A car that is not spinning
+        out stays well inside the bound (:func:`~roadgrip.estimators.gpssm.presets.dart_options`).
+    slip_limit : float or None
+        Slip angle [rad] beyond which each axle's friction curve is held flat: the prior
+        mean and the features are evaluated at ``±slip_limit`` for larger ``|alpha|``
+        (:attr:`alpha_limit`). The basis functions all vanish at the domain boundary
+        ``±L``, so without the limit a slip estimate past about ``L - ell`` meets the
+        near-zero prior friction with no uncertainty left to sample: no particle can
+        produce the measured lateral acceleration, nothing pulls ``vy`` back, and it runs
+        away (5-8 m/s on the snow-slalom drives whose front slip reaches 32 deg). ``None``:
+        ``L - 2 ell`` (26 deg for the paper's basis), where the prior variance of every
+        basis is still that of the interior.
+    peak_max : float
+        Largest peak friction admitted [-] (as the cascade's ``mu_bounds``): the upper band
+        of a peak that was not observed. Past the visited slip range the learned curve is
+        the prior's, so the data bound the peak only from below; an upper band taken from
+        that curve would state the weak prior's guess (on the dry-gravel-dry drive it put
+        the dry peak below 0.82-0.91 against a true 1.0).
+    """
+
+    method: ClassVar[str] = "gpssm"
+
+    basis: TensorBasis | SeparableBasis = field(default_factory=lambda: make_basis(DEFAULT_BASIS))
+    particles: int = 200
+    curve_times: tuple[float, ...] = ()
+    forgetting: float = 0.9998
+    nu0: float = 10.0
+    sigma_w0: float = 0.02
+    sigma_ay: float = 0.15
+    sigma_yaw_rate: float = 0.01
+    sigma_vy0: float = 0.3
+    prior_tire: MagicFormula = DEFAULT_PRIOR_TIRE
+    ess_threshold: float = 0.5
+    linalg: str = "exact"
+    refactor_every: int = 80
+    peak_grid: int = 41
+    peak_range: float = math.radians(20.0)
+    bin_width: float = math.radians(0.5)
+    peak_visits: int = 10
+    excitation_slip: float = math.radians(1.0)
+    proposal: str = "conditional"
+    max_dt: float = 0.04
+    min_speed: float = 0.5
+    vx_source: str = "auto"
+    vy_source: str = "none"
+    ay_source: str = "imu"
+    slip_sigma: float = math.radians(0.25)
+    curve_sigma_floor: float = 0.005
+    max_sideslip: float | None = None
+    slip_limit: float | None = None
+    peak_max: float = 2.0
+
+    def __post_init__(self) -> None:
+        if isinstance(self.basis, str):
+            object.__setattr__(self, "basis", make_basis(self.basis))
+        if not isinstance(self.basis, TensorBasis | SeparableBasis):
+            raise ValueError(f"basis must be a basis or its string, got {self.basis!r}")
+        try:
+            times = tuple(float(t) for t in self.curve_times)
+        except (TypeError, ValueError):
+            raise ValueError(f"curve_times must be a sequence of seconds, got {self.curve_times!r}") from None
+        if not all(math.isfinite(t) and t >= 0.0 for t in times):
+            raise ValueError(f"curve_times must be finite and >= 0 s, got {self.curve_times!r}")
+        object.__setattr__(self, "curve_times", times)
+        if int(self.particles) != self.particles or self.particles < 2:
+            raise ValueError(f"particles must be an integer >= 2, got {self.particles!r}")
+        if not 0.0 < self.forgetting <= 1.0:
+            raise ValueError(f"forgetting factor must be in (0, 1], got {self.forgetting!r}")
+        d = self.basis.outputs
+        if not self.nu0 > d + 1:
+            raise ValueError(f"nu0 must exceed d + 1 = {d + 1}, got {self.nu0!r}")
+        if self.max_sideslip is not None and not 0.0 < self.max_sideslip < math.pi / 2:
+            raise ValueError(f"max_sideslip must be in (0, pi/2) rad or None, got {self.max_sideslip!r}")
+        for name in ("sigma_w0", "sigma_ay", "sigma_yaw_rate", "sigma_vy0", "peak_range",
+                     "bin_width", "slip_sigma", "curve_sigma_floor", "max_dt", "min_speed", "peak_max"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or v <= 0:
+                raise ValueError(f"{name} must be positive and finite, got {v!r}")
+        if not 0.0 < self.ess_threshold <= 1.0:
+            raise ValueError(f"ess_threshold must be in (0, 1], got {self.ess_threshold!r}")
+        if self.linalg not in la.LINALG_MODES:
+            raise ValueError(f"linalg must be one of {la.LINALG_MODES}, got {self.linalg!r}")
+        if self.vy_source not in ("none", "pose"):
+            raise ValueError(f"vy_source must be 'none' or 'pose', got {self.vy_source!r}")
+        if self.ay_source not in ("imu", "kinematic"):
+            raise ValueError(f"ay_source must be 'imu' or 'kinematic', got {self.ay_source!r}")
+        if self.ay_source == "kinematic" and self.vy_source == "none":
+            raise ValueError("ay_source='kinematic' needs a measured lateral velocity (vy_source='pose')")
+        if self.vx_source not in ("auto", "wheels", "column", "pose"):
+            raise ValueError(f"vx_source must be auto, wheels, column or pose, got {self.vx_source!r}")
+        if self.proposal not in ("conditional", "prior"):
+            raise ValueError(f"proposal must be 'conditional' or 'prior', got {self.proposal!r}")
+        if self.refactor_every < 1 or self.peak_grid < 3 or self.peak_visits < 1:
+            raise ValueError("refactor_every, peak_grid (>= 3) and peak_visits must be positive")
+        if self.slip_limit is not None and not 0.0 < self.slip_limit <= self.basis.L:
+            raise ValueError(f"slip_limit must be in (0, L = {self.basis.L:.4g}] rad or None, "
+                             f"got {self.slip_limit!r}")
+
+    @property
+    def alpha_limit(self) -> float:
+        """Slip angle [rad] beyond which the friction curve is held flat (``slip_limit``,
+        default ``L - 2 ell``, at least ``L / 2``)."""
+        if self.slip_limit is not None:
+            return float(self.slip_limit)
+        b = self.basis
+        return float(max(b.L - 2.0 * b.ell, 0.5 * b.L))
+
+    @property
+    def Lambda0(self) -> NDArray[np.float64]:
+        d = self.basis.outputs
+        return self.sigma_w0**2 * (self.nu0 - d - 1.0) * np.eye(d)
+
+    def to_meta(self) -> dict[str, Any]:
+        """JSON-friendly fields; the basis as its label and kernel parameters."""
+        meta = super().to_meta()
+        b = self.basis
+        meta["basis"] = b.label()
+        meta.update(kernel=b.kernel, s_f=b.s_f, ell_rad=b.ell, L_rad=b.L)
+        meta["prior_tire"] = self.prior_tire.to_dict()
+        return meta

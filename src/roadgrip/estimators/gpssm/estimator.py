@@ -1,0 +1,225 @@
+"""The GP-SSM filter as an estimator of the protocol (:mod:`roadgrip.estimators.protocol`).
+
+``prepare`` takes the filter's inputs from a drive and interpolates sub-steps where the
+data are slower than ``max_dt``; ``init`` / ``step`` run the filter one sample at a time
+(a sub-step gives no row); ``run`` processes a whole drive and returns the table, the
+posterior curves at ``curve_times`` and the summary. :class:`GPSSM` is a small online
+object for callers that feed samples themselves.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from typing import Any, NamedTuple
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from roadgrip.blas_threads import one_blas_thread
+from roadgrip.estimators.base import EstimateResult, ProgressCallback
+from roadgrip.estimators.gpssm.config import GPSSMConfig
+from roadgrip.estimators.gpssm.inputs import Sample, drive_inputs, upsample_inputs
+from roadgrip.estimators.gpssm.posterior import CurvePosterior, curves_frame, posterior_curves
+from roadgrip.estimators.gpssm.state import Context, GPSSMEstimate, GPSSMState, copy_state
+from roadgrip.estimators.gpssm.stepping import step as filter_step
+from roadgrip.estimators.gpssm.stepping import step_unthreaded
+from roadgrip.estimators.protocol import DriveInfo, Prepared, rows_to_table
+from roadgrip.vehicle.params import VehicleParams
+
+__all__ = ["GPSSM", "FilterState", "init", "prepare", "prior_band", "run", "run_filter", "step"]
+
+PROGRESS_EVERY = 50
+"""Output rows between two calls of the progress callback."""
+
+
+class FilterState(NamedTuple):
+    """Protocol state: the run's context, the seed and the filter state (None before
+    the first sample)."""
+
+    ctx: Context
+    seed: int
+    state: GPSSMState | None
+
+
+def prepare(drive: Any, config: GPSSMConfig) -> Prepared:
+    """The filter's input samples of a drive (:class:`~roadgrip.estimators.gpssm.inputs.Sample`),
+    with interpolated sub-steps (``recorded=False``) where the sample interval exceeds
+    ``config.max_dt``; ``info.derived['substeps']`` is their number per interval."""
+    data, keep, k = upsample_inputs(
+        drive_inputs(drive, config.vx_source, config.vy_source, config.ay_source), config.max_dt)
+    samples = [Sample(*row, recorded=bool(kept)) for row, kept in zip(data, keep, strict=True)]
+    return Prepared(DriveInfo.from_drive(drive, substeps=int(k)), samples)
+
+
+def init(info: DriveInfo, config: GPSSMConfig, seed: int = 0) -> FilterState:
+    """The state before the first sample (the filter initialises from that sample)."""
+    return FilterState(Context(config, info.vehicle, info.derived.get("substeps", 1)), int(seed), None)
+
+
+def step(fs: FilterState, sample: Sample) -> tuple[FilterState, dict[str, Any] | None]:
+    """One sample: the next state and the output row (None for a sub-step). The input
+    state is left unchanged."""
+    state = None if fs.state is None else copy_state(fs.state)
+    new, est = filter_step(fs.ctx, state, sample, fs.seed)
+    return fs._replace(state=new), (_row(est) if sample.recorded else None)
+
+
+def prior_band(config: GPSSMConfig) -> tuple[float, float]:
+    """``(0, peak_max)``: before any excitation the data bound the peak by nothing."""
+    return 0.0, float(config.peak_max)
+
+
+def _row(est: GPSSMEstimate) -> dict[str, Any]:
+    row = est._asdict()
+    return {("yaw_rate_est" if k == "yaw_rate" else k): v for k, v in row.items()}
+
+
+def run_filter(
+    drive: Any,
+    config: GPSSMConfig,
+    seed: int = 0,
+    *,
+    curve_times: Sequence[float] | None = None,
+    curve_alpha: NDArray | None = None,
+    progress: ProgressCallback | None = None,
+) -> tuple[pd.DataFrame, dict[float, CurvePosterior]]:
+    """Filter a whole drive.
+
+    Parameters
+    ----------
+    drive : Drive
+    config : GPSSMConfig
+    seed : int
+    curve_times : sequence of float, optional
+        Times [s from the drive start] of the posterior curves; default
+        ``config.curve_times``.
+    curve_alpha : ndarray, optional
+        Slip grid of the curves [rad]; default 161 points on ``±peak_range``.
+    progress : callable, optional
+        Called with the number of rows produced since its last call.
+
+    Returns
+    -------
+    table : DataFrame
+        One row per recorded sample: the contract columns and the fields of
+        :class:`~roadgrip.estimators.gpssm.state.GPSSMEstimate` (``yaw_rate`` as
+        ``yaw_rate_est``).
+    curves : dict
+        Requested time -> :class:`~roadgrip.estimators.gpssm.posterior.CurvePosterior`
+        at the first sample at or after it (the last sample for times beyond the end).
+    """
+    prepared = prepare(drive, config)
+    fs = init(prepared.info, config, seed)
+    ctx = fs.ctx
+    times = sorted(config.curve_times if curve_times is None else curve_times)
+    t0 = prepared.info.t0
+    pending = [t0 + t for t in times]
+    if curve_alpha is None:
+        curve_alpha = np.linspace(-config.peak_range, config.peak_range, 161)
+    rows = []
+    curves: dict[float, CurvePosterior] = {}
+    state = None
+    done = 0
+    last = len(prepared.samples) - 1
+    with one_blas_thread():
+        for i, sample in enumerate(prepared.samples):
+            state, est = step_unthreaded(ctx, state, sample, seed)
+            if not sample.recorded:
+                continue
+            rows.append(_row(est))
+            while pending and (sample.t >= pending[0] or i == last):
+                curves[pending.pop(0) - t0] = posterior_curves(ctx, state, curve_alpha)
+            done += 1
+            if progress is not None and done % PROGRESS_EVERY == 0:
+                progress(PROGRESS_EVERY)
+    if progress is not None and done % PROGRESS_EVERY:
+        progress(done % PROGRESS_EVERY)
+    return rows_to_table(rows), curves
+
+
+def run(
+    drive: Any, config: GPSSMConfig | None = None, seed: int = 0, progress: ProgressCallback | None = None
+) -> EstimateResult:
+    """The whole drive: table, posterior curves at ``config.curve_times`` and meta.
+
+    ``meta`` holds ``config``, ``seed``, ``timing``, ``diagnostics`` (effective sample
+    size, resampling rate) and ``summary``: the smaller of the two axles' peak estimates
+    and the union of their bands at the last sample.
+    """
+    config = config if config is not None else GPSSMConfig()
+    t_start = time.perf_counter()
+    table, curves = run_filter(drive, config, seed, progress=progress)
+    wall = max(time.perf_counter() - t_start, 1e-12)
+    meta: dict[str, Any] = {
+        "config": config.to_meta(),
+        "seed": int(seed),
+        "timing": {"wall_s": wall, "samples": int(drive.n), "samples_per_s": drive.n / wall,
+                   "realtime_factor": drive.duration / wall},
+        "diagnostics": {
+            "ess_mean": float(table["ess"].mean()),
+            "ess_min": float(table["ess"].min()),
+            "resampling_rate": float(table["resampled"].mean()),
+            "particles": config.particles,
+            "basis": config.basis.label(),
+            "linalg": config.linalg,
+        },
+        "summary": summary(table),
+    }
+    if not table["excited"].any():
+        meta["diagnostics"]["information"] = "no excitation: posterior equals the prior"
+    return EstimateResult("gpssm", table, meta, curves_frame(curves, drive) if curves else None)
+
+
+def summary(table: pd.DataFrame) -> dict[str, float]:
+    """VSS-style summary of the last row: ``MostProbable`` the smaller axle peak,
+    ``LowerBound`` / ``UpperBound`` the union of the axle bands."""
+    last = table.iloc[-1]
+    return {
+        "MostProbable": float(min(last["mu_front"], last["mu_rear"])),
+        "LowerBound": float(min(last["mu_front_lower"], last["mu_rear_lower"])),
+        "UpperBound": float(max(last["mu_front_upper"], last["mu_rear_upper"])),
+    }
+
+
+class GPSSM:
+    """Online GP-SSM friction learner fed one :class:`Sample` at a time.
+
+    Wraps :func:`~roadgrip.estimators.gpssm.stepping.step`; the configuration is never
+    changed. Samples are taken as given (no sub-steps: see :func:`prepare`).
+
+    Parameters
+    ----------
+    config : GPSSMConfig
+    vehicle : VehicleParams
+    seed : int
+
+    Examples
+    --------
+    >>> from roadgrip.vehicle import PRESETS
+    >>> f = GPSSM(GPSSMConfig(particles=20, basis="separable:8"), PRESETS["suv"])
+    >>> est = f.step(Sample(t=0.0, ay=0.0, yaw_rate=0.0, steer=0.0, vx=15.0))
+    >>> est.excited
+    False
+    """
+
+    def __init__(self, config: GPSSMConfig, vehicle: VehicleParams, seed: int = 0) -> None:
+        self.ctx = Context(config, vehicle)
+        self.seed = seed
+        self.state_: GPSSMState | None = None
+
+    @property
+    def config(self) -> GPSSMConfig:
+        return self.ctx.config
+
+    def step(self, sample: Sample) -> GPSSMEstimate:
+        self.state_, est = filter_step(self.ctx, self.state_, sample, self.seed)
+        return est
+
+    def curves(self, alpha: NDArray, level: float = 0.95) -> CurvePosterior:
+        if self.state_ is None:
+            raise ValueError("no data yet: call step() first")
+        with one_blas_thread():
+            return posterior_curves(self.ctx, self.state_, alpha, level)
+

@@ -1,0 +1,138 @@
+"""Inputs of the GP-SSM filter from a drive: speeds, lateral acceleration, sub-steps.
+
+These are this filter's own derivations of the input signals; the longitudinal
+speed differs from :func:`roadgrip.signals.wheel_speed_vx` (no steer correction of
+the front wheel speeds, a pose speed clipped at zero), so it is kept here.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from roadgrip.inference.kinematic import kinematic_lateral_acceleration
+
+__all__ = ["Sample", "drive_inputs", "drive_vx", "drive_vy", "upsample_inputs"]
+
+
+class Sample(NamedTuple):
+    """One time step of the filter's inputs (SI units).
+
+    ``vy`` is a measured lateral velocity (NaN: none, ``GPSSMConfig.vy_source``);
+    ``recorded`` is False for a sub-step interpolated between recorded samples
+    (:func:`upsample_inputs`), which gives no output row.
+    """
+
+    t: float
+    ay: float
+    yaw_rate: float
+    steer: float
+    vx: float
+    vy: float = math.nan
+    recorded: bool = True
+
+
+
+def drive_vx(drive: Any, source: str = "auto") -> NDArray[np.float64]:
+    """Longitudinal speed [m/s] for the filter's input.
+
+    ``source``:
+
+    ``'wheels'``  mean wheel speed times radius over the non-driven axle (all four wheels
+                  for all-wheel drive); driven wheels spin and are not used;
+    ``'column'``  the drive's ``vx`` column;
+    ``'pose'``    the body-axis projection of the pose derivative,
+                  ``cos(psi) dx/dt + sin(psi) dy/dt`` (motion capture);
+    ``'auto'``    ``'wheels'`` when those wheel speeds exist, else ``'column'``, else
+                  ``'pose'``.
+    """
+    veh = drive.vehicle
+    wheels = {"fwd": ("omega_rl", "omega_rr"), "rwd": ("omega_fl", "omega_fr")}.get(
+        veh.drive, ("omega_fl", "omega_fr", "omega_rl", "omega_rr"))
+    if source == "auto":
+        if drive.has(*wheels):
+            source = "wheels"
+        elif drive.has("vx"):
+            source = "column"
+        elif drive.has("x", "y", "psi"):
+            source = "pose"
+        else:
+            raise ValueError(
+                f"drive from {drive.meta.source} has no non-driven wheel speeds, no 'vx' column "
+                "and no pose: the GP-SSM filter needs the longitudinal speed"
+            )
+    if source == "wheels":
+        drive.require(*wheels, why="vx from the non-driven wheels")
+        return np.mean([drive.col(c) for c in wheels], axis=0) * veh.wheel_radius
+    if source == "column":
+        return drive.col("vx")
+    if source == "pose":
+        drive.require("x", "y", "psi", why="vx from the pose")
+        t = drive.t
+        psi = np.unwrap(drive.col("psi"))
+        vx = np.cos(psi) * np.gradient(drive.col("x"), t) + np.sin(psi) * np.gradient(drive.col("y"), t)
+        return np.maximum(vx, 0.0)
+    raise ValueError(f"vx source must be 'auto', 'wheels', 'column' or 'pose', got {source!r}")
+
+
+def drive_vy(drive: Any, source: str = "pose") -> NDArray[np.float64]:
+    """Measured body lateral velocity [m/s] (``GPSSMConfig.vy_source``).
+
+    ``'pose'``: ``-sin(psi) dx/dt + cos(psi) dy/dt`` (central differences of the pose);
+    ``'none'``: NaN, no measurement.
+    """
+    if source == "none":
+        return np.full(drive.n, np.nan)
+    if source != "pose":
+        raise ValueError(f"vy source must be 'none' or 'pose', got {source!r}")
+    drive.require("x", "y", "psi", why="the lateral velocity from the pose")
+    t = drive.t
+    psi = np.unwrap(drive.col("psi"))
+    return -np.sin(psi) * np.gradient(drive.col("x"), t) + np.cos(psi) * np.gradient(drive.col("y"), t)
+
+
+def drive_inputs(
+    drive: Any, vx_source: str = "auto", vy_source: str = "none", ay_source: str = "imu"
+) -> NDArray[np.float64]:
+    """Columns ``t, ay, yaw_rate, steer, vx, vy`` of a drive as an array (n, 6), the
+    fields of :class:`Sample` (``vy`` NaN unless ``vy_source`` measures it; ``ay`` the
+    accelerometer or, with ``ay_source='kinematic'``, ``r vx + dvy/dt``)."""
+    drive.require("t", "yaw_rate", "steer", why="inputs of the GP-SSM filter")
+    vx, vy = drive_vx(drive, vx_source), drive_vy(drive, vy_source)
+    if ay_source == "kinematic":
+        if np.isnan(vy).all():
+            raise ValueError("the kinematic lateral acceleration needs a measured lateral velocity")
+        ay = kinematic_lateral_acceleration(drive.t, vx, vy, drive.col("yaw_rate"))
+    else:
+        drive.require("ay", why="the lateral acceleration of the GP-SSM filter")
+        ay = drive.col("ay")
+    return np.column_stack([drive.col("t"), ay, drive.col("yaw_rate"), drive.col("steer"), vx, vy])
+
+
+def upsample_inputs(data: NDArray, max_dt: float) -> tuple[NDArray, NDArray, int]:
+    """Linear interpolation of the input rows onto ``k`` sub-steps per sample interval.
+
+    The lateral model is integrated by forward Euler with the friction held over a step;
+    for small, stiff vehicles at low sample rates (the JetRacer at 10 Hz) that step is
+    unstable. With ``k = ceil(median dt / max_dt)`` the filter runs on ``k - 1``
+    interpolated rows between recorded ones (and the filter widens ``R`` by ``sqrt(k)`` so
+    that the information per recorded sample is unchanged).
+
+    Returns the rows (n', 6), a mask of the recorded rows and ``k``.
+    """
+    t = data[:, 0]
+    if len(t) < 2:
+        return data, np.ones(len(t), dtype=bool), 1
+    k = max(1, math.ceil(float(np.median(np.diff(t))) / max_dt - 1e-9))
+    if k == 1:
+        return data, np.ones(len(t), dtype=bool), 1
+    frac = np.arange(k) / k
+    tf = (t[:-1, None] + np.diff(t)[:, None] * frac[None, :]).ravel()
+    tf = np.append(tf, t[-1])
+    out = np.column_stack([tf] + [np.interp(tf, t, data[:, j]) for j in range(1, data.shape[1])])
+    keep = np.zeros(len(tf), dtype=bool)
+    keep[::k] = True
+    return out, keep, k
