@@ -15,6 +15,7 @@ from roadgrip.inference.kinematic import (
     drive_lateral_acceleration,
     estimate_kinematics,
     kinematic_lateral_acceleration,
+    kinematic_samples,
     select_lateral_acceleration,
     wheel_slips,
 )
@@ -131,12 +132,12 @@ def test_step_equals_batch(dgd):
     short = dgd.slice_time(25.0, 40.0)
     batch = estimate_kinematics(short)
     est = KinematicEstimator(short.vehicle)
-    rows = [est.step(s) for s in KinematicEstimator.samples(short)]
+    rows = [est.step(s) for s in kinematic_samples(short)]
     np.testing.assert_allclose(batch.vx, [r.vx for r in rows], rtol=1e-12)
     np.testing.assert_allclose(batch.vy, [r.vy for r in rows], rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(batch.kappa, np.array([r.kappa for r in rows]), rtol=1e-10, atol=1e-15)
     with pytest.raises(ValueError, match="time must increase"):
-        est.step(next(iter(KinematicEstimator.samples(short))))
+        est.step(next(iter(kinematic_samples(short))))
 
 
 def test_pose_aid_recovers_speed_and_sideslip_on_a_circle():
@@ -156,7 +157,7 @@ def test_pose_aid_recovers_speed_and_sideslip_on_a_circle():
     np.testing.assert_allclose(out.vx[5:], vx, rtol=0.01)
     np.testing.assert_allclose(out.vy[5:], vy, atol=0.01)
     est = KinematicEstimator(drive.vehicle, aid="pose")
-    rows = [est.step(s) for s in KinematicEstimator.samples(drive)]
+    rows = [est.step(s) for s in kinematic_samples(drive)]
     np.testing.assert_allclose([r_.vy for r_ in rows], out.vy, rtol=1e-12, atol=1e-15)
 
 

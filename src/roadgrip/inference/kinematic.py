@@ -51,29 +51,35 @@ accelerometer's ``ay`` scatters by 1.6-5 m/s² (standard deviation of
 a pose, ``ay_kin`` is the accelerometer's ``ay`` plus the drift correction and
 brings nothing new, so ``'auto'`` keeps the accelerometer.
 
-The per-sample update is one compiled function used by both the online step
-and the batch loop, so ``run`` equals stepping exactly.
+The per-sample update is one compiled function
+(:func:`roadgrip.inference.kinematic_kernel.kinematic_update`) used by both
+the online step and the batch loop, so ``run`` equals stepping exactly.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
-import numba
 import numpy as np
-import pandas as pd
 from numpy.typing import NDArray
 
 from roadgrip.constants import V_EPS
 from roadgrip.drive import WHEEL_COLUMNS, Drive
+from roadgrip.inference.kinematic_kernel import (
+    AID_CODES,
+    KinematicInput,
+    KinematicParams,
+    KinematicSeries,
+    KinematicState,
+    kinematic_batch,
+    kinematic_update,
+)
 from roadgrip.vehicle.params import VehicleParams
 from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
 
 __all__ = [
-    "FIRST_STEP_S",
     "LATERAL_ACCELERATION_SOURCES",
-    "KinematicClassifier",
     "KinematicConfig",
     "KinematicEstimator",
     "KinematicInput",
@@ -84,15 +90,15 @@ __all__ = [
     "inputs_from_drive",
     "kinematic_init",
     "kinematic_lateral_acceleration",
+    "kinematic_params",
+    "kinematic_samples",
     "kinematic_step",
     "resolve_aid",
     "select_lateral_acceleration",
     "slip_v_eps",
-    "to_frame",
     "wheel_slips",
 ]
 
-_AID = {"wheels": 0, "pose": 1}
 _DRIVE_MASK = {"fwd": (1, 1, 0, 0), "rwd": (0, 0, 1, 1), "awd": (1, 1, 1, 1)}
 
 
@@ -150,47 +156,6 @@ class KinematicConfig:
                 raise ValueError(f"{name} must be >= 0, got {v!r}")
 
 
-class KinematicState(NamedTuple):
-    """Estimator state. ``vx``, ``vy`` [m/s] at the CG; the previous sample's time and pose."""
-
-    vx: float
-    vy: float
-    t: float
-    x: float
-    y: float
-    psi: float
-    started: bool
-
-
-class KinematicInput(NamedTuple):
-    """One sample. Absent signals are NaN (wheel speeds, pose, ``vx`` column).
-
-    Attributes
-    ----------
-    t : float [s]
-    ax, ay : float [m/s²]
-    yaw_rate : float [rad/s]
-    steer : float [rad]
-    omega : ndarray, shape (4,)
-        Wheel speeds ``fl, fr, rl, rr`` [rad/s], NaN where not measured.
-    x, y, psi : float
-        Map pose [m, m, rad], NaN where absent.
-    vx_meas : float
-        A measured ground speed [m/s], NaN where absent (used only without wheels and pose).
-    """
-
-    t: float
-    ax: float
-    ay: float
-    yaw_rate: float
-    steer: float
-    omega: NDArray[np.float64]
-    x: float
-    y: float
-    psi: float
-    vx_meas: float
-
-
 class KinematicOutput(NamedTuple):
     """Estimates of one sample (or arrays of them, leading axis time).
 
@@ -216,153 +181,22 @@ class KinematicOutput(NamedTuple):
     wheels_valid: NDArray[np.bool_]
 
 
-def _aid_code(cfg: KinematicConfig, have_all_wheels: bool, have_pose: bool) -> int:
+def _aid(cfg: KinematicConfig, have_all_wheels: bool, have_pose: bool) -> str:
     if cfg.velocity_aid == "pose":
         if not have_pose:
             raise ValueError("velocity_aid='pose' needs the pose columns x, y, psi")
-        return _AID["pose"]
+        return "pose"
     if cfg.velocity_aid == "wheels":
-        return _AID["wheels"]
-    return _AID["pose"] if (have_pose and not have_all_wheels) else _AID["wheels"]
+        return "wheels"
+    return "pose" if (have_pose and not have_all_wheels) else "wheels"
 
 
-@numba.njit(cache=True)
-def _wheel_vx(omega, steer, r, vy, R, lf, half_track):  # pragma: no cover - compiled
-    """CG-equivalent speeds of the four wheels (NaN where absent)."""
-    out = np.empty(4)
-    c = np.cos(steer)
-    s = np.sin(steer)
-    lat_f = (vy + lf * r) * s
-    for i in range(4):
-        v = R * omega[i]
-        side = half_track * r if (i % 2 == 0) else -half_track * r  # left: vx - r w/2
-        if i < 2:
-            out[i] = (v - lat_f) / max(c, 0.2) + side
-        else:
-            out[i] = v + side
-    return out
-
-
-@numba.njit(cache=True)
-def _kin_update(
-    vx, vy, t_prev, x_prev, y_prev, psi_prev, started,
-    t, ax, ay, r, steer, omega, x, y, psi, vx_meas,
-    aid, driven, R, lf, lr, half_track,
-    tau_vx, tau_pose, tau_beta, a_lin, a_thr, gate_abs, gate_rel, v_min,
-):  # pragma: no cover - compiled
-    """One estimator update; returns the new (vx, vy)."""
-    wv = _wheel_vx(omega, steer, r, vy, R, lf, half_track)
-    n_ok = 0
-    for i in range(4):
-        if wv[i] == wv[i]:
-            n_ok += 1
-    have_pose = (x == x) and (y == y) and (psi == psi)
-    if not started:
-        v0 = np.nan
-        if n_ok > 0:
-            acc = 0.0
-            for i in range(4):
-                if wv[i] == wv[i]:
-                    acc += wv[i]
-            v0 = acc / n_ok
-        elif vx_meas == vx_meas:
-            v0 = vx_meas
-        if v0 != v0:
-            v0 = 0.0
-        return v0, 0.0
-    dt = t - t_prev
-    # prediction: kinematic integration
-    vx_p = vx + dt * (ax + r * vy)
-    vy_p = vy + dt * (ay - r * vx)
-    use_pose = aid == 1 and have_pose and (x_prev == x_prev)
-    if use_pose:
-        dx = (x - x_prev) / dt
-        dy = (y - y_prev) / dt
-        pm = 0.5 * (psi + psi_prev)
-        vxm = np.cos(pm) * dx + np.sin(pm) * dy
-        vym = -np.sin(pm) * dx + np.cos(pm) * dy
-        k = min(dt / tau_pose, 1.0)
-        return vx_p + k * (vxm - vx_p), vy_p + k * (vym - vy_p)
-    # speed from wheels, robust to spin (traction) and slip (braking)
-    vsel = np.nan
-    if n_ok > 0:
-        if ax > a_thr:
-            acc = 0.0
-            m = 0
-            lo = np.inf
-            for i in range(4):
-                if wv[i] == wv[i]:
-                    lo = min(lo, wv[i])
-                    if driven[i] == 0:
-                        acc += wv[i]
-                        m += 1
-            vsel = acc / m if m > 0 else lo
-        elif ax < -a_thr:
-            # braking: every wheel slips, so the wheels cannot correct the speed;
-            # coast on the accelerometer (unless no wheel is braked, never the case here)
-            vsel = np.nan
-        else:
-            acc = 0.0
-            for i in range(4):
-                if wv[i] == wv[i]:
-                    acc += wv[i]
-            vsel = acc / n_ok
-    elif vx_meas == vx_meas:
-        vsel = vx_meas
-    vx_n = vx_p
-    if vsel == vsel and abs(vsel - vx_p) <= gate_abs + gate_rel * abs(vx_p):
-        vx_n = vx_p + min(dt / tau_vx, 1.0) * (vsel - vx_p)
-    # sideslip drift correction towards zero rear slip in quasi-linear driving
-    if abs(vx_n) < v_min:
-        vy_n = vy_p + min(dt / tau_pose, 1.0) * (0.0 - vy_p)
-    else:
-        w = np.exp(-((ay / a_lin) ** 2))
-        vy_n = vy_p + min(w * dt / tau_beta, 1.0) * (lr * r - vy_p)
-    return vx_n, vy_n
-
-
-@numba.njit(cache=True)
-def _kin_batch(
-    t, ax, ay, r, steer, omega, x, y, psi, vx_meas,
-    aid, driven, R, lf, lr, half_track,
-    tau_vx, tau_pose, tau_beta, a_lin, a_thr, gate_abs, gate_rel, v_min,
-):  # pragma: no cover - compiled
-    n = t.shape[0]
-    vx_o = np.empty(n)
-    vy_o = np.empty(n)
-    vx = 0.0
-    vy = 0.0
-    tp = np.nan
-    xp = np.nan
-    yp = np.nan
-    pp = np.nan
-    started = False
-    for i in range(n):
-        vx, vy = _kin_update(
-            vx, vy, tp, xp, yp, pp, started,
-            t[i], ax[i], ay[i], r[i], steer[i], omega[i], x[i], y[i], psi[i], vx_meas[i],
-            aid, driven, R, lf, lr, half_track,
-            tau_vx, tau_pose, tau_beta, a_lin, a_thr, gate_abs, gate_rel, v_min,
-        )
-        started = True
-        tp = t[i]
-        xp = x[i]
-        yp = y[i]
-        pp = psi[i]
-        vx_o[i] = vx
-        vy_o[i] = vy
-    return vx_o, vy_o
-
-
-def _driven(params: VehicleParams) -> NDArray[np.int64]:
-    return np.array(_DRIVE_MASK[params.drive], dtype=np.int64)
-
-
-def _consts(params: VehicleParams, cfg: KinematicConfig) -> tuple:
-    return (
-        _driven(params), params.wheel_radius, params.lf, params.lr, 0.5 * params.track_width,
-        cfg.tau_vx, cfg.tau_pose, cfg.tau_beta, cfg.a_linear, cfg.accel_threshold,
-        cfg.gate_abs, cfg.gate_rel, cfg.v_min,
+def kinematic_params(params: VehicleParams, cfg: KinematicConfig, aid: str) -> KinematicParams:
+    """The compiled update's parameters for a vehicle, tuning and resolved velocity aid."""
+    return KinematicParams(
+        AID_CODES[aid], np.array(_DRIVE_MASK[params.drive], dtype=np.int64), params.wheel_radius,
+        params.lf, params.lr, 0.5 * params.track_width, cfg.tau_vx, cfg.tau_pose, cfg.tau_beta,
+        cfg.a_linear, cfg.accel_threshold, cfg.gate_abs, cfg.gate_rel, cfg.v_min,
     )
 
 
@@ -459,12 +293,14 @@ def kinematic_step(
     omega = np.asarray(sample.omega, dtype=float)
     if omega.shape != (4,):
         raise ValueError(f"omega must have shape (4,), got {omega.shape}")
-    vx, vy = _kin_update(
-        state.vx, state.vy, state.t, state.x, state.y, state.psi, state.started,
+    s = KinematicInput(
         float(sample.t), float(sample.ax), float(sample.ay), float(sample.yaw_rate),
         float(sample.steer), omega, float(sample.x), float(sample.y), float(sample.psi),
-        float(sample.vx_meas), _AID[aid], *_consts(params, config),
+        float(sample.vx_meas),
     )
+    st = KinematicState(float(state.vx), float(state.vy), float(state.t), float(state.x),
+                        float(state.y), float(state.psi), bool(state.started))
+    vx, vy = kinematic_update(st, s, kinematic_params(params, config, aid))
     new = KinematicState(vx, vy, float(sample.t), float(sample.x), float(sample.y),
                          float(sample.psi), True)
     out = _output(np.asarray(vx), np.asarray(vy), np.asarray(sample.yaw_rate),
@@ -505,8 +341,7 @@ def inputs_from_drive(drive: Drive) -> dict[str, NDArray[np.float64]]:
 
 def resolve_aid(drive: Drive, config: KinematicConfig) -> str:
     """``'wheels'`` or ``'pose'`` for this drive (see ``KinematicConfig.velocity_aid``)."""
-    code = _aid_code(config, drive.has_wheel_speeds, drive.has_pose)
-    return "pose" if code == 1 else "wheels"
+    return _aid(config, drive.has_wheel_speeds, drive.has_pose)
 
 
 def estimate_kinematics(
@@ -521,10 +356,7 @@ def estimate_kinematics(
     """
     a = inputs_from_drive(drive)
     aid = resolve_aid(drive, config)
-    vx, vy = _kin_batch(
-        a["t"], a["ax"], a["ay"], a["yaw_rate"], a["steer"], a["omega"], a["x"], a["y"],
-        a["psi"], a["vx_meas"], _AID[aid], *_consts(drive.vehicle, config),
-    )
+    vx, vy = kinematic_batch(KinematicSeries(**a), kinematic_params(drive.vehicle, config, aid))
     return _output(vx, vy, a["yaw_rate"], a["steer"], a["omega"], drive.vehicle, config)
 
 
@@ -542,7 +374,7 @@ class KinematicEstimator:
     def __init__(
         self, params: VehicleParams, config: KinematicConfig = KinematicConfig(), aid: str = "wheels"
     ) -> None:
-        if aid not in _AID:
+        if aid not in AID_CODES:
             raise ValueError(f"aid must be 'wheels' or 'pose', got {aid!r}")
         self.params = params
         self.config = config
@@ -556,19 +388,20 @@ class KinematicEstimator:
     def run(self, drive: Drive) -> KinematicOutput:
         return estimate_kinematics(drive, self.config)
 
-    @staticmethod
-    def samples(drive: Drive):
-        """Iterate the drive as :class:`KinematicInput` samples."""
-        a = inputs_from_drive(drive)
-        for i in range(drive.n):
-            yield KinematicInput(
-                a["t"][i], a["ax"][i], a["ay"][i], a["yaw_rate"][i], a["steer"][i],
-                a["omega"][i], a["x"][i], a["y"][i], a["psi"][i], a["vx_meas"][i],
-            )
 
 
-FIRST_STEP_S = 0.01
-"""Time step [s] assumed for the first sample of an online run (no previous sample)."""
+def kinematic_samples(drive: Drive) -> list[KinematicInput]:
+    """The drive as :class:`KinematicInput` samples (for :func:`kinematic_step`)."""
+    a = inputs_from_drive(drive)
+    return [
+        KinematicInput(
+            float(a["t"][i]), float(a["ax"][i]), float(a["ay"][i]), float(a["yaw_rate"][i]),
+            float(a["steer"][i]), a["omega"][i], float(a["x"][i]), float(a["y"][i]),
+            float(a["psi"][i]), float(a["vx_meas"][i]),
+        )
+        for i in range(drive.n)
+    ]
+
 
 LATERAL_ACCELERATION_SOURCES = ("auto", "imu", "kinematic")
 """Lateral acceleration fed to the classifiers (:func:`select_lateral_acceleration`)."""
@@ -641,51 +474,3 @@ def drive_lateral_acceleration(
     ay_kin = kinematic_lateral_acceleration(drive.t, kin.vx, kin.vy, drive.col("yaw_rate"))
     return np.asarray(select_lateral_acceleration(source, resolve_aid(drive, config),
                                                   drive.col("ay"), ay_kin), float)
-
-
-class KinematicClassifier:
-    """Online base of the classifiers fed by the kinematic stage (bRLS, slip map).
-
-    Holds the vehicle, the frozen config, a :class:`KinematicEstimator` and the time of
-    the previous sample; subclasses set ``default_config`` and their own kernel state,
-    and implement ``step`` on top of :meth:`_advance`.
-    """
-
-    default_config: Any = None
-
-    def __init__(
-        self, params: VehicleParams, config: Any = None,
-        kinematic: KinematicConfig = KinematicConfig(), aid: str = "wheels",
-    ) -> None:
-        self.params = params
-        self.config = config if config is not None else type(self).default_config()
-        self.kinematic = KinematicEstimator(params, kinematic, aid)
-        self._t_prev: float | None = None
-
-    @classmethod
-    def for_drive(cls, drive: Drive, config: Any = None,
-                  kinematic: KinematicConfig = KinematicConfig()) -> Any:
-        """A classifier for ``drive``'s vehicle with the velocity aid its signals allow."""
-        return cls(drive.vehicle, config, kinematic, resolve_aid(drive, kinematic))
-
-    def _advance(self, sample: KinematicInput) -> tuple[KinematicOutput, float, float]:
-        """Run the kinematic stage on ``sample``.
-
-        Returns its output, the step [s] and the kinematic lateral acceleration
-        [m/s²] (:func:`kinematic_lateral_acceleration`, same backward difference).
-        """
-        prev = self.kinematic.state
-        kin = self.kinematic.step(sample)
-        dt = FIRST_STEP_S if self._t_prev is None else float(sample.t) - self._t_prev
-        self._t_prev = float(sample.t)
-        dvy = (float(kin.vy) - prev.vy) / dt if prev.started else 0.0
-        return kin, dt, float(sample.yaw_rate) * float(kin.vx) + dvy
-
-
-def to_frame(out: KinematicOutput, t: NDArray[np.float64]) -> pd.DataFrame:
-    """Kinematic outputs as a table (``vx_hat``, ``vy_hat``, ``beta_hat``, ``kappa_*``, ``alpha_*``)."""
-    d = {"t": t, "vx_hat": out.vx, "vy_hat": out.vy, "beta_hat": out.beta,
-         "alpha_f_hat": out.alpha_f, "alpha_r_hat": out.alpha_r}
-    for i, c in enumerate(("fl", "fr", "rl", "rr")):
-        d[f"kappa_{c}_hat"] = out.kappa[:, i]
-    return pd.DataFrame(d)

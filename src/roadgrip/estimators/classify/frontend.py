@@ -25,8 +25,8 @@ from roadgrip.inference.kinematic import (
     KinematicState,
     drive_lateral_acceleration,
     estimate_kinematics,
-    inputs_from_drive,
     kinematic_init,
+    kinematic_samples,
     kinematic_step,
     resolve_aid,
     select_lateral_acceleration,
@@ -132,16 +132,3 @@ def front_batch(drive: Drive, front: Front) -> FrontBatch:
     kin = estimate_kinematics(drive, front.kinematic)
     ay = drive_lateral_acceleration(drive, kin, front.lateral_acceleration, front.kinematic)
     return FrontBatch(kin, ay)
-
-
-def kinematic_samples(drive: Drive) -> list[KinematicInput]:
-    """The drive as :class:`~roadgrip.inference.kinematic.KinematicInput` samples."""
-    a = inputs_from_drive(drive)
-    return [
-        KinematicInput(
-            float(a["t"][i]), float(a["ax"][i]), float(a["ay"][i]), float(a["yaw_rate"][i]),
-            float(a["steer"][i]), a["omega"][i], float(a["x"][i]), float(a["y"][i]),
-            float(a["psi"][i]), float(a["vx_meas"][i]),
-        )
-        for i in range(drive.n)
-    ]
