@@ -6,8 +6,9 @@ Prints samples per second of
 * the slip-map recursion in batch, and the slip-map evidence (vectorised),
 * the kinematic stage in batch,
 * the whole batch pipelines over a simulated drive (kinematics + classifier),
-* online stepping: the pure bRLS step kernel and the full online objects
-  (kinematic step + regressors + classifier step), with the per-step latency.
+* online stepping: the pure bRLS step kernel and the estimators' protocol
+  ``step`` (kinematic step + regressors or evidence + classifier step), with
+  the per-step latency.
 
 Run: ``.venv/bin/python benchmarks/bench_classification.py [--samples N]``.
 """
@@ -20,16 +21,15 @@ from dataclasses import replace
 
 import numpy as np
 
-from roadgrip.estimators import brls, slipmap
-from roadgrip.estimators.brls import (
-    BRLSClassifier,
-    brls_batch,
-    brls_init,
-    brls_step,
-    default_config,
-)
-from roadgrip.estimators.slipmap import SlipMapClassifier, slipmap_batch
-from roadgrip.inference.kinematic import KinematicConfig, KinematicEstimator, estimate_kinematics
+from roadgrip.estimators.classify import BRLS, SLIPMAP
+from roadgrip.estimators.classify.brls import brls_table
+from roadgrip.estimators.classify.brls_config import default_config
+from roadgrip.estimators.classify.brls_kernel import brls_batch, brls_init, brls_step
+from roadgrip.estimators.classify.slipmap import slipmap_table
+from roadgrip.estimators.classify.slipmap_config import default_config as slipmap_default
+from roadgrip.estimators.classify.slipmap_evidence import SlipMapEvidence, evidence
+from roadgrip.estimators.classify.slipmap_kernel import slipmap_batch
+from roadgrip.inference.kinematic import estimate_kinematics
 
 
 def _best(fn, repeat=3):
@@ -64,10 +64,10 @@ def main() -> None:
     print(f"bRLS + state machine with prefilter, batch kernel: {n / w:,.0f} samples/s")
 
     z = np.zeros(n)
-    ev = slipmap.SlipMapEvidence(z, z, np.abs(phi_long), np.abs(phi_lat), 0.3 * np.abs(phi_long),
+    ev = SlipMapEvidence(z, z, np.abs(phi_long), np.abs(phi_lat), 0.3 * np.abs(phi_long),
                                  0.3 * np.abs(phi_lat), 1.0 - 0.3 * np.abs(phi_long) - 0.3 * np.abs(phi_lat), z)
-    scfg = slipmap.default_config()
-    slipmap_batch(t[:100], slipmap.SlipMapEvidence(*(f[:100] for f in ev)), scfg)
+    scfg = slipmap_default()
+    slipmap_batch(t[:100], SlipMapEvidence(*(f[:100] for f in ev)), scfg)
     w = _best(lambda: slipmap_batch(t, ev, scfg))
     print(f"slipmap recursion (eq. 16 + low-pass), batch kernel: {n / w:,.0f} samples/s")
 
@@ -78,13 +78,13 @@ def main() -> None:
     w = _best(lambda: estimate_kinematics(drive))
     print(f"kinematic stage, batch over dry-gravel-dry: {drive.n / w:,.0f} samples/s ({drive.n} samples)")
     kin = estimate_kinematics(drive)
-    w = _best(lambda: slipmap.evidence(kin.kappa, kin.alpha_f, kin.alpha_r, drive.col("ax"),
+    w = _best(lambda: evidence(kin.kappa, kin.alpha_f, kin.alpha_r, drive.col("ax"),
                                        drive.col("ay"), drive.col("steer"), kin.wheels_valid,
                                        drive.vehicle, scfg, kin.vx))
     print(f"slipmap evidence (eq. 9-15), vectorised: {drive.n / w:,.0f} samples/s")
     for name, fn in (
-        ("bRLS pipeline (kinematics + regressors + bRLS)", lambda: brls._run_table(drive, cfg, KinematicConfig())),
-        ("slipmap pipeline (kinematics + evidence + recursion)", lambda: slipmap._run_table(drive, scfg, KinematicConfig())),
+        ("bRLS pipeline (kinematics + regressors + bRLS)", lambda: brls_table(drive, cfg)),
+        ("slipmap pipeline (kinematics + evidence + recursion)", lambda: slipmap_table(drive, scfg)),
     ):
         w = _best(fn)
         print(f"{name}, batch over dry-gravel-dry: {drive.n / w:,.0f} samples/s, "
@@ -100,16 +100,18 @@ def main() -> None:
     w = time.perf_counter() - t0
     print(f"bRLS step kernel, online: {m / w:,.0f} samples/s, {1e6 * w / m:.1f} µs per step")
 
-    samples = list(KinematicEstimator.samples(drive))[: min(m, drive.n)]
-    for name, cls in (("bRLS", BRLSClassifier), ("slipmap", SlipMapClassifier)):
-        clf = cls(drive.vehicle)
-        clf.step(samples[0])
+    for name, est in (("bRLS", BRLS), ("slipmap", SLIPMAP)):
+        config = est.Config()
+        prepared = est.prepare(drive, config)
+        samples = prepared.samples[: min(m, drive.n)]
+        state = est.init(prepared.info, config, 0)
+        state, _ = est.step(state, samples[0])
         lat = np.empty(len(samples) - 1)
         for i, s in enumerate(samples[1:]):
             t0 = time.perf_counter()
-            clf.step(s)
+            state, _ = est.step(state, s)
             lat[i] = time.perf_counter() - t0
-        print(f"{name} online object (kinematics + classifier per sample): "
+        print(f"{name} protocol step (kinematics + classifier per sample): "
               f"{1 / lat.mean():,.0f} samples/s; latency median {1e6 * np.median(lat):.0f} µs, "
               f"99th percentile {1e6 * np.quantile(lat, 0.99):.0f} µs")
 
