@@ -142,7 +142,7 @@ def integrate_mb(
     inputs : ndarray, shape (n_out, 2)
         Steering rate [rad/s] and acceleration command [m/s²] from the recorded states.
     wheels : ndarray, shape (n_out, 4, WHEEL_SIZE)
-        :func:`wheel_forces` at the recorded states.
+        :func:`~roadgrip.sim.mb_model.wheel_forces` at the recorded states.
     surf : ndarray, shape (n_out,)
         Surface index at the recorded states.
     """

@@ -2,7 +2,7 @@ r"""Multi-body engine: CommonRoad's ``vehicle_dynamics_mb`` driven along a path.
 
 :func:`simulate_multibody` drives a CommonRoad multi-body vehicle
 (:mod:`roadgrip.sim.mb_model`: the package's model compiled, its parameters on
-a surface of given friction, its tire forces) along a :class:`Path` with the
+a surface of given friction, its tire forces) along a :class:`~roadgrip.sim.mb_driver.Path` with the
 closed-loop driver of :mod:`roadgrip.sim.mb_driver`, and turns the recorded
 states into a :class:`~roadgrip.drive.Drive`: sensor columns through the
 measurement models of :mod:`roadgrip.sim.sensors`, and the truth columns.
@@ -112,7 +112,7 @@ def simulate_multibody(
     Parameters
     ----------
     vehicle : str
-        Key of :data:`COMMONROAD_VEHICLES` (``'ford-escort'``, ``'vw-vanagon'``).
+        Key of :data:`~roadgrip.sim.mb_model.COMMONROAD_VEHICLES` (``'ford-escort'``, ``'vw-vanagon'``).
     path : Path
         Where and how fast to drive.
     friction : FrictionField
