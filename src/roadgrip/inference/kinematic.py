@@ -75,7 +75,7 @@ from roadgrip.inference.kinematic_kernel import (
     kinematic_batch,
     kinematic_update,
 )
-from roadgrip.vehicle.params import VehicleParams
+from roadgrip.vehicle.params import VehicleParams, driven_wheels
 from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
 
 __all__ = [
@@ -98,8 +98,6 @@ __all__ = [
     "slip_v_eps",
     "wheel_slips",
 ]
-
-_DRIVE_MASK = {"fwd": (1, 1, 0, 0), "rwd": (0, 0, 1, 1), "awd": (1, 1, 1, 1)}
 
 
 @dataclass(frozen=True)
@@ -194,7 +192,7 @@ def _aid(cfg: KinematicConfig, have_all_wheels: bool, have_pose: bool) -> str:
 def kinematic_params(params: VehicleParams, cfg: KinematicConfig, aid: str) -> KinematicParams:
     """The compiled update's parameters for a vehicle, tuning and resolved velocity aid."""
     return KinematicParams(
-        AID_CODES[aid], np.array(_DRIVE_MASK[params.drive], dtype=np.int64), params.wheel_radius,
+        AID_CODES[aid], driven_wheels(params.drive).astype(np.int64), params.wheel_radius,
         params.lf, params.lr, 0.5 * params.track_width, cfg.tau_vx, cfg.tau_pose, cfg.tau_beta,
         cfg.a_linear, cfg.accel_threshold, cfg.gate_abs, cfg.gate_rel, cfg.v_min,
     )

@@ -16,12 +16,14 @@ from numpy.typing import NDArray
 from roadgrip.constants import GRAVITY
 from roadgrip.estimators.classify.slipmap_config import SlipMapConfig
 from roadgrip.inference.kinematic import KinematicOutput
+from roadgrip.signals import driven_wheels
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = ["PREFILTER_SIZE", "SlipMapEvidence", "evidence", "evidence_from_kinematics", "prefilter"]
 
-_DRIVEN = {"fwd": (1.0, 1.0, 0.0, 0.0), "rwd": (0.0, 0.0, 1.0, 1.0), "awd": (1.0, 1.0, 1.0, 1.0)}
-
+# columns of the prefiltered signals
+PF_KAPPA = slice(0, 4)
+PF_ALPHA_F, PF_ALPHA_R, PF_AX, PF_AY = 4, 5, 6, 7
 PREFILTER_SIZE = 8
 """Prefiltered signals: ``kappa_fl..rr, alpha_f, alpha_r, ax, ay``."""
 
@@ -74,7 +76,7 @@ def evidence(
     ax = np.asarray(ax, float)
     ay = np.asarray(ay, float)
     L = params.lf + params.lr
-    driven = np.array(_DRIVEN[params.drive], bool) & valid
+    driven = driven_wheels(params.drive) & valid
     allw = valid
     n_dr = driven.sum(-1)
     n_all = allw.sum(-1)
@@ -136,7 +138,8 @@ def _pack(kin: KinematicOutput, ax, ay) -> NDArray[np.float64]:
 
 
 def _unpack(kin: KinematicOutput, y: NDArray) -> tuple[KinematicOutput, NDArray, NDArray]:
-    return kin._replace(kappa=y[:, :4], alpha_f=y[:, 4], alpha_r=y[:, 5]), y[:, 6], y[:, 7]
+    kin_f = kin._replace(kappa=y[:, PF_KAPPA], alpha_f=y[:, PF_ALPHA_F], alpha_r=y[:, PF_ALPHA_R])
+    return kin_f, y[:, PF_AX], y[:, PF_AY]
 
 
 def evidence_from_kinematics(
