@@ -3,7 +3,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test test-fast kernels lint bench clean
 
 $(BIN)/python:
 	@test -n "$(PYTHON)" || { echo "error: no python3.11 or python3 on PATH"; exit 1; }
@@ -18,12 +18,24 @@ $(STAMP): $(BIN)/python pyproject.toml
 demo: $(STAMP)
 	$(BIN)/roadgrip demo --out report
 
+# Compile every numba kernel once, in one process, before the test workers load them.
+kernels: $(STAMP)
+	$(BIN)/python tests/compile_kernels.py
+
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/lint-imports --no-cache
+	$(BIN)/python tests/compile_kernels.py
 	$(BIN)/python -m pytest -n 2 --durations=15
+
+# Without the slow tests and those reading ../shared/data.
+test-fast: $(STAMP)
+	$(BIN)/python tests/compile_kernels.py
+	$(BIN)/python -m pytest -n 2 -m "not slow and not realdata" --durations=15
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/lint-imports --no-cache
 
 bench: $(STAMP)
 	for f in benchmarks/bench_*.py; do $(BIN)/python $$f || exit 1; done
