@@ -43,7 +43,7 @@ def bench_cascade(repeats: int = 5) -> None:
         C.run(drive)
         best = min(best, time.perf_counter() - t0)
     print(f"cascade (3 stages), f1tenth-patches: {drive.n} samples in {best * 1e3:.1f} ms "
-          f"-> {drive.n / best:,.0f} samples/s (includes input checks and noise estimation)")
+          f"-> {drive.n / best:,.0f} samples/s (includes input checks, noise estimation and the table)")
     long = drive.with_data(
         __import__("pandas").concat(
             [drive.data.assign(t=drive.data["t"] + k * (drive.duration + 0.02)) for k in range(20)],

@@ -93,8 +93,9 @@ def frictionmaps(outdir: str, calibrate: bool = False, steer_delay: float = 0.0,
     import sys
     from pathlib import Path
 
-    from roadgrip.estimators import cascade as C
+    from roadgrip.estimators import run_estimator
     from roadgrip.io.frictionmaps import read_frictionmaps
+    from roadgrip.plots.cascade import plot_result
     from roadgrip.plots.maps import plot_grid
 
     root = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "frictionmaps"
@@ -111,8 +112,8 @@ def frictionmaps(outdir: str, calibrate: bool = False, steer_delay: float = 0.0,
             c = drive.meta.extra["calibration"]
             print(f"{ds}: gyro scale {c['gyro_scale']:.3f}, speed scale {c['speed_scale']:.3f}, "
                   f"steering gain {c['steer_gain']:.3f} ({c['steer_gain_n']} steady samples)")
-        res = C.run_cli(drive, C.EstimateRequest(options=options or {},
-                                                 plot_path=str(out / f"{ds}_cascade.png")))
+        res = run_estimator("cascade", drive, options or {})
+        plot_result(drive, res, out / f"{ds}_cascade.png")
         g = M.grid_from_estimates(res.table, cell)
         grids[ds] = g
         g.to_npz(out / f"{ds}_map.npz")

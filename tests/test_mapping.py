@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 
 from roadgrip import mapping as M
+from roadgrip.constants import Z95
 
 
 def _obs(rng, n, lo=-3.0, hi=3.0):
@@ -146,7 +147,7 @@ def test_observations_use_axle_positions_and_only_excited_samples():
     other = tab.drop(columns=[c for c in tab.columns if "obs" in c or c.startswith("excited_")])
     obs2 = M.observations_from_estimates(other)
     assert len(obs2.x) == 2 * tab["excited"].sum()
-    np.testing.assert_allclose(obs2.var, (0.2 / (2 * M.Z95)) ** 2)
+    np.testing.assert_allclose(obs2.var, (0.2 / (2 * Z95)) ** 2)
     with pytest.raises(ValueError, match="no position"):
         M.observations_from_estimates(tab.drop(columns=["x", "y"]))
 
@@ -185,13 +186,14 @@ def test_observations_below_the_grip_used_in_their_cell_are_dropped():
 
 
 def test_files_and_command_line(tmp_path):
+    from roadgrip.cli.friction_map import map_files, show_map
     from roadgrip.estimators.base import EstimateResult
 
     tab = _estimates_table()
     est = tmp_path / "est.parquet"
     EstimateResult("cascade", tab, {}).to_parquet(est)
     out, csv, png = tmp_path / "map.npz", tmp_path / "cells.csv", tmp_path / "map.png"
-    g = M.map_cli([str(est), str(est)], out, cell=0.5, csv=csv, png=png)
+    g = map_files([str(est), str(est)], out, cell=0.5, csv=csv, png=png)
     back = M.FrictionGrid.from_npz(out)
     for attr in ("s0", "s1", "s2", "sb", "n_obs"):
         np.testing.assert_array_equal(getattr(back, attr), getattr(g, attr))
@@ -202,7 +204,7 @@ def test_files_and_command_line(tmp_path):
     np.testing.assert_allclose(cells["y"], 0.75)  # centre of the cell [0.5, 1.0)
     assert png.stat().st_size > 10_000
     show = tmp_path / "show.png"
-    M.show_cli(out, show)
+    show_map(out, show)
     assert show.stat().st_size > 10_000
     with pytest.raises(ValueError, match="not a roadgrip friction grid"):
         np.savez(tmp_path / "other.npz", a=1)
@@ -221,14 +223,14 @@ def _field_mu(ff, x, y):
 def test_acceptance_f1tenth_patches_two_laps(seed):
     """Cascade + grid on the simulated patch track after two laps (the issue's acceptance)."""
     sim = pytest.importorskip("roadgrip.sim.scenarios")
-    from roadgrip.estimators import cascade as C
+    from roadgrip.estimators import run_estimator
 
     drive = sim.simulate_scenario("f1tenth-patches", seed)
     df = drive.data
     s = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(df["x_true"]), np.diff(df["y_true"])))])
     n2 = int(np.searchsorted(s, 2 * drive.meta.truth["track"]["lap_length"]))
     two_laps = drive.with_data(df.iloc[:n2])
-    res = C.run_cli(two_laps, C.EstimateRequest())
+    res = run_estimator("cascade", two_laps)
     grid = M.grid_from_estimates(res.table, 0.5)
     cells = grid.cells_frame(min_obs=10)
     assert len(cells) >= 8
@@ -241,7 +243,7 @@ def test_acceptance_f1tenth_patches_two_laps(seed):
     truth = truth[truth_grid.n_obs >= 10]
     err = np.abs(cells["mu_mean"].to_numpy() - truth)
     assert err.max() <= 0.1, cells.assign(truth=truth)  # every cell
-    assert np.mean(err <= M.Z95 * cells["mu_std"]) >= 0.85, cells.assign(truth=truth)
+    assert np.mean(err <= Z95 * cells["mu_std"]) >= 0.85, cells.assign(truth=truth)
     # never-excited cells: the prior's width, not a number presented as knowledge
     _, std = grid.posterior()
     assert std[grid.n_obs == 0].min() == pytest.approx(grid.prior_std)
@@ -267,14 +269,14 @@ def test_frictionmaps_ds3_to_ds5_maps():
     """
     if not FRICTIONMAPS.is_dir():
         pytest.skip(f"frictionmaps data set not found at {FRICTIONMAPS}")
-    from roadgrip.estimators import cascade as C
+    from roadgrip.estimators import run_estimator
     from roadgrip.io.frictionmaps import read_frictionmaps
 
     tabs, grids, checks = {}, {}, {}
     for ds in ("DS3", "DS4", "DS5"):
         drive = read_frictionmaps(FRICTIONMAPS / ds)
         checks[ds] = drive.meta.extra["kinematic_checks"]
-        tabs[ds] = C.run_cli(drive, C.EstimateRequest()).table
+        tabs[ds] = run_estimator("cascade", drive).table
         grids[ds] = M.grid_from_estimates(tabs[ds], 0.5)
     # DS4: ay is 0.5 of vx * yaw_rate and the odometry 1.3 times the pose speed; DS3, DS5 consistent
     assert checks["DS4"]["ay_over_vx_yaw_rate"] < 0.7 and checks["DS4"]["pose_speed_over_vx"] < 0.85
@@ -297,3 +299,14 @@ def test_frictionmaps_ds3_to_ds5_maps():
         keys = zip(np.floor(cells["x"] / 0.5).astype(int), np.floor(cells["y"] / 0.5).astype(int), strict=True)
         below = [m < lut[k] for m, k in zip(cells["mu_mean"], keys, strict=True) if k in lut]
         assert not any(below), (a, b)
+
+
+def test_the_library_grid_imports_no_figures_console_or_command_line():
+    import subprocess
+    import sys
+
+    code = ("import sys, roadgrip.mapping; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('matplotlib', 'rich', 'typer') "
+            "or m.startswith(('roadgrip.plots', 'roadgrip.cli'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

@@ -12,7 +12,7 @@ import pytest
 
 from roadgrip.drive import Drive, DriveValidationError
 from roadgrip.estimators import cascade as C
-from roadgrip.estimators.base import CONTRACT_COLUMNS, EstimateRequest
+from roadgrip.estimators import run_estimator
 from roadgrip.tire import brush_force
 from roadgrip.vehicle.params import PRESETS
 
@@ -23,6 +23,18 @@ from synthetic import simulate_brush
 @pytest.fixture(scope="module")
 def drive06():
     return simulate_brush(mu=0.6, duration=40.0, steer_amp=0.3, seed=1)
+
+
+def _derived(drive, config=None):
+    """What ``prepare`` derives from the drive (noise, speed source, resolved defaults)."""
+    return C.prepare(drive, config or C.CascadeConfig()).info.derived
+
+
+def _filter(drive, config=None):
+    """Kernel rows and final state of a whole drive."""
+    config = config or C.CascadeConfig()
+    prep = C.prepare(drive, config)
+    return C.run_filter(C.init(prep.info, config), prep.samples)
 
 
 def test_brush_inverse_is_exact_and_flags_sliding():
@@ -68,7 +80,7 @@ def test_force_models_match_rigid_body_equations():
     fx = 2.0 * np.cos(d) - 10.0 * np.sin(d)
     fy = 2.0 * np.sin(d) + 10.0 * np.cos(d) + 6.0
     mz = veh.lf * (2.0 * np.sin(d) + 10.0 * np.cos(d)) - veh.lr * 6.0
-    vx_n, vy_n = C._rotate_integrate(3.0, 0.1, 0.5, fx / veh.mass, fy / veh.mass, dt)
+    vx_n, vy_n = C.rotate_integrate(3.0, 0.1, 0.5, fx / veh.mass, fy / veh.mass, dt)
     np.testing.assert_allclose(Y[:3], [vx_n,
                                         0.5 + dt * mz / veh.yaw_inertia,
                                         vy_n], rtol=1e-14)
@@ -86,7 +98,7 @@ def test_velocity_step_integrates_the_kinematics():
         return [ax + v[1] * r, ay - v[0] * r]
 
     ref = solve_ivp(rhs, (0.0, dt), [vx, vy], rtol=1e-12, atol=1e-12).y[:, -1]
-    got = np.array(C._rotate_integrate(vx, vy, r, ax, ay, dt))
+    got = np.array(C.rotate_integrate(vx, vy, r, ax, ay, dt))
     euler = np.array([vx + dt * (ax + vy * r), vy + dt * (ay - vx * r)])
     err = np.abs(got - ref).max()
     assert err < 1e-5  # third order in r dt; the Euler step errs by O(dt²)
@@ -94,8 +106,8 @@ def test_velocity_step_integrates_the_kinematics():
 
 
 def test_tracks_states_forces_and_friction(drive06):
-    out, _ = C.run(drive06)
-    tab = C.result_table(drive06, out)
+    res = C.run(drive06)
+    tab = res.table
     df = drive06.data
     k0 = 300  # after the initial transient
     for est, true, tol in (("vx", "vx_true", 0.02), ("vy", "vy_true", 0.03),
@@ -115,57 +127,60 @@ def test_tracks_states_forces_and_friction(drive06):
         w = 1 / tab.loc[sel, f"mu_{axle}_obs_std"] ** 2
         assert sel.sum() > 200
         assert abs((w * tab.loc[sel, f"mu_{axle}_obs"]).sum() / w.sum() - 0.6) < 0.03
-    assert out[:, C._O.PD_OK].all()
+    assert res.meta["diagnostics"]["samples with all covariances positive definite [%]"] == 100.0
 
 
 def test_variance_grows_without_excitation():
     straight = simulate_brush(mu=0.6, duration=20.0, steer_amp=0.0, seed=2)
     cfg = C.CascadeConfig(mu_prior=0.9, mu_prior_std=0.4)
-    tab = C.result_table(straight, C.run(straight, cfg)[0])
+    tab = C.run(straight, cfg).table
     assert not tab["excited"].any()
     np.testing.assert_allclose(tab["mu_front_std"].iloc[-1], 0.4, rtol=1e-3)
     # from a confident state, the variance grows as the random walk says
-    veh = straight.vehicle
-    noise = {"accel_std": 0.05, "gyro_std": 0.005, "speed_std": 0.02}
-    st = C.init(veh, cfg, 3.0, noise)
-    st = st._replace(friction_cov=np.eye(2) * 0.01)
+    cfg = dataclasses.replace(cfg, accel_std=0.05, gyro_std=0.005, speed_std=0.02)
+    prep = C.prepare(straight, cfg)
+    st = C.init(prep.info, cfg)._replace(friction_cov=np.eye(2) * 0.01)
     stds = []
-    for s in C.samples(straight, cfg)[:200]:
-        st, est = C.step(st, s, veh, cfg, noise)
-        stds.append(est.mu_std[0])
+    for s in prep.samples[:200]:
+        st, row = C.step(st, s)
+        stds.append(row["mu_front_std"])
     dt = 1 / 100.0
     np.testing.assert_allclose(stds[-1] ** 2, 0.01 + cfg.mu_rate_std**2 * dt * 199, rtol=1e-3)
     assert np.all(np.diff(stds) > 0)
 
 
-def test_run_equals_online_steps(drive06):
+def test_online_steps_give_the_stage_estimates_and_state_of_run(drive06):
     short = drive06.slice_time(0.0, 3.0)
     cfg = C.CascadeConfig()
-    out, info = C.run(short, cfg)
-    est = C.Cascade(short.vehicle, cfg, noise=info["noise"], front_share=info["front_share"])
-    online = [est.step(s) for s in C.samples(short, cfg)]
-    np.testing.assert_allclose([e.mu[0] for e in online], out[:, C._O.MU_F], rtol=0, atol=1e-12)
-    np.testing.assert_allclose([e.forces[1] for e in online], out[:, C._O.FYF], rtol=0, atol=1e-9)
-    np.testing.assert_allclose([e.vy for e in online], out[:, C._O.VY], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(est.state_.friction_cov, info["state"].friction_cov, atol=1e-14)
+    tab = C.run(short, cfg).table
+    prep = C.prepare(short, cfg)
+    st = C.init(prep.info, cfg)
+    rows = []
+    for s in prep.samples:
+        st, row = C.step(st, s)
+        rows.append(row)
+    np.testing.assert_allclose([r["Fyf"] for r in rows], tab["Fyf"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose([r["vy"] for r in rows], tab["vy"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose([r["x_front"] for r in rows], tab["x_front"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(st.friction_cov, _filter(short, cfg)[1].friction_cov, atol=1e-14)
 
 
-def test_run_cli_contract_and_option_checks(drive06, tmp_path):
-    res = C.run_cli(drive06, EstimateRequest())
-    for col in (*CONTRACT_COLUMNS, "vx", "vy", "Fyf", "Fyr", "x", "y"):
+def test_run_columns_and_option_checks(drive06, tmp_path):
+    res = run_estimator("cascade", drive06)
+    for col in ("vx", "vy", "Fyf", "Fyr", "x", "y", "x_front", "mu_front_obs"):
         assert col in res.table.columns
-    for col in ("mu_front", "mu_rear", "mu_front_lower", "mu_rear_upper"):
-        assert np.isfinite(res.table[col]).all()
     assert res.meta["summary"]["LowerBound"] < res.meta["summary"]["MostProbable"]
-    with pytest.raises(ValueError, match="--particles"):
-        C.run_cli(drive06, EstimateRequest(particles=10))
-    with pytest.raises(ValueError, match="unknown cascade option"):
-        C.run_cli(drive06, EstimateRequest(options={"jerkstd": 1.0}))
+    with pytest.raises(ValueError, match="particles"):
+        run_estimator("cascade", drive06, {"particles": 10})
+    with pytest.raises(ValueError, match="jerkstd"):
+        run_estimator("cascade", drive06, {"jerkstd": 1.0})
     with pytest.raises(ValueError, match="mu_rate_std"):
         C.CascadeConfig(mu_rate_std=-1.0)
+    with pytest.raises(ValueError, match="speed_source"):
+        C.CascadeConfig(speed_source="gps")
     no_speed = Drive.from_frame(drive06.data.drop(columns=["vx"]), drive06.vehicle)
     with pytest.raises(DriveValidationError, match="speed measurement"):
-        C.run_cli(no_speed, EstimateRequest())
+        C.run(no_speed)
     path = tmp_path / "est.parquet"
     res.to_parquet(path)
     back = pd.read_parquet(path)
@@ -224,15 +239,14 @@ def test_command_line_estimate_map_and_show(drive06, tmp_path):
 def test_covariances_stay_positive_definite_over_one_hour():
     sim = pytest.importorskip("roadgrip.sim.scenarios")
     drive = sim.simulate_scenario("f1tenth-patches", 11, duration=3600.0)
-    out, info = C.run(drive)
+    out, st = _filter(drive)
     assert drive.duration >= 3599.0
-    assert out[:, C._O.PD_OK].all()
-    assert out[:, C._O.REPAIRS].sum() == 0
-    for col in (C._O.VAR_F, C._O.VAR_R, C._O.FYF_VAR, C._O.FYR_VAR):
+    assert out[:, C.Out.PD_OK].all()
+    assert out[:, C.Out.REPAIRS].sum() == 0
+    for col in (C.Out.VAR_F, C.Out.VAR_R, C.Out.FYF_VAR, C.Out.FYR_VAR):
         assert np.all(out[:, col] > 0) and np.all(np.isfinite(out[:, col]))
-    assert np.all(np.isfinite(out[:, [C._O.MU_F, C._O.MU_R, C._O.VX, C._O.VY]]))
+    assert np.all(np.isfinite(out[:, [C.Out.MU_F, C.Out.MU_R, C.Out.VX, C.Out.VY]]))
     # the final state is still positive definite in every stage
-    st = info["state"]
     for P in (st.velocity_cov[:2, :2], st.force_cov, st.friction_cov):
         assert np.linalg.eigvalsh(P).min() > 0
 
@@ -251,20 +265,20 @@ def test_pose_velocity_bounds_the_lateral_velocity_drift(drive06):
     df["ay"] = 0.8 * df["ay"]
     cfg = C.CascadeConfig(accel_model_std=1.0, pose_velocity_std=0.02)
     k0 = 300
-    plain = C.result_table(drive06, C.run(drive06.with_data(df), cfg)[0])
+    plain = C.run(drive06.with_data(df), cfg).table
     err_plain = np.sqrt(np.mean((plain["vy"][k0:] - df["vy_true"][k0:]) ** 2))
     posed = df.assign(vx_pose=df["vx_true"] + _smoothed_noise(rng, len(df), 0.02),
                       vy_pose=df["vy_true"] + _smoothed_noise(rng, len(df), 0.02))
     posed.loc[1000:1100, ["vx_pose", "vy_pose"]] = np.nan  # a stretch without pose (a jump)
-    tab = C.result_table(drive06, C.run(drive06.with_data(posed), cfg)[0])
+    tab = C.run(drive06.with_data(posed), cfg).table
     err = np.sqrt(np.mean((tab["vy"][k0:] - df["vy_true"][k0:]) ** 2))
     assert err_plain > 0.3
     assert err < 0.15 and err < 0.35 * err_plain, (err, err_plain)
     assert np.isfinite(tab[["vy", "mu_front", "mu_rear"]].to_numpy()).all()
     # switched off by pose_velocity_std = 0: the columns are ignored
-    off = C.run(drive06.with_data(posed), dataclasses.replace(cfg, pose_velocity_std=0.0))[0]
-    ref = C.run(drive06.with_data(df), dataclasses.replace(cfg, pose_velocity_std=0.0))[0]
-    np.testing.assert_array_equal(off[:, C._O.VY], ref[:, C._O.VY])
+    off = C.run(drive06.with_data(posed), dataclasses.replace(cfg, pose_velocity_std=0.0)).table
+    ref = C.run(drive06.with_data(df), dataclasses.replace(cfg, pose_velocity_std=0.0)).table
+    np.testing.assert_array_equal(off["vy"], ref["vy"])
     bad = posed.copy()
     bad.loc[50, "vy_pose"] = np.inf
     with pytest.raises(DriveValidationError, match="vy_pose"):
@@ -279,8 +293,8 @@ def test_steering_command_lag_widens_the_front_slip_angle():
     df.loc[k_step:, "steer"] = df.loc[k_step:, "steer"] + 0.2
     drv = d.with_data(df)
     tau, dt = 0.1, 0.01
-    lagged = C.result_table(drv, C.run(drv, C.CascadeConfig(steer_response_time=tau))[0])
-    measured = C.result_table(drv, C.run(drv, C.CascadeConfig(steer_response_time=0.0))[0])
+    lagged = C.run(drv, C.CascadeConfig(steer_response_time=tau)).table
+    measured = C.run(drv, C.CascadeConfig(steer_response_time=0.0)).table
     k = np.arange(k_step, k_step + 40)
     expected = (0.2 * (1 - dt / tau) ** (k - k_step + 1)) ** 2
     got = lagged["alpha_f_std"].to_numpy()[k] ** 2 - measured["alpha_f_std"].to_numpy()[k] ** 2
@@ -290,20 +304,23 @@ def test_steering_command_lag_widens_the_front_slip_angle():
     np.testing.assert_allclose(lagged["alpha_r_std"], measured["alpha_r_std"], atol=1e-12)
     # a drive that declares its steering a command gets 0.1 s by default
     cmd = Drive.from_frame(df, d.vehicle, extra={"steer_is_command": True})
-    assert C.run(cmd)[1]["config"].steer_response_time == 0.1
-    assert C.run(drv)[1]["config"].steer_response_time == 0.0
+    assert _derived(cmd)["steer_response_time"] == 0.1
+    assert _derived(drv)["steer_response_time"] == 0.0
+    # the configuration itself is not changed
+    res = C.run(cmd)
+    assert res.meta["config"]["steer_response_time"] is None and res.meta["derived"]["steer_response_time"] == 0.1
 
 
 def test_reader_noise_replaces_the_estimate_from_resampled_signals(drive06):
     """Noise measured by the reader on the native streams takes precedence over the drive estimate."""
-    est = C.run(drive06)[1]["noise"]
+    est = _derived(drive06)["noise"]
     native = {"accel_std": 0.9, "gyro_std": 0.04, "speed_std": 0.03}
     d = Drive.from_frame(drive06.data, drive06.vehicle, extra={"sensor_noise": native})
-    got = C.run(d)[1]["noise"]
+    got = _derived(d)["noise"]
     assert got["accel_std"] == 0.9 and got["gyro_std"] == 0.04
     # speed_std applies to the vx column only; the configuration still wins
     assert got["speed_std"] == (0.03 if "vx" in C.measured_speed(d)[1] else est["speed_std"])
-    assert C.run(d, C.CascadeConfig(accel_std=0.2))[1]["noise"]["accel_std"] == 0.2
+    assert _derived(d, C.CascadeConfig(accel_std=0.2))["noise"]["accel_std"] == 0.2
 
 
 DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
@@ -318,14 +335,14 @@ def test_frictionmaps_run_gives_finite_estimates_and_a_map():
     from roadgrip.io import read_drive
 
     drive = read_drive(str(path), format="frictionmaps")
-    res = C.run_cli(drive, EstimateRequest())
+    res = C.run(drive)
     tab = res.table
     for col in ("mu_front", "mu_rear", "mu_front_lower", "mu_rear_upper", "vx", "vy", "Fyf", "Fyr"):
         assert np.isfinite(tab[col]).all(), col
     diag = res.meta["diagnostics"]
     assert diag["covariance repairs"] == 0
     # standstills in the run switch the accelerometer bias states on
-    assert res.meta["config"]["accel_bias_std"] > 0
+    assert res.meta["derived"]["accel_bias_std"] > 0
     # the noise measured on the native streams (not the 10x smaller estimate from the
     # resampled signals) makes stage 2 consistent: mean NIS near its 5 degrees of freedom
     assert diag["accel noise std [m/s2]"] > 0.3

@@ -1,13 +1,95 @@
-"""Command ``roadgrip map``: friction estimates fused into a spatial grid."""
+"""Command ``roadgrip map``: friction estimates fused into a spatial grid (:mod:`roadgrip.mapping`)."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
+import numpy as np
 import typer
 
-from roadgrip.cli._common import FormatOpt, VehicleOpt, app, console
+from roadgrip.cli._common import FormatOpt, VehicleOpt, app, console, load_drive
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from roadgrip.mapping import FrictionGrid
+
+
+def _estimates_table(path: str, vehicle: str | None, fmt: str | None) -> tuple[pd.DataFrame, str]:
+    """The estimates of ``path``: an estimates Parquet file as written, a drive through the cascade."""
+    from roadgrip.estimators import EstimateResult, run_estimator
+
+    p = Path(path)
+    if p.is_file() and p.suffix.lower() in (".parquet", ".pq"):
+        import pyarrow.parquet as pq
+
+        md = pq.read_schema(str(p)).metadata or {}
+        if b"roadgrip_estimate" in md:
+            res = EstimateResult.read_parquet(p)
+            return res.table, f"estimates ({res.method})"
+    drive = load_drive(path, fmt, vehicle)
+    return run_estimator("cascade", drive).table, "drive (cascade run)"
+
+
+def map_files(
+    inputs: list[str],
+    output: str | Path,
+    *,
+    cell: float = 0.5,
+    csv: str | Path | None = None,
+    png: str | Path | None = None,
+    vehicle: str | None = None,
+    fmt: str | None = None,
+    console: Any = None,
+) -> FrictionGrid:
+    """Grids of estimates files or drives (cascade), merged and written to ``output`` (NPZ).
+
+    Each input is an estimates Parquet file (any method, with ``x, y``) or a
+    drive (canonical file or data set), on which the cascade is run. ``csv``
+    and ``png`` also write the visited cells and a heat map; ``console``
+    (rich) receives a line per input and the map's summary.
+    """
+    from roadgrip.mapping import grid_from_estimates, merge
+
+    if not inputs:
+        raise ValueError("roadgrip map needs at least one estimates file or drive")
+    if not (np.isfinite(cell) and cell > 0):
+        raise ValueError(f"--cell must be a positive size in m, got {cell}")
+    grids = []
+    for path in inputs:
+        table, kind = _estimates_table(path, vehicle, fmt)
+        g = grid_from_estimates(table, cell)
+        grids.append(g)
+        if console is not None:
+            console.print(f"{path}: {kind}, {int(g.n_obs.sum())} excited observations in "
+                          f"{int((g.n_obs > 0).sum())} cells")
+    grid = merge(*grids)
+    grid.to_npz(output)
+    if csv:
+        grid.to_csv(csv)
+    if png:
+        from roadgrip.plots.maps import plot_grid
+
+        plot_grid(grid, png)
+    if console is not None:
+        visited = grid.n_obs > 0
+        mean, std = grid.posterior()
+        if visited.any():
+            console.print(f"map: {int(visited.sum())} cells of {grid.cell} m, mu {mean[visited].min():.2f}"
+                          f"..{mean[visited].max():.2f}, median std {np.median(std[visited]):.3f}")
+        console.print(f"wrote {output}" + (f", {csv}" if csv else "") + (f", {png}" if png else ""))
+    return grid
+
+
+def show_map(map_path: str | Path, output: str | Path, *, console: Any = None) -> None:
+    """``roadgrip map show MAP.npz -o MAP.png``: the heat map of a written grid."""
+    from roadgrip.mapping import FrictionGrid
+    from roadgrip.plots.maps import plot_grid
+
+    plot_grid(FrictionGrid.from_npz(map_path), output)
+    if console is not None:
+        console.print(f"wrote {output}")
 
 
 @app.command("map")
@@ -21,11 +103,9 @@ def map_cmd(
     fmt: FormatOpt = None,
 ) -> None:
     """Fuse friction estimates into a spatial grid (`roadgrip map show MAP -o PNG` to plot)."""
-    from roadgrip import mapping
-
     if inputs and inputs[0] == "show":
         if len(inputs) != 2:
             raise ValueError("usage: roadgrip map show MAP.npz -o MAP.png")
-        mapping.show_cli(inputs[1], output, console=console)
+        show_map(inputs[1], output, console=console)
         return
-    mapping.map_cli(inputs, output, cell=cell, csv=csv, png=png, vehicle=vehicle, fmt=fmt, console=console)
+    map_files(inputs, output, cell=cell, csv=csv, png=png, vehicle=vehicle, fmt=fmt, console=console)

@@ -79,20 +79,17 @@ def true_cell_friction(
     if len(x) == 0:
         return np.zeros(0)
     if field is not None:
-        try:
-            from roadgrip.sim.friction import mu_at
-        except ImportError:
-            mu_at = None
-        if mu_at is not None:
-            offs = (np.arange(sub) + 0.5) / sub - 0.5
-            ox, oy = np.meshgrid(offs * cell, offs * cell)
-            px = (x[:, None] + ox.ravel()[None, :]).ravel()
-            py = (y[:, None] + oy.ravel()[None, :]).ravel()
-            mu = np.asarray(mu_at(field, float(drive.t[-1]), px, py), float)
-            area = mu.reshape(len(x), -1).mean(axis=1)
-            if table is None:
-                return area
-            return _observed_truth(drive, table, field, mu_at, x, y, cell, area)
+        from roadgrip.sim.friction import mu_at
+
+        offs = (np.arange(sub) + 0.5) / sub - 0.5
+        ox, oy = np.meshgrid(offs * cell, offs * cell)
+        px = (x[:, None] + ox.ravel()[None, :]).ravel()
+        py = (y[:, None] + oy.ravel()[None, :]).ravel()
+        mu = np.asarray(mu_at(field, float(drive.t[-1]), px, py), float)
+        area = mu.reshape(len(x), -1).mean(axis=1)
+        if table is None:
+            return area
+        return _observed_truth(drive, table, field, mu_at, x, y, cell, area)
     if not drive.has("x", "y", "mu_true"):
         return np.full(len(x), np.nan)
     return cell_truth(x, y, cell, drive.col("x"), drive.col("y"), drive.col("mu_true"))

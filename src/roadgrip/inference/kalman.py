@@ -4,7 +4,7 @@ Two layers:
 
 * **Compiled primitives** (``numba.njit``), used inside the compiled loops of the
   estimators and by the Python functions below: :func:`cholesky_lower`,
-  :func:`nearest_pd`, :func:`psd_sqrt`, :func:`sigma_points`,
+  :func:`psd_sqrt`, :func:`sigma_points`,
   :func:`unscented_transform`, :func:`ukf_correct`, :func:`joseph_update`.
 * **Pure Python steps** over an immutable :class:`GaussianState`:
   :func:`ukf_predict`, :func:`ukf_update`, :func:`ekf_predict`, :func:`ekf_update`.
@@ -77,7 +77,6 @@ __all__ = [
     "ekf_update",
     "joseph_update",
     "merwe_weights",
-    "nearest_pd",
     "psd_sqrt",
     "sigma_points",
     "ukf_correct",
@@ -217,7 +216,7 @@ def cholesky_lower(a):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def nearest_pd(p, floor):  # pragma: no cover - compiled
+def _nearest_pd(p, floor):  # pragma: no cover - compiled
     """Symmetrise ``p`` and raise its eigenvalues to ``floor * max|eigenvalue|``.
 
     Parameters
@@ -255,7 +254,7 @@ def psd_sqrt(p):  # pragma: no cover - compiled
     L, ok = cholesky_lower(p)
     if ok:
         return L, p, False
-    q = nearest_pd(p, 1e-12)
+    q = _nearest_pd(p, PD_FLOOR)
     L, ok = cholesky_lower(q)
     scale = 1e-12
     while not ok:  # rounding left the floored matrix singular: add growing jitter

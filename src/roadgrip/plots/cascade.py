@@ -10,13 +10,14 @@ import numpy as np
 from roadgrip.drive import Drive
 from roadgrip.estimators.base import EstimateResult
 
-__all__ = ["plot_cascade"]
+__all__ = ["plot_result"]
 
 
-def plot_cascade(result: EstimateResult, drive: Drive, path: str | Path) -> None:
+def plot_result(drive: Drive, result: EstimateResult, path: str | Path) -> None:
     """Write a PNG with the three stages' estimates over time (truth where simulated).
 
-    Panels: ``vx, vy`` [m/s] (with ``vy_pose`` where the drive has a pose velocity); axle lateral forces ``Fyf, Fyr`` [N]; slip angles
+    Panels: ``vx, vy`` [m/s] (with ``vy_pose`` where the drive has a pose
+    velocity); axle lateral forces ``Fyf, Fyr`` [N]; slip angles
     [deg]; friction ``mu_front, mu_rear`` [-] in absolute units with their 95 %
     bands, the excited samples marked, and ``mu_true`` when the drive has it.
     """

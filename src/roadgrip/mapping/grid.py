@@ -1,86 +1,22 @@
-r"""Friction grid: fuse position-stamped friction observations into 2-D cells.
+"""The friction grid: cells of precision-weighted sums, fusion, merging, posterior and files.
 
-Each observation is a friction value ``mu_i`` with variance ``v_i`` at a
-position ``(x_i, y_i)``. A cell accumulates, with weights ``w_i = 1 / v_i``
-(times an optional forgetting factor),
-
-``S0 = sum w``,  ``S1 = sum w mu``,  ``S2 = sum w mu²``,  ``SB = sum w b``,  ``n = sum 1``
-
-(``b_i >= 0`` is an optional systematic error of each observation: a part of its
-error that is shared with its neighbours in time and does not average out)
-
-so fusion is a sum: grids from several drives merge by adding their sums
-(associative and commutative, no observation lost), and ``np.bincount`` over
-flat cell indices does the accumulation. The cell posterior combines a
-Gaussian prior ``N(prior_mean, prior_std²)`` with the data:
-
-``precision = 1 / prior_std² + S0 / b``,
-``mean = (prior_mean / prior_std² + S1 / b) / precision``,  ``var = 1 / precision``
-
-plus the systematic part ``(SB / b / precision)²`` added to ``var``, and
-where ``b >= 1`` is the Birge ratio ``chi² / (n - 1)`` with
-``chi² = S2 - S1² / S0`` (the scatter of the observations about their mean in
-units of their claimed variances), applied when ``overdispersion=True``: if the
-observations in a cell disagree more than their variances allow (correlated
-errors, model mismatch), the cell's uncertainty is inflated accordingly
-instead of shrinking as ``1 / sqrt(n)``. Cells without observations report the
-prior: a wide band, never a confident number.
-
-Forgetting (optional, for changing conditions): with a time constant ``tau``
-[s], an observation at time ``t`` enters with weight ``exp(-(t_ref - t) / tau)``
-relative to the grid's reference time ``t_ref`` (the latest observation);
-moving ``t_ref`` forward scales all sums by the same factor, so merging stays
-associative.
-
-Only excited observations count: :func:`observations_from_estimates` keeps the
-samples flagged ``excited`` (per axle where the estimator reports axles
-separately) and places front- and rear-axle observations at the axle positions
-(``x_front, y_front``, ``x_rear, y_rear``) where the estimates carry them.
-
-The peak friction of a surface is at least the friction a tire used on it.
-Where the estimates carry the axle forces (``Fyf, Fyr`` with ``Fyf_std,
-Fyr_std`` and the loads ``Fzf, Fzr``, as the cascade's do) and a cell size is
-given, an observation is dropped when it lies below the friction demonstrably
-used in its cell during the same drive: the largest lower confidence bound
-``(|Fy| - 2 std(Fy)) / Fz`` over the samples of either axle in that cell. Such
-an observation cannot be the peak; it is the force of a tire that was not
-saturated, read as saturated because its slip angle was overestimated (on the
-F1/10 run DS5, 63 % of the remaining excited samples were of that kind). The
-bound needs no slip angle, only the accelerations that give the forces.
-
-Cells are aligned to multiples of the cell size (cell ``(i, j)`` covers
-``[i c, (i+1) c) x [j c, (j+1) c)``), so grids of the same cell size always
-share cell boundaries.
+The model is described in :mod:`roadgrip.mapping`.
 """
+
 
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = [
-    "FrictionGrid",
-    "GridSummary",
-    "Observations",
-    "compare_grids",
-    "empty_grid",
-    "fuse",
-    "grid_from_estimates",
-    "grip_used_bound",
-    "map_cli",
-    "merge",
-    "observations_from_estimates",
-    "show_cli",
-]
-
-Z95 = 1.959963984540054
+__all__ = ["FrictionGrid", "Observations", "empty_grid", "fuse", "merge"]
 
 
 class Observations(NamedTuple):
@@ -391,7 +327,7 @@ def fuse(
             decay = np.exp(-(g.t_ref - t) / g.tau)
     x0, y0, nx, ny = _union((g.ix0, g.iy0, g.shape[1], g.shape[0]), (bx0, by0, bx1 - bx0 + 1, by1 - by0 + 1))
     s0, s1, s2, sb, cnt = _embed(g, x0, y0, nx, ny)
-    _accumulate(x, y, mu, var, b, decay, g.cell, x0, y0, s0, s1, s2, sb, cnt)
+    _accumulate(_Batch(x, y, mu, var, decay, b), g.cell, x0, y0, _Sums(s0, s1, s2, sb, cnt))
     return dataclasses.replace(g, ix0=x0, iy0=y0, s0=s0, s1=s1, s2=s2, sb=sb, n_obs=cnt, path=new_path)
 
 
@@ -413,22 +349,43 @@ def _bounds(x, y, mu, var, cell):  # pragma: no cover - compiled
     return -1, ix0, iy0, ix1, iy1
 
 
+class _Batch(NamedTuple):
+    """Observations as the compiled accumulation reads them, each shape (n,) (``decay`` may be empty)."""
+
+    x: NDArray[np.float64]
+    y: NDArray[np.float64]
+    mu: NDArray[np.float64]
+    var: NDArray[np.float64]
+    decay: NDArray[np.float64]  # forgetting factor of each observation; empty: none
+    sys: NDArray[np.float64]
+
+
+class _Sums(NamedTuple):
+    """The per-cell sums of a grid window, shape (ny, nx) each (:class:`FrictionGrid`)."""
+
+    s0: NDArray[np.float64]
+    s1: NDArray[np.float64]
+    s2: NDArray[np.float64]
+    sb: NDArray[np.float64]
+    n_obs: NDArray[np.int64]
+
+
 @njit(cache=True)
-def _accumulate(x, y, mu, var, b, decay, cell, x0, y0, s0, s1, s2, sb, cnt):  # pragma: no cover - compiled
-    """Add precision, precision * mu, precision * mu² and counts into the cell arrays."""
-    use_decay = decay.shape[0] > 0
-    for i in range(x.shape[0]):
-        ix = np.int64(np.floor(x[i] / cell)) - x0
-        iy = np.int64(np.floor(y[i] / cell)) - y0
-        w = 1.0 / var[i]
+def _accumulate(obs, cell, x0, y0, sums):  # pragma: no cover - compiled
+    """Add precision, precision * mu, precision * mu², precision * sys and counts into ``sums``."""
+    use_decay = obs.decay.shape[0] > 0
+    for i in range(obs.x.shape[0]):
+        ix = np.int64(np.floor(obs.x[i] / cell)) - x0
+        iy = np.int64(np.floor(obs.y[i] / cell)) - y0
+        w = 1.0 / obs.var[i]
         if use_decay:
-            w *= decay[i]
-        wm = w * mu[i]
-        s0[iy, ix] += w
-        s1[iy, ix] += wm
-        s2[iy, ix] += wm * mu[i]
-        sb[iy, ix] += w * b[i]
-        cnt[iy, ix] += 1
+            w *= obs.decay[i]
+        wm = w * obs.mu[i]
+        sums.s0[iy, ix] += w
+        sums.s1[iy, ix] += wm
+        sums.s2[iy, ix] += wm * obs.mu[i]
+        sums.sb[iy, ix] += w * obs.sys[i]
+        sums.n_obs[iy, ix] += 1
 
 
 def merge(*grids: FrictionGrid) -> FrictionGrid:
@@ -465,231 +422,3 @@ def merge(*grids: FrictionGrid) -> FrictionGrid:
         path = p if path.size == 0 else np.vstack([path, [[np.nan, np.nan]], p])
     return dataclasses.replace(first, ix0=x0, iy0=y0, s0=acc[0], s1=acc[1], s2=acc[2],
                                sb=acc[3], n_obs=acc[4], t_ref=t_ref, path=path)
-
-
-# -- from estimates --------------------------------------------------------------------
-
-
-def grip_used_bound(table: pd.DataFrame, cell: float) -> tuple[NDArray[np.int64], NDArray[np.int64],
-                                                                NDArray[np.float64]] | None:
-    """Per cell, the largest friction demonstrably used: ``max (|Fy| - 2 std(Fy)) / Fz`` over both axles.
-
-    Parameters
-    ----------
-    table : DataFrame
-        Estimates with ``Fy<f|r>``, ``Fy<f|r>_std``, ``Fz<f|r>`` and positions
-        (``x_<axle>, y_<axle>`` or ``x, y``).
-    cell : float
-        Cell size [m].
-
-    Returns
-    -------
-    (ix, iy, bound) or None
-        Global cell indices and the bound [-] of every cell with a usable
-        sample; ``None`` when the table has no axle forces.
-    """
-    parts = []
-    for axle, f, fz in (("front", "Fyf", "Fzf"), ("rear", "Fyr", "Fzr")):
-        if not {f, f"{f}_std", fz} <= set(table.columns):
-            continue
-        xc, yc = (f"x_{axle}", f"y_{axle}") if f"x_{axle}" in table.columns else ("x", "y")
-        load = table[fz].to_numpy(float)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            used = (np.abs(table[f].to_numpy(float)) - 2.0 * table[f"{f}_std"].to_numpy(float)) / load
-        x, y = table[xc].to_numpy(float), table[yc].to_numpy(float)
-        ok = np.isfinite(used) & (load > 0) & np.isfinite(x) & np.isfinite(y)
-        parts.append((np.floor(x[ok] / cell).astype(np.int64), np.floor(y[ok] / cell).astype(np.int64), used[ok]))
-    if not parts:
-        return None
-    ix, iy, used = (np.concatenate([p[i] for p in parts]) for i in range(3))
-    frame = pd.DataFrame({"ix": ix, "iy": iy, "used": used}).groupby(["ix", "iy"], sort=False)["used"].max()
-    return (frame.index.get_level_values(0).to_numpy(np.int64), frame.index.get_level_values(1).to_numpy(np.int64),
-            frame.to_numpy(float))
-
-
-def _above_grip_used(obs: Observations, table: pd.DataFrame, cell: float) -> NDArray[np.bool_]:
-    """Observations not below the friction used in their cell (module docstring)."""
-    bound = grip_used_bound(table, cell)
-    keep = np.ones(len(obs.mu), bool)
-    if bound is None or len(obs.mu) == 0:
-        return keep
-    lut = pd.Series(bound[2], index=pd.MultiIndex.from_arrays([bound[0], bound[1]]))
-    key = pd.MultiIndex.from_arrays([np.floor(obs.x / cell).astype(np.int64), np.floor(obs.y / cell).astype(np.int64)])
-    lb = lut.reindex(key).to_numpy(float)
-    return ~(np.isfinite(lb) & (obs.mu < lb))
-
-
-def observations_from_estimates(table: pd.DataFrame, cell: float | None = None) -> Observations:
-    """Excited friction observations of an estimates table, at the axle positions.
-
-    Uses, per axle, the single-sample observation ``mu_<axle>_obs`` with
-    ``mu_<axle>_obs_std``, ``mu_<axle>_obs_sys`` and ``excited_<axle>`` where the
-    estimator provides them (the cascade does; the map then collects likelihoods, not filter states
-    that remember earlier cells), else the posterior ``mu_<axle>`` with the
-    standard deviation implied by its 95 % band and the shared ``excited`` flag.
-    Positions are ``x_<axle>, y_<axle>`` when present, else ``x, y``.
-    With a cell size [m], observations below the friction used in their cell
-    (:func:`grip_used_bound`; module docstring) are dropped.
-
-    Raises
-    ------
-    ValueError
-        When the table has no position columns ``x, y``.
-    """
-    if not {"x", "y"} <= set(table.columns):
-        raise ValueError("estimates have no position (columns x, y): the drive had no pose to map with")
-    parts = []
-    t_all = table["t"].to_numpy(float) if "t" in table.columns else np.zeros(len(table))
-    for axle in ("front", "rear"):
-        if f"mu_{axle}_obs" in table.columns:
-            mu = table[f"mu_{axle}_obs"].to_numpy(float)
-            sd = table[f"mu_{axle}_obs_std"].to_numpy(float)
-            exc = table[f"excited_{axle}"].to_numpy(bool)
-            sysc = f"mu_{axle}_obs_sys"
-            b = table[sysc].to_numpy(float) if sysc in table.columns else np.zeros(len(table))
-        elif f"mu_{axle}" in table.columns:
-            mu = table[f"mu_{axle}"].to_numpy(float)
-            sd = (table[f"mu_{axle}_upper"].to_numpy(float) - table[f"mu_{axle}_lower"].to_numpy(float)) / (2 * Z95)
-            exc = table["excited"].to_numpy(bool) if "excited" in table.columns else np.ones(len(table), bool)
-            b = np.zeros(len(table))
-        else:
-            continue
-        xc, yc = (f"x_{axle}", f"y_{axle}") if f"x_{axle}" in table.columns else ("x", "y")
-        x, y = table[xc].to_numpy(float), table[yc].to_numpy(float)
-        b = np.where(np.isfinite(b), np.abs(b), 0.0)
-        ok = exc & np.isfinite(mu) & np.isfinite(sd) & (sd > 0) & np.isfinite(x) & np.isfinite(y)
-        parts.append((x[ok], y[ok], mu[ok], sd[ok] ** 2, t_all[ok], b[ok]))
-    if not parts:
-        raise ValueError("estimates have no friction columns (mu_front / mu_rear)")
-    obs = Observations(*(np.concatenate([p[i] for p in parts]) for i in range(6)))
-    if cell is not None:
-        keep = _above_grip_used(obs, table, float(cell))
-        obs = Observations(*(a[keep] for a in obs))
-    return obs
-
-
-def grid_from_estimates(table: pd.DataFrame, cell: float = 0.5, **grid_options: Any) -> FrictionGrid:
-    """Grid of one estimates table (see :func:`observations_from_estimates`, with the grip-used check).
-
-    ``grid_options`` go to :func:`empty_grid` (prior, forgetting, overdispersion).
-    """
-    obs = observations_from_estimates(table, cell)
-    xy = table[["x", "y"]].to_numpy(float)
-    step = max(1, len(xy) // 5000)
-    g = empty_grid(cell, **grid_options)
-    return fuse(g, obs.x, obs.y, obs.mu, obs.var, t=obs.t, path=xy[::step], sys=obs.sys)
-
-
-class GridSummary(NamedTuple):
-    """Agreement of several grids on their common cells.
-
-    Attributes
-    ----------
-    cells : DataFrame
-        One row per common cell: ``x, y`` and ``mu_<i>`` per grid.
-    spread_std : float
-        Mean over common cells of the standard deviation across grids [-].
-    max_abs_diff : float
-        Largest difference between two grids in any common cell [-].
-    """
-
-    cells: pd.DataFrame
-    spread_std: float
-    max_abs_diff: float
-
-
-def compare_grids(grids: list[FrictionGrid], min_obs: int = 10) -> GridSummary:
-    """Compare grids on the cells where every grid has at least ``min_obs`` observations."""
-    if len(grids) < 2:
-        raise ValueError("compare needs at least two grids")
-    frames = []
-    for i, g in enumerate(grids):
-        f = g.cells_frame(min_obs)[["x", "y", "mu_mean"]].rename(columns={"mu_mean": f"mu_{i}"})
-        frames.append(f.round({"x": 9, "y": 9}))
-    common = frames[0]
-    for f in frames[1:]:
-        common = common.merge(f, on=["x", "y"], how="inner")
-    if common.empty:
-        return GridSummary(common, float("nan"), float("nan"))
-    vals = common[[f"mu_{i}" for i in range(len(grids))]].to_numpy()
-    return GridSummary(common, float(vals.std(axis=1, ddof=1).mean()),
-                       float((vals.max(axis=1) - vals.min(axis=1)).max()))
-
-
-# -- command line ----------------------------------------------------------------------
-
-
-def _estimates_table(path: str, vehicle: str | None, fmt: str | None, console: Any) -> tuple[pd.DataFrame, str]:
-    from roadgrip.estimators.base import EstimateResult
-
-    p = Path(path)
-    if p.is_file() and p.suffix.lower() in (".parquet", ".pq"):
-        import pyarrow.parquet as pq
-
-        md = pq.read_schema(str(p)).metadata or {}
-        if b"roadgrip_estimate" in md:
-            res = EstimateResult.read_parquet(p)
-            return res.table, f"estimates ({res.method})"
-    from roadgrip.estimators import EstimateRequest
-    from roadgrip.estimators.cascade import run_cli
-    from roadgrip.io import read_drive
-
-    drive = read_drive(path, format=fmt, vehicle=vehicle)
-    res = run_cli(drive, EstimateRequest(progress=False))
-    return res.table, "drive (cascade run)"
-
-
-def map_cli(
-    inputs: list[str],
-    output: str | Path,
-    *,
-    cell: float = 0.5,
-    csv: str | Path | None = None,
-    png: str | Path | None = None,
-    vehicle: str | None = None,
-    fmt: str | None = None,
-    console: Any = None,
-) -> FrictionGrid:
-    """``roadgrip map``: grids of estimates files or drives (cascade), merged, written.
-
-    Each input is an estimates Parquet file (any method, with ``x, y``) or a
-    drive (canonical file or data set), on which the cascade is run.
-    """
-    if not inputs:
-        raise ValueError("roadgrip map needs at least one estimates file or drive")
-    if not (np.isfinite(cell) and cell > 0):
-        raise ValueError(f"--cell must be a positive size in m, got {cell}")
-    grids = []
-    for path in inputs:
-        table, kind = _estimates_table(path, vehicle, fmt, console)
-        g = grid_from_estimates(table, cell)
-        grids.append(g)
-        if console is not None:
-            console.print(f"{path}: {kind}, {int(g.n_obs.sum())} excited observations in "
-                          f"{int((g.n_obs > 0).sum())} cells")
-    grid = merge(*grids)
-    grid.to_npz(output)
-    if csv:
-        grid.to_csv(csv)
-    if png:
-        from roadgrip.plots.maps import plot_grid
-
-        plot_grid(grid, png)
-    if console is not None:
-        visited = grid.n_obs > 0
-        mean, std = grid.posterior()
-        if visited.any():
-            console.print(f"map: {int(visited.sum())} cells of {grid.cell} m, mu {mean[visited].min():.2f}"
-                          f"..{mean[visited].max():.2f}, median std {np.median(std[visited]):.3f}")
-        console.print(f"wrote {output}" + (f", {csv}" if csv else "") + (f", {png}" if png else ""))
-    return grid
-
-
-def show_cli(map_path: str | Path, output: str | Path, *, console: Any = None) -> None:
-    """``roadgrip map show MAP.npz -o MAP.png``."""
-    from roadgrip.plots.maps import plot_grid
-
-    grid = FrictionGrid.from_npz(map_path)
-    plot_grid(grid, output)
-    if console is not None:
-        console.print(f"wrote {output}")

@@ -1,0 +1,286 @@
+"""The Kalman cascade as an estimator of the protocol: prepare, init, step, run.
+
+``step`` and ``run`` share the compiled kernel (:mod:`~roadgrip.estimators.cascade.kernel`):
+``step`` runs it on one sample from copies of the state's arrays, ``run`` on
+the whole drive, so the two give the same rows to the last bit.
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from roadgrip.constants import GRAVITY
+from roadgrip.drive import Drive
+from roadgrip.estimators.base import EstimateResult, ProgressCallback, conform, timed
+from roadgrip.estimators.cascade.config import CascadeConfig, prior_band
+from roadgrip.estimators.cascade.inputs import (
+    NOISE_FLOORS,
+    CascadeSample,
+    CascadeSamples,
+    drive_inputs,
+    drive_pose,
+    has_standstill,
+    resolve_noise,
+)
+from roadgrip.estimators.cascade.kernel import Aux, Filter, Inputs, Params, Weights, run_kernel
+from roadgrip.estimators.cascade.model import ForceState, FrictionState
+from roadgrip.estimators.cascade.result import diagnostics, output_columns, summary
+from roadgrip.estimators.protocol import DriveInfo, Estimator, Prepared
+from roadgrip.inference.kalman import merwe_weights
+from roadgrip.vehicle.params import VehicleParams
+
+__all__ = ["ESTIMATOR", "CascadeState", "init", "prepare", "run", "run_filter", "step"]
+
+CONSISTENCY_TIME = 5.0
+"""Time constant [s] of the running mean square of the slip-angle consistency residuals."""
+
+_CHUNK = 20_000
+"""Samples per kernel call when ``run`` reports progress."""
+
+
+class CascadeState(NamedTuple):
+    """Posterior of the three stages after a sample, and the constants of the filter.
+
+    Attributes
+    ----------
+    t : float
+        Time of the last sample [s] (NaN before the first).
+    velocity_mean, velocity_cov : ndarray, (4,), (4, 4)
+        Stage 1 (:class:`~roadgrip.estimators.cascade.model.VelocityState`).
+    force_mean, force_cov : ndarray, (6,), (6, 6)
+        Stage 2 (:class:`~roadgrip.estimators.cascade.model.ForceState`).
+    friction_mean, friction_cov : ndarray, (2,), (2, 2)
+        Stage 3 (:class:`~roadgrip.estimators.cascade.model.FrictionState`).
+    aux : ndarray, (6,)
+        Previous inputs, slip-angle consistency residuals and the low-passed
+        steering angle (:class:`~roadgrip.estimators.cascade.kernel.Aux`).
+    params : Params
+        Constants of the compiled step.
+    weights : Weights
+        Unscented weights of stages 2 and 3.
+    """
+
+    t: float
+    velocity_mean: NDArray[np.float64]
+    velocity_cov: NDArray[np.float64]
+    force_mean: NDArray[np.float64]
+    force_cov: NDArray[np.float64]
+    friction_mean: NDArray[np.float64]
+    friction_cov: NDArray[np.float64]
+    aux: NDArray[np.float64]
+    params: Params
+    weights: Weights
+
+    def filter_copy(self) -> Filter:
+        """The arrays as a fresh :class:`Filter` for the kernel (the state itself is never written)."""
+        return Filter(*(np.array(a, dtype=float, copy=True) for a in self[1:8]))
+
+
+def make_params(vehicle: VehicleParams, config: CascadeConfig, derived: dict[str, Any]) -> Params:
+    """Constants of the compiled step from the vehicle, the configuration and the drive's derived values."""
+    noise = derived["noise"]
+    f = float
+    return Params(
+        mass=f(vehicle.mass),
+        iz=f(vehicle.yaw_inertia),
+        lf=f(vehicle.lf),
+        lr=f(vehicle.lr),
+        h=f(vehicle.cg_height),
+        kf=f(vehicle.cornering_stiffness_front / vehicle.fz_front),
+        kr=f(vehicle.cornering_stiffness_rear / vehicle.fz_rear),
+        var_acc=f(noise["accel_std"] ** 2),
+        var_gyro=f(noise["gyro_std"] ** 2),
+        var_speed=f(noise["speed_std"] ** 2),
+        var_steer=f(config.steer_std**2),
+        var_acc_model=f(config.accel_model_std**2),
+        q_force=f((vehicle.mass * config.jerk_std) ** 2),
+        # yaw acceleration error: the accelerometer model error across the wheelbase
+        q_yaw=f((config.accel_model_std / vehicle.wheelbase) ** 2),
+        q_mu=f(config.mu_rate_std**2),
+        mu_var0=f(config.mu_prior_std**2),
+        mu_min=f(config.mu_bounds[0]),
+        mu_max=f(config.mu_bounds[1]),
+        model_err=f(config.model_error),
+        exc_prec=f(1.0 / config.excitation_std**2),
+        v_min=f(config.v_min),
+        v_eps=f(config.v_eps),
+        front_share=f(derived["front_share"]),
+        slip_bias=f(config.slip_bias_std),
+        max_bias=f(config.max_slip_bias_effect),
+        cr=f(vehicle.cornering_stiffness_rear),
+        ay_straight=f(config.ay_straight),
+        q_bias=f(config.accel_bias_rate_std**2 if derived["accel_bias_std"] else 0.0),
+        steer_bias=f(config.steer_bias_std),
+        vy_bias=f(config.vy_bias_std),
+        consist_tau=CONSISTENCY_TIME,
+        var_pose=f(config.pose_velocity_std**2 * config.pose_velocity_corr_time),
+        slip_z=f(config.slip_noise_z),
+        steer_tau=f(derived["steer_response_time"] or 0.0),
+    )
+
+
+def make_weights(config: CascadeConfig) -> Weights:
+    """Unscented weights of stage 2 (6 states) and stage 3 (2 states)."""
+    w6 = merwe_weights(ForceState.SIZE, config.alpha, config.beta, config.kappa)
+    w2 = merwe_weights(FrictionState.SIZE, config.alpha, config.beta, config.kappa)
+    return Weights(w6.wm, w6.wc, float(w6.gamma), w2.wm, w2.wc, float(w2.gamma))
+
+
+def prepare(drive: Drive, config: CascadeConfig) -> Prepared:
+    """Inputs of the cascade and the values it derives from the whole drive.
+
+    ``info.derived`` holds ``noise`` (resolved standard deviations,
+    :func:`~roadgrip.estimators.cascade.inputs.resolve_noise`), ``speed_source``,
+    ``front_share``, ``vx0`` (first measured speed [m/s]), ``accel_bias_std``
+    (the configured value, else 0.3 m/s² when the drive stands still for 1 s,
+    which makes the biases observable, else 0) and ``steer_response_time``
+    (the configured value, else 0.1 s when ``meta.extra['steer_is_command']``,
+    else 0).
+
+    Raises
+    ------
+    DriveValidationError
+        Missing or non-finite inputs (:func:`~roadgrip.estimators.cascade.inputs.drive_inputs`).
+    """
+    inputs, src, share = drive_inputs(drive, config)
+    bias = config.accel_bias_std
+    if bias is None:
+        bias = 0.3 if has_standstill(inputs) else 0.0
+    tau = config.steer_response_time
+    if tau is None:
+        tau = 0.1 if bool(drive.meta.extra.get("steer_is_command", False)) else 0.0
+    info = DriveInfo.from_drive(
+        drive,
+        noise=resolve_noise(config, drive, inputs.speed, src),
+        speed_source=src,
+        front_share=float(share),
+        vx0=float(inputs.speed[0]),
+        accel_bias_std=float(bias),
+        steer_response_time=float(tau),
+    )
+    return Prepared(info, CascadeSamples(inputs, drive_pose(drive)))
+
+
+def init(info: DriveInfo, config: CascadeConfig, seed: int = 0) -> CascadeState:
+    """Initial state: the first measured speed, zero lateral velocity and forces, the friction prior.
+
+    The initial covariances come from the noise model: speed-sensor variance for
+    ``vx``, gyro variance for the yaw rate, ``(0.2 m/s)²`` for ``vy``,
+    ``accel_bias_std²`` for the biases and ``(m g)²`` for each force (a force
+    of the order of the weight is possible). The cascade is deterministic:
+    ``seed`` is not used.
+    """
+    d = info.derived
+    n = d.get("noise") or {k: getattr(config, k) or NOISE_FLOORS[k] for k in NOISE_FLOORS}
+    vx0 = float(d.get("vx0", 0.0))
+    vehicle = info.vehicle
+    vmin = max(n["speed_std"], 0.05)
+    xe = np.array([vx0, 0.0, 0.0, 0.0])
+    b0 = d["accel_bias_std"]
+    Pe = np.diag([vmin**2, 0.2**2, b0**2, b0**2])
+    xu = np.array([vx0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    fw = (vehicle.mass * GRAVITY) ** 2
+    Pu = np.diag([vmin**2, max(n["gyro_std"], 0.01) ** 2, 0.2**2, fw, fw, fw])
+    xm = np.full(FrictionState.SIZE, config.mu_prior)
+    Pm = np.eye(FrictionState.SIZE) * config.mu_prior_std**2
+    aux = np.zeros(Aux.SIZE)
+    aux[Aux.STEER_LP] = np.nan
+    return CascadeState(float("nan"), xe, Pe, xu, Pu, xm, Pm, aux,
+                        make_params(vehicle, config, dict(d)), make_weights(config))
+
+
+def _check_sample(sample: CascadeSample) -> None:
+    for name, v in zip(CascadeSample._fields, sample, strict=True):
+        if name in ("vx_pose", "vy_pose", "x", "y", "psi"):
+            if np.isinf(v):
+                raise ValueError(f"cascade sample field {name!r} is infinite (NaN marks a missing value)")
+            continue
+        if not np.isfinite(v):
+            raise ValueError(f"cascade sample field {name!r} is not finite: {v!r}")
+
+
+def _row(out: NDArray[np.float64], sample: CascadeSample, params: Params) -> dict[str, Any]:
+    pose = None
+    if np.isfinite(sample.x) and np.isfinite(sample.y):
+        pose = tuple(np.array([v]) for v in (sample.x, sample.y, sample.psi) if np.isfinite(v))
+    cols = output_columns(out, np.array([sample.t]), pose, params.lf, params.lr)
+    return {k: v[0].item() for k, v in cols.items()}
+
+
+def step(state: CascadeState, sample: CascadeSample) -> tuple[CascadeState, dict[str, Any]]:
+    """Pure single step: the new state and the output row of ``sample`` (time after ``state.t``)."""
+    _check_sample(sample)
+    if state.t == state.t and sample.t <= state.t:
+        raise ValueError(f"sample time {sample.t} does not follow the state time {state.t}")
+    f = state.filter_copy()
+    u = Inputs(*(np.array([v]) for v in sample[:8]))
+    out = run_kernel(f, u, state.t, state.params, state.weights)
+    return CascadeState(float(sample.t), *f, state.params, state.weights), _row(out, sample, state.params)
+
+
+def run_filter(state: CascadeState, samples: CascadeSamples,
+               progress: ProgressCallback | None = None) -> tuple[NDArray[np.float64], CascadeState]:
+    """Run the compiled cascade over ``samples`` from ``state``.
+
+    Returns
+    -------
+    out : ndarray, shape (n, Out.SIZE)
+        Kernel rows (:class:`~roadgrip.estimators.cascade.kernel.Out`).
+    state : CascadeState
+        The state after the last sample.
+    """
+    f = state.filter_copy()
+    u = samples.inputs
+    n = len(samples)
+    if progress is None:
+        out = run_kernel(f, u, state.t, state.params, state.weights)
+    else:
+        parts, t_prev = [], state.t
+        for k0 in range(0, n, _CHUNK):
+            chunk = Inputs(*(a[k0:k0 + _CHUNK] for a in u))
+            parts.append(run_kernel(f, chunk, t_prev, state.params, state.weights))
+            t_prev = float(chunk.t[-1])
+            progress(len(chunk.t))
+        out = np.concatenate(parts)
+    t_last = float(u.t[-1]) if n else state.t
+    return out, CascadeState(t_last, *f, state.params, state.weights)
+
+
+def run(drive: Drive, config: CascadeConfig | None = None, seed: int = 0,
+        progress: ProgressCallback | None = None) -> EstimateResult:
+    """The cascade over a whole drive: one row per sample, summary, diagnostics, timing.
+
+    ``meta['derived']`` holds the values :func:`prepare` derived from the drive.
+    """
+    config = config if config is not None else CascadeConfig()
+    meta: dict[str, Any] = {}
+    with timed(meta, drive.n, drive.duration):
+        prepared = prepare(drive, config)
+        state = init(prepared.info, config, seed)
+        samples: CascadeSamples = prepared.samples  # type: ignore[assignment]
+        out, _ = run_filter(state, samples, progress)
+    derived = dict(prepared.info.derived)
+    table = pd.DataFrame(output_columns(out, samples.inputs.t, samples.pose, state.params.lf, state.params.lr))
+    meta["summary"] = summary(table.iloc[-1])
+    meta["diagnostics"] = diagnostics(table, out, derived)
+    meta["config"] = config.to_meta()
+    meta["derived"] = derived
+    meta["seed"] = int(seed)
+    return EstimateResult("cascade", conform(table), meta)
+
+
+ESTIMATOR = Estimator(
+    name="cascade",
+    paper="003",
+    summary="Three-stage Kalman cascade EKF -> UKF -> UKF: velocities, axle forces, axle friction.",
+    Config=CascadeConfig,
+    prepare=prepare,
+    init=init,
+    step=step,
+    run=run,
+    prior_band=prior_band,
+)

@@ -1,0 +1,579 @@
+"""The compiled cascade: one sample through the three stages, and the loop over a drive.
+
+The filter state is a :class:`Filter` of arrays updated in place by the
+compiled functions (the Python layer copies them first, so its states stay
+immutable); the constants are a :class:`Params` and the unscented weights a
+:class:`Weights`. One output row per sample has the layout :class:`Out`. The
+equations are in :mod:`roadgrip.estimators.cascade`.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from roadgrip.constants import GRAVITY
+from roadgrip.estimators.cascade.model import ForceMeasurement as Zf
+from roadgrip.estimators.cascade.model import ForceState as Fs
+from roadgrip.estimators.cascade.model import FrictionState as Ms
+from roadgrip.estimators.cascade.model import VelocityState as Vs
+from roadgrip.estimators.cascade.model import (
+    brush_slope,
+    force_measurement,
+    force_transition,
+    friction_measurement,
+    rotate_integrate,
+    slip_bias_effect,
+    slip_sensitivity,
+)
+from roadgrip.inference.kalman import (
+    cholesky_lower,
+    joseph_update,
+    psd_sqrt,
+    sigma_points,
+    ukf_correct,
+    unscented_transform,
+)
+
+__all__ = ["Aux", "Filter", "Inputs", "Out", "Params", "Weights", "run_kernel"]
+
+
+class Aux(IntEnum):
+    """Layout of the auxiliary filter memory (``Filter.aux``)."""
+
+    AX_PREV = 0  # ax of the previous sample [m/s²] (trapezoid rule of stage 1)
+    AY_PREV = 1  # ay of the previous sample [m/s²]
+    YAW_RATE_PREV = 2  # yaw rate of the previous sample [rad/s]
+    CONSIST_R = 3  # running mean square of the rear slip-angle consistency residual [rad²]
+    CONSIST_F = 4  # the same, front [rad²]
+    STEER_LP = 5  # low-passed steering angle [rad] (NaN before the first sample)
+    SIZE = 6
+
+
+class Out(IntEnum):
+    """Layout of one output row of the compiled step."""
+
+    VX = 0
+    YAW_RATE = 1
+    VY = 2
+    FXF = 3
+    FYF = 4
+    FYR = 5
+    ALPHA_F = 6
+    ALPHA_R = 7
+    FZF = 8
+    FZR = 9
+    MU_F = 10
+    MU_R = 11
+    VAR_F = 12
+    VAR_R = 13
+    EXC_F = 14
+    EXC_R = 15
+    OBS_F = 16
+    OBS_R = 17
+    OBS_VAR_F = 18
+    OBS_VAR_R = 19
+    NIS2 = 20
+    REPAIRS = 21
+    VX_EKF = 22
+    VY_EKF = 23
+    PD_OK = 24
+    FYF_VAR = 25
+    FYR_VAR = 26
+    ALPHA_F_VAR = 27
+    ALPHA_R_VAR = 28
+    R3_F = 29
+    R3_R = 30
+    SYS_F = 31
+    SYS_R = 32
+    SIZE = 33
+
+
+# sizes as plain integers for the compiled code (numba's array constructors take no IntEnum)
+_NV = int(Vs.SIZE)
+_NVEL = int(Vs.BIAS_AX)  # the velocity block vx, vy of stage 1
+_NF = int(Fs.SIZE)
+_NKIN = int(Fs.FXF)  # the kinematic block vx, r, vy of stage 2
+_NZ = int(Zf.SIZE)
+_NM = int(Ms.SIZE)
+_NOUT = int(Out.SIZE)
+
+
+class Params(NamedTuple):
+    """Constants of the compiled step (SI units; variances of white noise per sample unless noted)."""
+
+    mass: float  # [kg]
+    iz: float  # yaw inertia [kg m²]
+    lf: float  # CG to front axle [m]
+    lr: float  # CG to rear axle [m]
+    h: float  # CG height [m]
+    kf: float  # normalised cornering stiffness C_f / Fz_f,static [1/rad]
+    kr: float  # the same, rear
+    var_acc: float  # accelerometer noise variance [m²/s⁴]
+    var_gyro: float  # gyro noise variance [rad²/s²]
+    var_speed: float  # speed-measurement noise variance [m²/s²]
+    var_steer: float  # steering-angle noise variance [rad²]
+    var_acc_model: float  # accelerometer model-error variance [m²/s⁴]
+    q_force: float  # force-rate variance (m j)² [N²/s²]
+    q_yaw: float  # yaw-acceleration variance [rad²/s⁴]
+    q_mu: float  # friction random-walk variance per second [1/s]
+    mu_var0: float  # prior friction variance, the cap of its growth [-]
+    mu_min: float  # physical friction range [-]
+    mu_max: float
+    model_err: float  # brush-model error as a fraction of the normal load [-]
+    exc_prec: float  # excitation threshold, precision per second [1/s]
+    v_min: float  # no friction update below this speed [m/s]
+    v_eps: float  # slip-angle speed regularisation [m/s]
+    front_share: float  # share of steered wheels in the speed measurement [-]
+    slip_bias: float  # slip-angle bias [rad]
+    max_bias: float  # largest friction shift a slip-angle error may cause [-]
+    cr: float  # rear cornering stiffness [N/rad]
+    ay_straight: float  # straight-driving lateral acceleration threshold [m/s²]
+    q_bias: float  # accelerometer-bias random-walk variance per second [m²/s⁵]
+    steer_bias: float  # steering-angle bias [rad]
+    vy_bias: float  # lateral-velocity bias [m/s]
+    consist_tau: float  # time constant of the slip-angle consistency mean square [s]
+    var_pose: float  # pose-velocity variance [m²/s²] times its correlation time [s]
+    slip_z: float  # slip-angle noise test, in standard deviations [-]
+    steer_tau: float  # steering-actuator time constant [s] (0: measured angle)
+
+
+class Weights(NamedTuple):
+    """Unscented weights and scales of stage 2 (6 states) and stage 3 (2 states)."""
+
+    wm6: NDArray[np.float64]
+    wc6: NDArray[np.float64]
+    gamma6: float
+    wm2: NDArray[np.float64]
+    wc2: NDArray[np.float64]
+    gamma2: float
+
+
+class Filter(NamedTuple):
+    """Means and covariances of the three stages and the auxiliary memory (arrays updated in place)."""
+
+    xe: NDArray[np.float64]  # (4,) stage 1, VelocityState
+    Pe: NDArray[np.float64]  # (4, 4)
+    xu: NDArray[np.float64]  # (6,) stage 2, ForceState
+    Pu: NDArray[np.float64]  # (6, 6)
+    xm: NDArray[np.float64]  # (2,) stage 3, FrictionState
+    Pm: NDArray[np.float64]  # (2, 2)
+    aux: NDArray[np.float64]  # (6,) Aux
+
+
+class Inputs(NamedTuple):
+    """Per-sample inputs, each shape (n,) (SI; NaN pose velocity: none at that sample)."""
+
+    t: NDArray[np.float64]
+    ax: NDArray[np.float64]
+    ay: NDArray[np.float64]
+    yaw_rate: NDArray[np.float64]
+    steer: NDArray[np.float64]
+    speed: NDArray[np.float64]
+    vx_pose: NDArray[np.float64]
+    vy_pose: NDArray[np.float64]
+
+
+@njit(cache=True)
+def _velocity_stage(f, u, k, dt, p):  # pragma: no cover - compiled
+    """Stage 1, EKF (eq. 3-5): predict, speed, pose velocity, standstill and straight-driving updates."""
+    xe = f.xe
+    Pe = f.Pe
+    aux = f.aux
+    ax = u.ax[k]
+    ay = u.ay[k]
+    r = u.yaw_rate[k]
+    steer = u.steer[k]
+    vmeas = u.speed[k]
+    vxp = u.vx_pose[k]
+    vyp = u.vy_pose[k]
+    m = p.mass
+    var_acc = p.var_acc + p.var_acc_model
+    if dt > 0.0:
+        vx = xe[Vs.VX]
+        vy = xe[Vs.VY]
+        # inputs over the step: mean of the samples at both ends (trapezoid rule)
+        ra = 0.5 * (r + aux[Aux.YAW_RATE_PREV])
+        c = np.cos(ra * dt)
+        s = np.sin(ra * dt)
+        ch = np.cos(0.5 * ra * dt)
+        sh = np.sin(0.5 * ra * dt)
+        J = np.eye(_NV)
+        J[Vs.VX, Vs.VX] = c
+        J[Vs.VX, Vs.VY] = s
+        J[Vs.VY, Vs.VX] = -s
+        J[Vs.VY, Vs.VY] = c
+        J[Vs.VX, Vs.BIAS_AX] = -dt * ch
+        J[Vs.VX, Vs.BIAS_AY] = -dt * sh
+        J[Vs.VY, Vs.BIAS_AX] = dt * sh
+        J[Vs.VY, Vs.BIAS_AY] = -dt * ch
+        axc = 0.5 * (ax + aux[Aux.AX_PREV]) - xe[Vs.BIAS_AX]
+        ayc = 0.5 * (ay + aux[Aux.AY_PREV]) - xe[Vs.BIAS_AY]
+        vxn, vyn = rotate_integrate(vx, vy, ra, axc, ayc, dt)
+        xe[Vs.VX] = vxn
+        xe[Vs.VY] = vyn
+        vg = p.var_gyro
+        Q = np.zeros((_NV, _NV))
+        Q[Vs.VX, Vs.VX] = (var_acc + vg * vyn * vyn) * dt * dt
+        Q[Vs.VX, Vs.VY] = -vg * vyn * vxn * dt * dt
+        Q[Vs.VY, Vs.VX] = Q[Vs.VX, Vs.VY]
+        Q[Vs.VY, Vs.VY] = (var_acc + vg * vxn * vxn) * dt * dt
+        Q[Vs.BIAS_AX, Vs.BIAS_AX] = p.q_bias * dt
+        Q[Vs.BIAS_AY, Vs.BIAS_AY] = p.q_bias * dt
+        Pe[:, :] = J @ Pe @ J.T + Q
+    aux[Aux.AX_PREV] = ax
+    aux[Aux.AY_PREV] = ay
+    aux[Aux.YAW_RATE_PREV] = r
+    # measured speed: mean wheel-frame speed of the wheels used (eq. 5); the front
+    # wheels, steered by d, see vx cos d + (vy + lf r) sin d, the rear wheels vx
+    fs = p.front_share
+    cd = np.cos(steer)
+    sd = np.sin(steer)
+    H = np.zeros((1, _NV))
+    H[0, Vs.VX] = 1.0 - fs + fs * cd
+    H[0, Vs.VY] = fs * sd
+    resid = np.array([vmeas - (H[0, Vs.VX] * xe[Vs.VX] + H[0, Vs.VY] * xe[Vs.VY] + fs * sd * p.lf * r)])
+    xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), resid, H, np.array([[p.var_speed]]))
+    xe[:] = xn
+    Pe[:, :] = Pn
+    # body velocity from the localisation pose: bounds the drift of the integrated vy
+    if p.var_pose > 0.0 and dt > 0.0 and vyp == vyp and vxp == vxp:
+        Hp = np.zeros((2, _NV))
+        Hp[0, Vs.VX] = 1.0
+        Hp[1, Vs.VY] = 1.0
+        vpose = p.var_pose / dt
+        xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), np.array([vxp - xe[Vs.VX], vyp - xe[Vs.VY]]), Hp,
+                                  np.diag(np.array([vpose, vpose])))
+        xe[:] = xn
+        Pe[:, :] = Pn
+    # standstill (zero-velocity update): vx = vy = 0 and the accelerometers read their biases
+    if abs(vmeas) < 0.05 and abs(r) < 0.05:
+        Hz = np.eye(_NV)
+        Rz = np.diag(np.array([1e-4, 1e-4, var_acc, var_acc]))
+        zres = np.array([-xe[Vs.VX], -xe[Vs.VY], ax - xe[Vs.BIAS_AX], ay - xe[Vs.BIAS_AY]])
+        xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), zres, Hz, Rz)
+        xe[:] = xn
+        Pe[:, :] = Pn
+    # near-straight driving: linear-tire pseudo-measurement of vy (bounds its drift)
+    ayc = ay - xe[Vs.BIAS_AY]
+    if abs(ayc) < p.ay_straight:
+        wb = p.lf + p.lr
+        a_lin = m * ayc * p.lf / (wb * p.cr)
+        vy_lin = p.lr * r - xe[Vs.VX] * a_lin
+        sdv = abs(xe[Vs.VX]) * (p.slip_bias + abs(a_lin)) + 0.01  # floor 1 cm/s at standstill
+        H2 = np.zeros((1, _NV))
+        H2[0, Vs.VY] = 1.0
+        xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), np.array([vy_lin - xe[Vs.VY]]), H2,
+                                  np.array([[sdv * sdv]]))
+        xe[:] = xn
+        Pe[:, :] = Pn
+
+
+@njit(cache=True)
+def _force_stage(f, u, k, dt, p, w):  # pragma: no cover - compiled
+    """Stage 2, UKF1 (eq. 6-10); returns the covariance repairs, the innovation and its covariance."""
+    xe = f.xe
+    Pe = f.Pe
+    xu = f.xu
+    Pu = f.Pu
+    steer = u.steer[k]
+    m = p.mass
+    var_acc = p.var_acc + p.var_acc_model
+    repairs = 0
+    if dt > 0.0:
+        L, Pu_used, rep = psd_sqrt(Pu)
+        repairs += rep
+        X = sigma_points(xu, L, w.gamma6)
+        Y = force_transition(X, steer, dt, m, p.iz, p.lf, p.lr)
+        Qu = np.zeros((_NF, _NF))
+        qv = var_acc * dt * dt
+        Qu[Fs.VX, Fs.VX] = qv
+        Qu[Fs.VY, Fs.VY] = qv
+        Qu[Fs.YAW_RATE, Fs.YAW_RATE] = p.q_yaw * dt * dt
+        qf = p.q_force * dt * dt
+        Qu[Fs.FXF, Fs.FXF] = qf
+        Qu[Fs.FYF, Fs.FYF] = qf
+        Qu[Fs.FYR, Fs.FYR] = qf
+        mean, cov = unscented_transform(Y, w.wm6, w.wc6, Qu)
+        xu[:] = mean
+        Pu[:, :] = 0.5 * (cov + cov.T)
+    L, Pu_used, rep = psd_sqrt(Pu)
+    repairs += rep
+    X = sigma_points(xu, L, w.gamma6)
+    Z = force_measurement(X, steer, m)
+    z = np.empty(_NZ)
+    z[Zf.VX] = xe[Vs.VX]
+    z[Zf.YAW_RATE] = u.yaw_rate[k]
+    z[Zf.VY] = xe[Vs.VY]
+    z[Zf.AX] = u.ax[k] - xe[Vs.BIAS_AX]
+    z[Zf.AY] = u.ay[k] - xe[Vs.BIAS_AY]
+    R = np.zeros((_NZ, _NZ))
+    R[Zf.VX, Zf.VX] = Pe[Vs.VX, Vs.VX]
+    R[Zf.VX, Zf.VY] = Pe[Vs.VX, Vs.VY]
+    R[Zf.VY, Zf.VX] = Pe[Vs.VY, Vs.VX]
+    R[Zf.VY, Zf.VY] = Pe[Vs.VY, Vs.VY]
+    R[Zf.YAW_RATE, Zf.YAW_RATE] = p.var_gyro
+    R[Zf.AX, Zf.AX] = var_acc + Pe[Vs.BIAS_AX, Vs.BIAS_AX]
+    R[Zf.AY, Zf.AY] = var_acc + Pe[Vs.BIAS_AY, Vs.BIAS_AY]
+    xn, Pn, res2, S2 = ukf_correct(xu.copy(), Pu_used, X, Z, w.wm6, w.wc6, z, R)
+    xu[:] = xn
+    Pu[:, :] = Pn
+    return repairs, res2, S2
+
+
+@njit(cache=True)
+def _slip_and_loads(f, u, k, dt, p):  # pragma: no cover - compiled
+    """Slip angles, their variances and the axle loads; updates the consistency residuals.
+
+    Returns ``(alpha_f, alpha_r, var_alpha_f, var_alpha_r, Fzf, Fzr)`` [rad, rad², N].
+    """
+    xe = f.xe
+    xu = f.xu
+    aux = f.aux
+    steer = u.steer[k]
+    m = p.mass
+    vx = xu[Fs.VX]
+    r_e = xu[Fs.YAW_RATE]
+    vy = xu[Fs.VY]
+    sgn = 1.0 if vx >= 0.0 else -1.0
+    uv = sgn * np.sqrt(vx * vx + p.v_eps * p.v_eps)
+    lf = p.lf
+    lr = p.lr
+    qf_ = (vy + lf * r_e) / uv
+    qr_ = (vy - lr * r_e) / uv
+    alpha_f = steer - np.arctan(qf_)
+    alpha_r = -np.arctan(qr_)
+    # gradients of alpha wrt (vx, r, vy), first order
+    cf = 1.0 / (1.0 + qf_ * qf_)
+    cr = 1.0 / (1.0 + qr_ * qr_)
+    gf = np.array([cf * qf_ / uv, -cf * lf / uv, -cf / uv])
+    gr = np.array([cr * qr_ / uv, cr * lr / uv, -cr / uv])
+    Pv = np.ascontiguousarray(f.Pu[:_NKIN, :_NKIN])
+    # steering actuator: a commanded angle is reached with a lag; the part of the last
+    # command changes not yet followed, |steer - low-pass(steer)|, is steering error
+    tau_s = p.steer_tau
+    if tau_s > 0.0:
+        if aux[Aux.STEER_LP] != aux[Aux.STEER_LP]:
+            aux[Aux.STEER_LP] = steer
+        aux[Aux.STEER_LP] += min(dt / tau_s, 1.0) * (steer - aux[Aux.STEER_LP])
+        steer_lag = steer - aux[Aux.STEER_LP]
+    else:
+        steer_lag = 0.0
+    var_af = gf @ Pv @ gf + p.var_steer + steer_lag * steer_lag
+    var_ar = gr @ Pv @ gr
+    ax_est = (xu[Fs.FXF] * np.cos(steer) - xu[Fs.FYF] * np.sin(steer)) / m
+    wb = lf + lr
+    dfz = m * ax_est * p.h / wb
+    fzf = max(m * GRAVITY * lr / wb - dfz, 0.0)
+    fzr = max(m * GRAVITY * lf / wb + dfz, 0.0)
+    # slip-angle consistency: rear slip against the linear tire at moderate ay
+    ayb = abs(u.ay[k] - xe[Vs.BIAS_AY])
+    if (dt > 0.0 and abs(vx) >= p.v_min and p.ay_straight <= ayb <= 2.0 * p.ay_straight
+            and fzr > 0.5 * m * GRAVITY * lf / (lf + lr)):
+        e_lin = alpha_r - xu[Fs.FYR] / (p.kr * max(fzr, 1e-9))
+        lam = min(dt / p.consist_tau, 1.0)
+        aux[Aux.CONSIST_R] += lam * (e_lin * e_lin - aux[Aux.CONSIST_R])
+        if fzf > 0.0:
+            e_lin_f = alpha_f - xu[Fs.FYF] / (p.kf * fzf)
+            aux[Aux.CONSIST_F] += lam * (e_lin_f * e_lin_f - aux[Aux.CONSIST_F])
+    return alpha_f, alpha_r, var_af, var_ar, fzf, fzr
+
+
+@njit(cache=True)
+def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
+    """Stage 3, UKF2 (eq. 11-12) with the excitation tests; fills its part of ``out``, returns repairs."""
+    xu = f.xu
+    Pu = f.Pu
+    xm = f.xm
+    Pm = f.Pm
+    aux = f.aux
+    alpha_f, alpha_r, var_af, var_ar, fzf, fzr = slip
+    vx = xu[Fs.VX]
+    repairs = 0
+    mu_min = p.mu_min
+    mu_max = p.mu_max
+    if dt > 0.0:
+        Pm[Ms.MU_F, Ms.MU_F] = min(Pm[Ms.MU_F, Ms.MU_F] + p.q_mu * dt, p.mu_var0)
+        Pm[Ms.MU_R, Ms.MU_R] = min(Pm[Ms.MU_R, Ms.MU_R] + p.q_mu * dt, p.mu_var0)
+    prior_m0 = xm[Ms.MU_F]
+    prior_m1 = xm[Ms.MU_R]
+    prior_v0 = Pm[Ms.MU_F, Ms.MU_F]
+    prior_v1 = Pm[Ms.MU_R, Ms.MU_R]
+    prior_P = Pm.copy()
+    exc_f = 0.0
+    exc_r = 0.0
+    r3f = np.inf
+    r3r = np.inf
+    bias_f = np.nan
+    bias_r = np.nan
+    obs_f = np.nan
+    obs_r = np.nan
+    obs_vf = np.inf
+    obs_vr = np.inf
+    if abs(vx) >= p.v_min and fzf > 0.0 and fzr > 0.0:
+        kf = p.kf
+        kr = p.kr
+        sf = brush_slope(alpha_f, fzf, min(max(xm[Ms.MU_F], mu_min), mu_max), kf)
+        sr = brush_slope(alpha_r, fzr, min(max(xm[Ms.MU_R], mu_min), mu_max), kr)
+        me = p.model_err
+        R3 = np.zeros((_NM, _NM))
+        R3[Ms.MU_F, Ms.MU_F] = Pu[Fs.FYF, Fs.FYF] + sf * sf * var_af + (me * fzf) ** 2
+        R3[Ms.MU_R, Ms.MU_R] = Pu[Fs.FYR, Fs.FYR] + sr * sr * var_ar + (me * fzr) ** 2
+        r3f = R3[Ms.MU_F, Ms.MU_F]
+        r3r = R3[Ms.MU_R, Ms.MU_R]
+        L, Pm_used, rep = psd_sqrt(Pm)
+        repairs += rep
+        X = sigma_points(xm, L, w.gamma2)
+        Z = friction_measurement(X, alpha_f, alpha_r, fzf, fzr, kf, kr, mu_min, mu_max)
+        z = np.empty(_NM)
+        z[Ms.MU_F] = xu[Fs.FYF]
+        z[Ms.MU_R] = xu[Fs.FYR]
+        xn, Pn, _, _ = ukf_correct(xm.copy(), Pm_used, X, Z, w.wm2, w.wc2, z, R3)
+        clipped_f = not (mu_min < xn[Ms.MU_F] < mu_max)
+        clipped_r = not (mu_min < xn[Ms.MU_R] < mu_max)
+        xm[Ms.MU_F] = min(max(xn[Ms.MU_F], mu_min), mu_max)
+        xm[Ms.MU_R] = min(max(xn[Ms.MU_R], mu_min), mu_max)
+        Pm[:, :] = Pn
+        # information gained per axle -> single-sample observation
+        lam_f = 1.0 / Pm[Ms.MU_F, Ms.MU_F] - 1.0 / prior_v0
+        lam_r = 1.0 / Pm[Ms.MU_R, Ms.MU_R] - 1.0 / prior_v1
+        # robustness to a slip-angle bias, which does not average out over samples
+        # a lateral-velocity bias of vy_bias_std is a slip-angle bias of vy_bias_std / |vx|
+        sb = max(p.slip_bias, p.vy_bias / abs(vx))
+        sbf = np.sqrt(sb * sb + p.steer_bias ** 2)
+        bias_f = sbf * slip_sensitivity(alpha_f, fzf, xm[Ms.MU_F], kf)
+        bias_r = sb * slip_sensitivity(alpha_r, fzr, xm[Ms.MU_R], kr)
+        # slip angles measurably worse than assumed: test the whole inversion at that error
+        sc = np.sqrt(aux[Aux.CONSIST_R])
+        if sc > sb:
+            bias_f = max(bias_f, slip_bias_effect(xu[Fs.FYF], alpha_f, fzf, kf, np.sqrt(sc * sc + sbf * sbf)))
+            bias_r = max(bias_r, slip_bias_effect(xu[Fs.FYR], alpha_r, fzr, kr, sc))
+        # the same inversion across the slip angle's own uncertainty (z standard deviations):
+        # a tire that may as well be in its linear range gives only a lower bound, |F| / Fz
+        zs = p.slip_z
+        gate_f = 0.0
+        gate_r = 0.0
+        if zs > 0.0:
+            gate_f = slip_bias_effect(xu[Fs.FYF], alpha_f, fzf, kf, zs * np.sqrt(var_af + aux[Aux.CONSIST_F]))
+            gate_r = slip_bias_effect(xu[Fs.FYR], alpha_r, fzr, kr, zs * np.sqrt(var_ar + aux[Aux.CONSIST_R]))
+        if (lam_f >= p.exc_prec * dt and dt > 0.0 and bias_f <= p.max_bias and not clipped_f
+                and gate_f <= p.max_bias):
+            obs_f = (xm[Ms.MU_F] / Pm[Ms.MU_F, Ms.MU_F] - prior_m0 / prior_v0) / lam_f
+            if mu_min <= obs_f <= mu_max:
+                exc_f = 1.0
+                obs_vf = 1.0 / lam_f
+            else:
+                obs_f = np.nan
+        if (lam_r >= p.exc_prec * dt and dt > 0.0 and bias_r <= p.max_bias and not clipped_r
+                and gate_r <= p.max_bias):
+            obs_r = (xm[Ms.MU_R] / Pm[Ms.MU_R, Ms.MU_R] - prior_m1 / prior_v1) / lam_r
+            if mu_min <= obs_r <= mu_max:
+                exc_r = 1.0
+                obs_vr = 1.0 / lam_r
+            else:
+                obs_r = np.nan
+        # a sample that fails the excitation test does not move that axle's estimate
+        if exc_f < 0.5:
+            xm[Ms.MU_F] = prior_m0
+            Pm[Ms.MU_F, :] = prior_P[Ms.MU_F, :]
+            Pm[:, Ms.MU_F] = prior_P[:, Ms.MU_F]
+        if exc_r < 0.5:
+            xm[Ms.MU_R] = prior_m1
+            Pm[Ms.MU_R, :] = prior_P[Ms.MU_R, :]
+            Pm[:, Ms.MU_R] = prior_P[:, Ms.MU_R]
+    out[Out.EXC_F] = exc_f
+    out[Out.EXC_R] = exc_r
+    out[Out.OBS_F] = obs_f
+    out[Out.OBS_R] = obs_r
+    out[Out.OBS_VAR_F] = obs_vf
+    out[Out.OBS_VAR_R] = obs_vr
+    out[Out.R3_F] = r3f
+    out[Out.R3_R] = r3r
+    out[Out.SYS_F] = bias_f if exc_f > 0.5 else np.nan
+    out[Out.SYS_R] = bias_r if exc_r > 0.5 else np.nan
+    return repairs
+
+
+@njit(cache=True)
+def _step(f, u, k, dt, p, w, out):  # pragma: no cover - compiled
+    """Sample ``k`` through the three stages, ``dt`` [s] after the previous one; fills ``out``."""
+    _velocity_stage(f, u, k, dt, p)
+    repairs, res2, S2 = _force_stage(f, u, k, dt, p, w)
+    slip = _slip_and_loads(f, u, k, dt, p)
+    repairs += _friction_stage(f, dt, p, w, slip, out)
+    xe = f.xe
+    xu = f.xu
+    xm = f.xm
+    Pe = f.Pe
+    Pu = f.Pu
+    Pm = f.Pm
+    alpha_f, alpha_r, var_af, var_ar, fzf, fzr = slip
+    nis = res2 @ np.linalg.solve(S2, res2)
+    out[Out.VX] = xu[Fs.VX]
+    out[Out.YAW_RATE] = xu[Fs.YAW_RATE]
+    out[Out.VY] = xu[Fs.VY]
+    out[Out.FXF] = xu[Fs.FXF]
+    out[Out.FYF] = xu[Fs.FYF]
+    out[Out.FYR] = xu[Fs.FYR]
+    out[Out.ALPHA_F] = alpha_f
+    out[Out.ALPHA_R] = alpha_r
+    out[Out.FZF] = fzf
+    out[Out.FZR] = fzr
+    out[Out.MU_F] = xm[Ms.MU_F]
+    out[Out.MU_R] = xm[Ms.MU_R]
+    out[Out.VAR_F] = Pm[Ms.MU_F, Ms.MU_F]
+    out[Out.VAR_R] = Pm[Ms.MU_R, Ms.MU_R]
+    out[Out.NIS2] = nis
+    out[Out.REPAIRS] = repairs
+    out[Out.VX_EKF] = xe[Vs.VX]
+    out[Out.VY_EKF] = xe[Vs.VY]
+    # stage 1 without bias states (zero bias variance): check its velocity block
+    if Pe[Vs.BIAS_AX, Vs.BIAS_AX] > 0.0:
+        pe_ok = cholesky_lower(Pe)[1]
+    else:
+        pe_ok = cholesky_lower(np.ascontiguousarray(Pe[:_NVEL, :_NVEL]))[1]
+    pd_ok = pe_ok and cholesky_lower(Pu)[1] and cholesky_lower(Pm)[1]
+    out[Out.PD_OK] = 1.0 if pd_ok else 0.0
+    out[Out.FYF_VAR] = Pu[Fs.FYF, Fs.FYF]
+    out[Out.FYR_VAR] = Pu[Fs.FYR, Fs.FYR]
+    out[Out.ALPHA_F_VAR] = var_af
+    out[Out.ALPHA_R_VAR] = var_ar
+
+
+@njit(cache=True)
+def _run(f, u, t_prev, p, w):  # pragma: no cover - compiled
+    """Compiled loop over the samples of ``u``; ``f`` is updated in place."""
+    n = u.t.shape[0]
+    out = np.empty((n, _NOUT))
+    tp = t_prev
+    for k in range(n):
+        dt = u.t[k] - tp if tp == tp else 0.0  # no predict before the first sample
+        _step(f, u, k, dt, p, w, out[k])
+        tp = u.t[k]
+    return out
+
+
+def run_kernel(f: Filter, u: Inputs, t_prev: float, p: Params, w: Weights) -> NDArray[np.float64]:
+    """Run the compiled cascade over the samples ``u`` from the filter ``f`` (updated in place).
+
+    Parameters
+    ----------
+    f : Filter
+        Filter state after the sample at ``t_prev``; its arrays are overwritten.
+    u : Inputs
+        Samples, times strictly after ``t_prev``.
+    t_prev : float
+        Time of the last sample the filter has seen [s]; NaN before the first.
+    p : Params
+    w : Weights
+
+    Returns
+    -------
+    ndarray, shape (n, _NOUT)
+        One output row per sample (:class:`Out`).
+    """
+    return _run(f, u, float(t_prev), p, w)
