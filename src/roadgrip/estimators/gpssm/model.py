@@ -1,7 +1,7 @@
 r"""The GP-SSM filter's lateral single-track model (paper 000, eq. 1-2, 7-8), one copy.
 
-State ``x = [vy, yaw_rate]`` ([m/s, rad/s], layout :class:`State`), input ``[steer,
-vx]``, axle friction ``mu = [mu_f, mu_r]`` (lateral force per unit static normal load,
+State ``x = [vy, yaw_rate]`` ([m/s, rad/s], layout :class:`State`), input ``u = [steer,
+vx]`` (layout :class:`Input`), axle friction ``mu = [mu_f, mu_r]`` (lateral force per unit static normal load,
 positive to the left). The forward-Euler step of eq. 7 and the accelerometer of eq. 8
 are
 
@@ -32,6 +32,7 @@ from roadgrip.constants import V_EPS
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = [
+    "Input",
     "State",
     "VehicleConstants",
     "ay_gains",
@@ -47,6 +48,14 @@ class State:
 
     VY = 0
     YAW_RATE = 1
+    SIZE = 2
+
+
+class Input:
+    """Index layout of the filter's input vector ``u = [steer, vx]`` ([rad, m/s])."""
+
+    STEER = 0
+    VX = 1
     SIZE = 2
 
 

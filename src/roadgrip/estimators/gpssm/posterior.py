@@ -27,7 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 from roadgrip.constants import Z95
 from roadgrip.estimators.gpssm import linalg as la
 from roadgrip.estimators.gpssm.config import AXLES, GPSSMConfig
-from roadgrip.estimators.gpssm.model import State, regularised_speed, slip_angles
+from roadgrip.estimators.gpssm.model import Input, State, regularised_speed, slip_angles
 from roadgrip.estimators.gpssm.state import (
     Context,
     GPSSMState,
@@ -251,8 +251,8 @@ def posterior_curves(
 
     prior = config.prior_tire.mu(held(config, alpha))
     # slip-angle spread of the particle cloud, per axle
-    af, ar = slip_angles(state.x[:, State.VY], state.x[:, State.YAW_RATE], state.u[0],
-                         regularised_speed(float(state.u[1]), ctx.veh.v_eps), ctx.veh)
+    af, ar = slip_angles(state.x[:, State.VY], state.x[:, State.YAW_RATE], state.u[Input.STEER],
+                         regularised_speed(float(state.u[Input.VX]), ctx.veh.v_eps), ctx.veh)
     sig_a = [math.sqrt(float(w @ (a_ - w @ a_) ** 2) + config.slip_sigma**2) for a_ in (af, ar)]
     gh_o = np.array([-math.sqrt(3.0), 0.0, math.sqrt(3.0)])
     gh_w = np.array([1.0, 4.0, 1.0]) / 6.0

@@ -18,6 +18,7 @@ from roadgrip.estimators.gpssm import linalg as la
 from roadgrip.estimators.gpssm.config import GPSSMConfig
 from roadgrip.estimators.gpssm.inputs import Sample
 from roadgrip.estimators.gpssm.model import (
+    Input,
     State,
     ay_gains,
     euler_step,
@@ -60,8 +61,9 @@ def step_reference(
         if not dt > 0:
             raise ValueError(f"GP-SSM samples must have increasing time: {state.t} then {sample.t}")
         # 1. propagate (eq. 7) and forget (eq. 29)
-        vy, r = euler_step(state.x[:, State.VY], state.x[:, State.YAW_RATE], math.cos(state.u[0]),
-                           state.u[1], state.mu[:, 0], state.mu[:, 1], dt, veh)
+        vy, r = euler_step(state.x[:, State.VY], state.x[:, State.YAW_RATE],
+                           math.cos(state.u[Input.STEER]), state.u[Input.VX],
+                           state.mu[:, 0], state.mu[:, 1], dt, veh)
         x = np.stack([vy, r], axis=1)
         lin = la.forget(state.lin, lam, config.refactor_every)
         Psi = state.Psi

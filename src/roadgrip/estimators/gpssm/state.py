@@ -66,8 +66,8 @@ class GPSSMState(NamedTuple):
         Steps taken.
     t : float
         Time of the last sample [s].
-    u : ndarray, shape (2,)
-        Last input ``[steer, vx]``.
+    u : ndarray, shape (Input.SIZE,)
+        Last input ``[steer, vx]`` (:class:`~roadgrip.estimators.gpssm.model.Input`).
     x : ndarray, shape (N, State.SIZE)
         Particle states ``[vy, yaw_rate]`` at ``t`` (:class:`~roadgrip.estimators.gpssm.model.State`).
     mu : ndarray, shape (N, 2)

@@ -31,6 +31,7 @@ from roadgrip.estimators.gpssm.kernel_ops import (
     peak_summary,
     slot_plan,
 )
+from roadgrip.estimators.gpssm.model import Input
 from roadgrip.estimators.gpssm.posterior import axle_rows, peak_cols, peak_grid, peak_rhs
 from roadgrip.estimators.gpssm.reference import step_reference
 from roadgrip.estimators.gpssm.state import (
@@ -164,9 +165,9 @@ def _step_compiled(
         gk.Particles(state.x, state.mu, logw, state.Psi, state.Phi),
         gk.Slots(lin.pinv.reshape(N * G, m, m), lin.panc, pdst, order, lin.pend, lin.pgain,
                  pend_new, pgain_new, lin.hist, lin.nhist),
-        gk.StepInput(propagate, float(dt), float(state.u[0]), float(state.u[1]), float(sample.steer),
-                     float(sample.vx), float(sample.ay), float(sample.yaw_rate), not math.isnan(sample.vy),
-                     0.0 if math.isnan(sample.vy) else float(sample.vy), learn),
+        gk.StepInput(propagate, float(dt), float(state.u[Input.STEER]), float(state.u[Input.VX]),
+                     float(sample.steer), float(sample.vx), float(sample.ay), float(sample.yaw_rate),
+                     not math.isnan(sample.vy), 0.0 if math.isnan(sample.vy) else float(sample.vy), learn),
         ctx.veh,
         gk.Params(kc["mf"], lam, nu, kc["Lambda0"], ctx.sigma_ay, ctx.sigma_yaw_rate, vy_max,
                   lin.p_scale, 0.0 if carry else 1.0 - lin.c, kc["tol"], kc["max_terms"],
