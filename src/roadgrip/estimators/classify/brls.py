@@ -10,7 +10,8 @@ with ``theta_long = C_k / M`` [m/s²] and ``theta_lat = 2 C_alpha / M``
 [m/s²/rad] (roadgrip slip-angle sign, so ``theta_lat > 0``; the paper's
 opposite sign flips its eq. 8 inequalities for the lateral channel). The slips
 come from the friction-independent :mod:`roadgrip.inference.kinematic`
-stage (through :mod:`roadgrip.estimators.classify.frontend`). Wheels without a speed sensor contribute zero slip.
+stage (through :mod:`roadgrip.estimators.classify.frontend`). Wheels without
+a speed sensor contribute zero slip.
 
 Each channel runs bRLS (eq. 6, :mod:`roadgrip.inference.rls`) whose reference
 is the stiffness of the *current* friction state (Fig. 5 and 7): unexcited
