@@ -1,8 +1,9 @@
 """Inputs of the GP-SSM filter from a drive: speeds, lateral acceleration, sub-steps.
 
-These are this filter's own derivations of the input signals; the longitudinal
-speed differs from :func:`roadgrip.signals.wheel_speed_vx` (no steer correction of
-the front wheel speeds, a pose speed clipped at zero), so it is kept here.
+The pose velocities are :func:`roadgrip.signals.pose_velocity`'s. The longitudinal
+speed from the wheels is this filter's own (the mean wheel speed times the radius, no
+steer or yaw correction as in :func:`roadgrip.signals.wheel_speed_vx`), and so is the
+choice of source.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roadgrip.inference.kinematic import kinematic_lateral_acceleration
+from roadgrip.signals import WHEELS, pose_velocity, undriven_wheels
 
 __all__ = ["Sample", "drive_inputs", "drive_vx", "drive_vy", "upsample_inputs"]
 
@@ -35,7 +37,6 @@ class Sample(NamedTuple):
     recorded: bool = True
 
 
-
 def drive_vx(drive: Any, source: str = "auto") -> NDArray[np.float64]:
     """Longitudinal speed [m/s] for the filter's input.
 
@@ -44,14 +45,14 @@ def drive_vx(drive: Any, source: str = "auto") -> NDArray[np.float64]:
     ``'wheels'``  mean wheel speed times radius over the non-driven axle (all four wheels
                   for all-wheel drive); driven wheels spin and are not used;
     ``'column'``  the drive's ``vx`` column;
-    ``'pose'``    the body-axis projection of the pose derivative,
-                  ``cos(psi) dx/dt + sin(psi) dy/dt`` (motion capture);
+    ``'pose'``    the body-axis projection of the pose derivative
+                  (:func:`roadgrip.signals.pose_velocity`, motion capture), at least 0;
     ``'auto'``    ``'wheels'`` when those wheel speeds exist, else ``'column'``, else
                   ``'pose'``.
     """
     veh = drive.vehicle
-    wheels = {"fwd": ("omega_rl", "omega_rr"), "rwd": ("omega_fl", "omega_fr")}.get(
-        veh.drive, ("omega_fl", "omega_fr", "omega_rl", "omega_rr"))
+    free = undriven_wheels(veh.drive)
+    wheels = tuple(f"omega_{w}" for w, f in zip(WHEELS, free if free.any() else ~free, strict=True) if f)
     if source == "auto":
         if drive.has(*wheels):
             source = "wheels"
@@ -70,28 +71,22 @@ def drive_vx(drive: Any, source: str = "auto") -> NDArray[np.float64]:
     if source == "column":
         return drive.col("vx")
     if source == "pose":
-        drive.require("x", "y", "psi", why="vx from the pose")
-        t = drive.t
-        psi = np.unwrap(drive.col("psi"))
-        vx = np.cos(psi) * np.gradient(drive.col("x"), t) + np.sin(psi) * np.gradient(drive.col("y"), t)
-        return np.maximum(vx, 0.0)
+        return np.maximum(pose_velocity(drive)[0], 0.0)
     raise ValueError(f"vx source must be 'auto', 'wheels', 'column' or 'pose', got {source!r}")
 
 
 def drive_vy(drive: Any, source: str = "pose") -> NDArray[np.float64]:
     """Measured body lateral velocity [m/s] (``GPSSMConfig.vy_source``).
 
-    ``'pose'``: ``-sin(psi) dx/dt + cos(psi) dy/dt`` (central differences of the pose);
+    ``'pose'``: ``-sin(psi) dx/dt + cos(psi) dy/dt`` (central differences of the pose,
+    :func:`roadgrip.signals.pose_velocity`);
     ``'none'``: NaN, no measurement.
     """
     if source == "none":
         return np.full(drive.n, np.nan)
     if source != "pose":
         raise ValueError(f"vy source must be 'none' or 'pose', got {source!r}")
-    drive.require("x", "y", "psi", why="the lateral velocity from the pose")
-    t = drive.t
-    psi = np.unwrap(drive.col("psi"))
-    return -np.sin(psi) * np.gradient(drive.col("x"), t) + np.cos(psi) * np.gradient(drive.col("y"), t)
+    return pose_velocity(drive)[1]
 
 
 def drive_inputs(
