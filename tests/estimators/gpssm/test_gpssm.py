@@ -526,3 +526,32 @@ def test_unobserved_peak_is_bounded_from_below_only():
         assert late[f"mu_{axle}"].max() > 0.2  # a lower bound that says something
     with pytest.raises(ValueError, match="peak_max"):
         _cfg(d, peak_max=0.0)
+
+
+def test_protocol_step_leaves_its_input_state_alone_and_skips_sub_steps(snow20):
+    from roadgrip.estimators.gpssm import ESTIMATOR
+
+    d = snow20.slice_time(0.0, 1.0)
+    cfg = _cfg(d, "separable:5", n=12, max_dt=0.02)  # two sub-steps per 25 Hz sample
+    prepared = ESTIMATOR.prepare(d, cfg)
+    assert prepared.info.derived["substeps"] == 2 and len(prepared.samples) == 2 * d.n - 1
+    state = ESTIMATOR.init(prepared.info, cfg, 0)
+    rows = []
+    for sample in prepared.samples:
+        before = None if state.state is None else copy_state(state.state)
+        new, row = ESTIMATOR.step(state, sample)
+        if before is not None:
+            np.testing.assert_array_equal(state.state.x, before.x)
+            np.testing.assert_array_equal(state.state.Psi, before.Psi)
+            assert state.state.k == before.k
+        assert (row is None) == (not sample.recorded)
+        rows.append(row)
+        state = new
+    assert sum(r is not None for r in rows) == d.n
+
+
+def test_progress_counts_every_output_row(snow20):
+    d = snow20.slice_time(0.0, 4.3)
+    calls = []
+    res = run(d, _cfg(d, "separable:5", n=12), seed=0, progress=calls.append)
+    assert sum(calls) == len(res.table) == d.n and max(calls) == 50

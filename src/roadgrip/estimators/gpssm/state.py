@@ -47,9 +47,11 @@ class Context:
         self.vehicle = vehicle
         self.substeps = int(substeps)
         self.veh: VehicleConstants = vehicle_constants(vehicle)
-        scale = math.sqrt(substeps) if substeps > 1 else 1.0
-        self.sigma_ay = config.sigma_ay * scale if substeps > 1 else config.sigma_ay
-        self.sigma_yaw_rate = config.sigma_yaw_rate * scale if substeps > 1 else config.sigma_yaw_rate
+        self.sigma_ay = config.sigma_ay
+        self.sigma_yaw_rate = config.sigma_yaw_rate
+        if substeps > 1:
+            self.sigma_ay *= math.sqrt(substeps)
+            self.sigma_yaw_rate *= math.sqrt(substeps)
         self.kernel: dict[str, Any] = {}
 
     def __repr__(self) -> str:
