@@ -294,7 +294,8 @@ def test_suite_scores_curves_against_the_binned_truth(monkeypatch):
 
 
 def test_gpssm_curve_accuracy_and_curve_table_on_binned_truth():
-    from roadgrip.estimators.gpssm import CurvePosterior, curve_accuracy, curves_frame
+    from roadgrip.estimators.gpssm import CurvePosterior, curves_frame
+    from roadgrip.estimators.gpssm.accuracy import curve_accuracy
 
     d = _binned_drive(n=10000)
     grid = np.linspace(-0.3, 0.3, 161)

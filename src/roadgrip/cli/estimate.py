@@ -46,8 +46,11 @@ def estimate(
         raise ValueError(f"option --curves does not apply to {method}")
     if plot is not None and takes_curves and "curve_times" not in options:
         options["curve_times"] = PLOT_CURVE_TIMES
-    config = est.Config.from_options(options)
+    est.Config.from_options(options)  # rejects options of other methods before reading the drive
     drive = load_drive(drive_path, fmt, vehicle)
+    from roadgrip.evaluate.suite import preset_options
+
+    config = est.Config.from_options({**preset_options(method, drive), **options})
     with progress_bar(method, drive.n) as advance:
         result = est.run(drive, config, seed, progress=advance)
     result.to_parquet(output)

@@ -41,7 +41,9 @@ __all__ = [
     "Case",
     "RunRecord",
     "bench",
+    "case_options",
     "default_cases",
+    "preset_options",
     "run_case",
     "run_suite",
 ]
@@ -73,20 +75,31 @@ def _load_drive(case: Case, settings: BenchSettings, seed: int, cache: dict):
 
 
 
+def preset_options(method: str, drive) -> dict[str, Any]:
+    """The options ``method`` takes for ``drive``'s data set (GP-SSM: the DART preset,
+    :func:`roadgrip.estimators.gpssm.options_for_drive`); given options override them."""
+    if method != "gpssm":
+        return {}
+    from roadgrip.estimators.gpssm import options_for_drive
+
+    return options_for_drive(drive)
+
+
 def case_options(case: Case, settings: BenchSettings, drive) -> dict[str, Any]:
     """The options of ``case``'s run (``Config.from_options`` of its method).
 
-    GP-SSM: the settings' particles, the case's basis and its curve times, relative
-    to the drive's start: t = 50 s (paper 000) where the drive is longer, and the end.
+    The data set's presets (:func:`preset_options`), then for the GP-SSM the settings'
+    particles, the case's basis and its curve times, relative to the drive's start:
+    t = 50 s (paper 000) where the drive is longer, and the end.
     """
-    options = dict(case.options)
+    options = {**preset_options(case.method, drive), **dict(case.options)}
     if case.method != "gpssm":
         return options
     times = [drive.duration]
     if drive.has_truth and drive.duration > 50.0:
         times.insert(0, 50.0)
-    return {"particles": settings.particles, "basis": case.basis, "curve_times": tuple(times),
-            **options}
+    return {**options, "particles": settings.particles, "basis": case.basis,
+            "curve_times": tuple(times), **dict(case.options)}
 
 
 def run_case(case: Case, settings: BenchSettings, seed: int, cache: dict) -> RunRecord:
