@@ -1,4 +1,4 @@
-"""The output contract shared by every estimator, and the run request.
+"""The output contract shared by every estimator.
 
 Every estimator produces an :class:`EstimateResult`: one row per processed
 sample in ``table`` with the shared columns below (where they apply; absent
@@ -41,7 +41,6 @@ import pandas as pd
 
 __all__ = [
     "CONTRACT_COLUMNS",
-    "EstimateRequest",
     "EstimateResult",
     "conform",
     "timed",
@@ -76,31 +75,6 @@ def conform(table: pd.DataFrame) -> pd.DataFrame:
                 out[col] = False
     extras = [c for c in out.columns if c not in CONTRACT_COLUMNS]
     return out[list(CONTRACT_COLUMNS) + extras]
-
-
-@dataclass(frozen=True)
-class EstimateRequest:
-    """Options of ``roadgrip estimate``; each method uses those that apply to it.
-
-    A method that is given an option it does not use raises ``ValueError``
-    naming the option, rather than silently ignoring it.
-    """
-
-    seed: int = 0
-    particles: int | None = None
-    basis: str | None = None
-    calibration: str | None = None
-    curves_path: str | None = None
-    curve_times: tuple[float, ...] | None = None
-    plot_path: str | None = None
-    progress: bool = True
-    options: dict[str, Any] = field(default_factory=dict)
-
-    def reject(self, method: str, *names: str) -> None:
-        """Raise if any option in ``names`` was set for ``method``."""
-        for name in names:
-            if getattr(self, name) not in (None, ()):
-                raise ValueError(f"option --{name.replace('_', '-')} does not apply to {method}")
 
 
 @dataclass(frozen=True)
