@@ -73,8 +73,6 @@ def _load_drive(case: Case, settings: BenchSettings, seed: int, cache: dict):
     return drive
 
 
-
-
 def preset_options(method: str, drive) -> dict[str, Any]:
     """The options ``method`` takes for ``drive``'s data set (GP-SSM: the DART preset,
     :func:`roadgrip.estimators.gpssm.options_for_drive`); given options override them."""
@@ -92,14 +90,13 @@ def case_options(case: Case, settings: BenchSettings, drive) -> dict[str, Any]:
     particles, the case's basis and its curve times, relative to the drive's start:
     t = 50 s (paper 000) where the drive is longer, and the end.
     """
-    options = {**preset_options(case.method, drive), **dict(case.options)}
-    if case.method != "gpssm":
-        return options
-    times = [drive.duration]
-    if drive.has_truth and drive.duration > 50.0:
-        times.insert(0, 50.0)
-    return {**options, "particles": settings.particles, "basis": case.basis,
-            "curve_times": tuple(times), **dict(case.options)}
+    options = preset_options(case.method, drive)
+    if case.method == "gpssm":
+        times = [drive.duration]
+        if drive.has_truth and drive.duration > 50.0:
+            times.insert(0, 50.0)
+        options.update(particles=settings.particles, basis=case.basis, curve_times=tuple(times))
+    return {**options, **dict(case.options)}
 
 
 def run_case(case: Case, settings: BenchSettings, seed: int, cache: dict) -> RunRecord:
