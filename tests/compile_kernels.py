@@ -8,19 +8,25 @@ basis and linear-algebra backend on one drive), and fuses a friction grid, so th
 the compiled code from ``__pycache__``. A failure here is reported and skipped:
 the tests report real problems.
 
-Usage: ``python tests/compile_kernels.py``
+The work is split over two processes (the GP-SSM, the other estimators; both
+simulate the drives) where two cores are available.
+
+Usage: ``python tests/compile_kernels.py [--jobs N] [--methods gpssm,brls,...]``
 """
 
 from __future__ import annotations
 
+import argparse
 import itertools
 import os
+import subprocess
+import sys
 import time
 import traceback
 
 VERBOSE = bool(os.environ.get("ROADGRIP_KERNELS_VERBOSE"))
 
-DURATION_S = 6.0
+DURATION_S = 10.0
 """Simulated time per drive [s]: long enough to excite every branch of the filters."""
 
 GPSSM_OPTIONS = [
@@ -28,8 +34,8 @@ GPSSM_OPTIONS = [
     for basis, linalg in itertools.product(("tensor:10x10", "separable:20", "separable-odd:20"),
                                            ("exact", "fast"))
 ]
-STEPS = 80
-"""Samples run by stepping (the per-step kernels) on each drive."""
+STEPS = 250
+"""Samples run by stepping (the per-step kernels; the GP-SSM's buffered updates fold after 64)."""
 
 
 def _try(label: str, fn, failures: list[str]):
@@ -52,7 +58,24 @@ def _step(est, drive, config) -> None:
         state, _ = est.step(state, sample)
 
 
-def main() -> int:
+PARTS = (("gpssm",), ("brls", "slipmap", "cascade"))
+"""Methods compiled by each process when two run in parallel (about equal compile times)."""
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1))
+    ap.add_argument("--methods", help="comma-separated methods (default: every registered one)")
+    args = ap.parse_args(argv)
+    if args.jobs > 1 and args.methods is None:
+        procs = [subprocess.Popen([sys.executable, __file__, "--jobs", "1", "--methods", ",".join(part)])
+                 for part in PARTS]
+        return max(p.wait() for p in procs)
+    return compile_kernels(args.methods.split(",") if args.methods else None)
+
+
+def compile_kernels(methods: list[str] | None = None) -> int:
+    """Simulate the drives and run ``methods`` (default: all) over them; 0 (failures are listed)."""
     from roadgrip import estimators
     from roadgrip.sim.scenarios import SCENARIOS, simulate_scenario
 
@@ -67,7 +90,7 @@ def main() -> int:
             if d is not None:
                 drives[f"{name}/{engine}"] = d
     t_sim = time.perf_counter() - t0
-    for method in estimators.METHODS:
+    for method in methods or list(estimators.METHODS):
         est = _try(f"import {method}", lambda method=method: estimators.get(method), failures)
         if est is None:
             continue
@@ -87,12 +110,20 @@ def main() -> int:
                 if i == 0:
                     _try(f"{method} stepping on {label}", lambda est=est, c=config, d=d: _step(est, d, c),
                          failures)
+                if method == "brls" and k == 0 and label == "dry-gravel-dry/planar":
+                    from roadgrip.estimators.classify import calibrate
+
+                    half = d.t[0] + 0.5 * d.duration
+                    _try("calibrate on dry-gravel-dry", lambda d=d, half=half: calibrate(
+                        [(d.slice_time(d.t[0], half), "high"), (d.slice_time(half, d.t[-1]), "low")],
+                        friction={"high": 1.0, "low": 0.6}), failures)
                 if method == "cascade" and res is not None:
                     from roadgrip.mapping import grid_from_estimates
 
                     _try(f"friction grid on {label}",
                          lambda res=res: grid_from_estimates(res.table, cell=0.5), failures)
-    print(f"compiled kernels: {len(drives)} drives simulated in {t_sim:.0f} s, "
+    print(f"compiled kernels of {', '.join(methods or estimators.METHODS)}: {len(drives)} drives "
+          f"simulated in {t_sim:.0f} s, "
           f"estimators in {time.perf_counter() - t0 - t_sim:.0f} s; {len(failures)} step(s) failed")
     for f in failures:
         print(f"  skipped: {f}")
