@@ -227,26 +227,60 @@ def empty_grid(
                         float(prior_mean), float(prior_std), float(tau), float("-inf"), bool(overdispersion))
 
 
-def _embed(g: FrictionGrid, ix0: int, iy0: int, nx: int, ny: int) -> tuple[NDArray, ...]:
-    """The grid's arrays placed into a larger window starting at ``(ix0, iy0)``."""
-    out = [np.zeros((ny, nx)) for _ in range(4)] + [np.zeros((ny, nx), np.int64)]
+class _Batch(NamedTuple):
+    """Observations as the compiled accumulation reads them, each shape (n,) (``decay`` may be empty)."""
+
+    x: NDArray[np.float64]
+    y: NDArray[np.float64]
+    mu: NDArray[np.float64]
+    var: NDArray[np.float64]
+    decay: NDArray[np.float64]  # forgetting factor of each observation; empty: none
+    sys: NDArray[np.float64]
+
+
+class _Sums(NamedTuple):
+    """The per-cell sums of a grid window, shape (ny, nx) each (:class:`FrictionGrid`)."""
+
+    s0: NDArray[np.float64]
+    s1: NDArray[np.float64]
+    s2: NDArray[np.float64]
+    sb: NDArray[np.float64]
+    n_obs: NDArray[np.int64]
+
+
+class _Window(NamedTuple):
+    """A window of global cell indices: first column and row, number of columns and rows."""
+
+    ix0: int
+    iy0: int
+    nx: int
+    ny: int
+
+
+def _embed(g: FrictionGrid, ix0: int, iy0: int, nx: int, ny: int) -> _Sums:
+    """The grid's sums placed into a larger window starting at ``(ix0, iy0)``."""
+    out = _Sums(*(np.zeros((ny, nx)) for _ in range(4)), np.zeros((ny, nx), np.int64))
     gy, gx = g.shape
     if gy and gx:
         ox, oy = g.ix0 - ix0, g.iy0 - iy0
         for o, a in zip(out, (g.s0, g.s1, g.s2, g.sb, g.n_obs), strict=True):
             o[oy:oy + gy, ox:ox + gx] = a
-    return tuple(out)
+    return out
 
 
-def _union(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
-    """Union of index windows ``(ix0, iy0, nx, ny)``; empty windows are ignored."""
-    if a[2] == 0 or a[3] == 0:
+def _window(g: FrictionGrid) -> _Window:
+    return _Window(g.ix0, g.iy0, g.shape[1], g.shape[0])
+
+
+def _union(a: _Window, b: _Window) -> _Window:
+    """Union of two index windows; empty windows are ignored."""
+    if a.nx == 0 or a.ny == 0:
         return b
-    if b[2] == 0 or b[3] == 0:
+    if b.nx == 0 or b.ny == 0:
         return a
-    x0, y0 = min(a[0], b[0]), min(a[1], b[1])
-    x1, y1 = max(a[0] + a[2], b[0] + b[2]), max(a[1] + a[3], b[1] + b[3])
-    return x0, y0, x1 - x0, y1 - y0
+    x0, y0 = min(a.ix0, b.ix0), min(a.iy0, b.iy0)
+    x1, y1 = max(a.ix0 + a.nx, b.ix0 + b.nx), max(a.iy0 + a.ny, b.iy0 + b.ny)
+    return _Window(x0, y0, x1 - x0, y1 - y0)
 
 
 def _decay(g: FrictionGrid, t_new: float) -> FrictionGrid:
@@ -325,10 +359,10 @@ def fuse(
         g = _decay(grid, float(t.max()))
         if np.isfinite(g.tau):
             decay = np.exp(-(g.t_ref - t) / g.tau)
-    x0, y0, nx, ny = _union((g.ix0, g.iy0, g.shape[1], g.shape[0]), (bx0, by0, bx1 - bx0 + 1, by1 - by0 + 1))
-    s0, s1, s2, sb, cnt = _embed(g, x0, y0, nx, ny)
-    _accumulate(_Batch(x, y, mu, var, decay, b), g.cell, x0, y0, _Sums(s0, s1, s2, sb, cnt))
-    return dataclasses.replace(g, ix0=x0, iy0=y0, s0=s0, s1=s1, s2=s2, sb=sb, n_obs=cnt, path=new_path)
+    x0, y0, nx, ny = _union(_window(g), _Window(bx0, by0, bx1 - bx0 + 1, by1 - by0 + 1))
+    sums = _embed(g, x0, y0, nx, ny)
+    _accumulate(_Batch(x, y, mu, var, decay, b), g.cell, x0, y0, sums)
+    return dataclasses.replace(g, ix0=x0, iy0=y0, **sums._asdict(), path=new_path)
 
 
 @njit(cache=True)
@@ -347,27 +381,6 @@ def _bounds(x, y, mu, var, cell):  # pragma: no cover - compiled
         iy0 = min(iy0, iy)
         iy1 = max(iy1, iy)
     return -1, ix0, iy0, ix1, iy1
-
-
-class _Batch(NamedTuple):
-    """Observations as the compiled accumulation reads them, each shape (n,) (``decay`` may be empty)."""
-
-    x: NDArray[np.float64]
-    y: NDArray[np.float64]
-    mu: NDArray[np.float64]
-    var: NDArray[np.float64]
-    decay: NDArray[np.float64]  # forgetting factor of each observation; empty: none
-    sys: NDArray[np.float64]
-
-
-class _Sums(NamedTuple):
-    """The per-cell sums of a grid window, shape (ny, nx) each (:class:`FrictionGrid`)."""
-
-    s0: NDArray[np.float64]
-    s1: NDArray[np.float64]
-    s2: NDArray[np.float64]
-    sb: NDArray[np.float64]
-    n_obs: NDArray[np.int64]
 
 
 @njit(cache=True)
@@ -406,11 +419,11 @@ def merge(*grids: FrictionGrid) -> FrictionGrid:
                                  f"{getattr(first, attr)!r} and {getattr(g, attr)!r}")
     t_ref = max(g.t_ref for g in grids)
     grids = tuple(_decay(g, t_ref) for g in grids)
-    win = (0, 0, 0, 0)
+    win = _Window(0, 0, 0, 0)
     for g in grids:
-        win = _union(win, (g.ix0, g.iy0, g.shape[1], g.shape[0]))
+        win = _union(win, _window(g))
     x0, y0, nx, ny = win
-    acc = [np.zeros((ny, nx)) for _ in range(4)] + [np.zeros((ny, nx), np.int64)]
+    acc = _Sums(*(np.zeros((ny, nx)) for _ in range(4)), np.zeros((ny, nx), np.int64))
     paths = []
     for g in grids:
         for a, b in zip(acc, _embed(g, x0, y0, nx, ny), strict=True):
@@ -420,5 +433,4 @@ def merge(*grids: FrictionGrid) -> FrictionGrid:
     path = np.zeros((0, 2))
     for p in paths:
         path = p if path.size == 0 else np.vstack([path, [[np.nan, np.nan]], p])
-    return dataclasses.replace(first, ix0=x0, iy0=y0, s0=acc[0], s1=acc[1], s2=acc[2],
-                               sb=acc[3], n_obs=acc[4], t_ref=t_ref, path=path)
+    return dataclasses.replace(first, ix0=x0, iy0=y0, **acc._asdict(), t_ref=t_ref, path=path)

@@ -56,7 +56,8 @@ for bias, road grade and mounting offset), ``R1 = sv²`` the speed-sensor noise.
 The measured speed (eq. 5) is the mean wheel speed of the undriven axle, a
 measured ``vx`` column (preferred on four-wheel-driven cars, whose wheels all
 slip under drive; else all four wheels), or the motor speed through the gear
-ratio ``rpm 2 pi R / (60 i)`` (:func:`~roadgrip.estimators.cascade.inputs.measured_speed`). Steered front wheels
+ratio ``rpm 2 pi R / (60 i)``
+(:func:`~roadgrip.estimators.cascade.inputs.measured_speed`). Steered front wheels
 are modelled as turning at ``vx cos d + (vy + lf r) sin d``.
 
 *Stage 2* (eq. 9-10, with the paper's sign typo in ``h5`` corrected)::
@@ -90,7 +91,7 @@ compensated a unit inconsistency that does not arise here).
 with slip angles ``alpha_f = d - atan((vy + lf r) / vx)``,
 ``alpha_r = -atan((vy - lr r) / vx)`` (:mod:`roadgrip.vehicle.slip`
 convention, so positive slip gives positive force), normal loads with
-longitudinal load transfer (:meth:`VehicleParams.axle_loads`) and normalised
+longitudinal load transfer (:func:`roadgrip.signals.axle_loads`) and normalised
 cornering stiffness ``k_i = C_i / Fz_i,static``. ``R3`` is diagonal with
 ``var(F_i)`` from the stage-2 covariance, plus ``(dF_i/dalpha_i)² var(alpha_i)``
 (slip-angle uncertainty from the stage-2 covariance of ``vx, r, vy`` and the
@@ -123,8 +124,8 @@ acceleration (``ay_straight`` to twice that) the rear tire is close to linear,
 so ``alpha_r - Fyr / C_r`` measures the slip-angle error; when its
 root-mean-square over the last 5 s (exponential window) exceeds the assumed
 bias, the test is repeated with the exact brush inversion at that larger
-error (:func:`~roadgrip.estimators.cascade.model.slip_bias_effect`), which also catches a bias that would move
-the tire between adhesion and sliding. The front axle's residual
+error (:func:`~roadgrip.estimators.cascade.model.slip_bias_effect`), which also
+catches a bias that would move the tire between adhesion and sliding. The front axle's residual
 ``alpha_f - Fyf / C_f`` is tracked the same way.
 
 The last test concerns the slip angle's *random* error: the exact inversion is
@@ -133,10 +134,11 @@ repeated at ``alpha ± z sqrt(var(alpha) + e²)`` (``z = slip_noise_z``,
 residual above) and must move by at most ``max_slip_bias_effect``. Without
 it, a sample whose slip angle is overestimated lands on the sliding branch of
 the brush model, where the local slope says the force no longer depends on the
-slip, and reports ``mu = |F| / Fz``: the grip *used*, not the peak. A tire that, within its slip uncertainty, may as
-well be in its linear range gives only the lower bound ``|F| / Fz``, which no
-Gaussian observation expresses, so such samples are not excited. On logs whose slip angles are much
-worse than assumed, few samples count as excited and the map keeps its prior.
+slip, and reports ``mu = |F| / Fz``: the grip *used*, not the peak. A tire
+that, within its slip uncertainty, may as well be in its linear range gives
+only the lower bound ``|F| / Fz``, which no Gaussian observation expresses, so
+such samples are not excited. On logs whose slip angles are much worse than
+assumed, few samples count as excited and the map keeps its prior.
 
 A sample that fails the test for an axle leaves that axle's estimate where it
 was (the update is discarded), so weak and possibly biased information from

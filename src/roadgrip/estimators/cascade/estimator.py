@@ -27,7 +27,7 @@ from roadgrip.estimators.cascade.inputs import (
     resolve_noise,
 )
 from roadgrip.estimators.cascade.kernel import Aux, Filter, Inputs, Params, Weights, run_kernel
-from roadgrip.estimators.cascade.model import ForceState, FrictionState
+from roadgrip.estimators.cascade.model import ForceState, FrictionState, VelocityState
 from roadgrip.estimators.cascade.result import diagnostics, output_columns, summary
 from roadgrip.estimators.protocol import DriveInfo, Estimator, Prepared
 from roadgrip.inference.kalman import merwe_weights
@@ -77,7 +77,9 @@ class CascadeState(NamedTuple):
 
     def filter_copy(self) -> Filter:
         """The arrays as a fresh :class:`Filter` for the kernel (the state itself is never written)."""
-        return Filter(*(np.array(a, dtype=float, copy=True) for a in self[1:8]))
+        arrays = (self.velocity_mean, self.velocity_cov, self.force_mean, self.force_cov,
+                  self.friction_mean, self.friction_cov, self.aux)
+        return Filter(*(np.array(a, dtype=float, copy=True) for a in arrays))
 
 
 def make_params(vehicle: VehicleParams, config: CascadeConfig, derived: dict[str, Any]) -> Params:
@@ -179,12 +181,17 @@ def init(info: DriveInfo, config: CascadeConfig, seed: int = 0) -> CascadeState:
     vx0 = float(d.get("vx0", 0.0))
     vehicle = info.vehicle
     vmin = max(n["speed_std"], 0.05)
-    xe = np.array([vx0, 0.0, 0.0, 0.0])
     b0 = d["accel_bias_std"]
-    Pe = np.diag([vmin**2, 0.2**2, b0**2, b0**2])
-    xu = np.array([vx0, 0.0, 0.0, 0.0, 0.0, 0.0])
-    fw = (vehicle.mass * GRAVITY) ** 2
-    Pu = np.diag([vmin**2, max(n["gyro_std"], 0.01) ** 2, 0.2**2, fw, fw, fw])
+    xe = np.zeros(VelocityState.SIZE)
+    xe[VelocityState.VX] = vx0
+    pe = np.empty(VelocityState.SIZE)
+    pe[[VelocityState.VX, VelocityState.VY]] = vmin**2, 0.2**2
+    pe[[VelocityState.BIAS_AX, VelocityState.BIAS_AY]] = b0**2
+    xu = np.zeros(ForceState.SIZE)
+    xu[ForceState.VX] = vx0
+    pu = np.full(ForceState.SIZE, (vehicle.mass * GRAVITY) ** 2)
+    pu[[ForceState.VX, ForceState.YAW_RATE, ForceState.VY]] = vmin**2, max(n["gyro_std"], 0.01) ** 2, 0.2**2
+    Pe, Pu = np.diag(pe), np.diag(pu)
     xm = np.full(FrictionState.SIZE, config.mu_prior)
     Pm = np.eye(FrictionState.SIZE) * config.mu_prior_std**2
     aux = np.zeros(Aux.SIZE)
@@ -217,7 +224,7 @@ def step(state: CascadeState, sample: CascadeSample) -> tuple[CascadeState, dict
     if state.t == state.t and sample.t <= state.t:
         raise ValueError(f"sample time {sample.t} does not follow the state time {state.t}")
     f = state.filter_copy()
-    u = Inputs(*(np.array([v]) for v in sample[:8]))
+    u = Inputs(*(np.array([getattr(sample, name)]) for name in Inputs._fields))
     out = run_kernel(f, u, state.t, state.params, state.weights)
     return CascadeState(float(sample.t), *f, state.params, state.weights), _row(out, sample, state.params)
 

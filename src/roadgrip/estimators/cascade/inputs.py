@@ -215,7 +215,9 @@ def drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[Inputs, str, floa
         if np.isinf(v).any():
             raise DriveValidationError(f"cascade input {c!r} holds inf (NaN marks a missing pose)")
         cols[c] = v
-    arrays = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in cols.items()}
+    # fresh writable C-contiguous copies: one array type for the compiled kernel (drive
+    # columns may be read-only views, which numba would compile a second time for)
+    arrays = {k: np.array(v, dtype=np.float64, order="C", copy=True) for k, v in cols.items()}
     return Inputs(**arrays), src, share
 
 

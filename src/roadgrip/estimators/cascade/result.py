@@ -68,10 +68,10 @@ def output_columns(out: NDArray[np.float64], t: NDArray[np.float64],
         "vy_ekf": out[:, Out.VY_EKF],
     }
     if pose is not None:
-        x, y = pose[0], pose[1]
+        x, y, *heading = pose
         tab["x"], tab["y"] = x, y
-        if len(pose) > 2:
-            c, s = np.cos(pose[2]), np.sin(pose[2])
+        if heading:
+            c, s = np.cos(heading[0]), np.sin(heading[0])
             tab["x_front"], tab["y_front"] = x + lf * c, y + lf * s
             tab["x_rear"], tab["y_rear"] = x - lr * c, y - lr * s
     return tab
