@@ -374,14 +374,15 @@ def test_real_estimators_are_reproducible_by_seed():
     from dataclasses import replace
 
     from roadgrip.evaluate import suite
+    from roadgrip.evaluate.table import bench_table
 
     settings = replace(suite.QUICK, particles=20, real_data=False,
                        durations={"snow-slalom": 20.0, "f1tenth-patches": 20.0},
                        scenarios=("snow-slalom", "f1tenth-patches"), gpssm_variants=("gpssm-sep-odd",))
     cases = suite.default_cases(settings)
     speed = ["samples_per_s", "rtf"]
-    a = suite.bench_table(suite.run_suite(cases, settings, seed=4)).drop(columns=speed)
-    b = suite.bench_table(suite.run_suite(cases, settings, seed=4)).drop(columns=speed)
+    a = bench_table(suite.run_suite(cases, settings, seed=4)).drop(columns=speed)
+    b = bench_table(suite.run_suite(cases, settings, seed=4)).drop(columns=speed)
     assert (a["status"] == "ok").all(), a["status"].tolist()
     pd.testing.assert_frame_equal(a, b)
 
