@@ -58,23 +58,28 @@ def _step(est, drive, config) -> None:
         state, _ = est.step(state, sample)
 
 
-PARTS = (("gpssm",), ("brls", "slipmap", "cascade"))
-"""Methods compiled by each process when two run in parallel (about equal compile times)."""
+PARTS = ((("gpssm",), True), (("brls", "slipmap", "cascade"), False))
+"""Methods compiled by each process when two run in parallel, and whether it simulates the
+multi-body drives too (their columns and types are those of the single-track drives, so one
+process compiling the multi-body engine is enough)."""
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1))
     ap.add_argument("--methods", help="comma-separated methods (default: every registered one)")
+    ap.add_argument("--single-track", action="store_true", help="leave out the multi-body drives")
     args = ap.parse_args(argv)
     if args.jobs > 1 and args.methods is None:
-        procs = [subprocess.Popen([sys.executable, __file__, "--jobs", "1", "--methods", ",".join(part)])
-                 for part in PARTS]
+        procs = [subprocess.Popen([sys.executable, __file__, "--jobs", "1", "--methods", ",".join(part),
+                                   *([] if multibody else ["--single-track"])])
+                 for part, multibody in PARTS]
         return max(p.wait() for p in procs)
-    return compile_kernels(args.methods.split(",") if args.methods else None)
+    return compile_kernels(args.methods.split(",") if args.methods else None,
+                           multibody=not args.single_track)
 
 
-def compile_kernels(methods: list[str] | None = None) -> int:
+def compile_kernels(methods: list[str] | None = None, multibody: bool = True) -> int:
     """Simulate the drives and run ``methods`` (default: all) over them; 0 (failures are listed)."""
     from roadgrip import estimators
     from roadgrip.sim.scenarios import SCENARIOS, simulate_scenario
@@ -84,6 +89,8 @@ def compile_kernels(methods: list[str] | None = None) -> int:
     drives = {}
     for name, sc in SCENARIOS.items():
         for engine in sc.engines:
+            if engine == "multibody" and not multibody:
+                continue
             d = _try(f"simulate {name} ({engine})",
                      lambda name=name, engine=engine: simulate_scenario(
                          name, seed=0, engine=engine, duration=DURATION_S), failures)
@@ -96,7 +103,7 @@ def compile_kernels(methods: list[str] | None = None) -> int:
             continue
         # The defaults on every drive (input-dependent paths), the GP-SSM variants on the first;
         # stepping (the per-step kernels) on the first drive.
-        option_sets = [{}, *(GPSSM_OPTIONS if method == "gpssm" else [])]
+        option_sets = [{"particles": 8}, *GPSSM_OPTIONS] if method == "gpssm" else [{}]
         for k, options in enumerate(option_sets):
             config = _try(f"{method} {options}", lambda est=est, o=options: est.Config.from_options(o),
                           failures)
