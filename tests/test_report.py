@@ -66,7 +66,7 @@ def _records(drive):
     cells.attrs["cell_size"] = 0.5
     mapped = RunRecord(Case("hand", "cascade", "cascade"), "ok", drive,
                        EstimateResult("cascade", conform(tab), {}), map_cells=cells)
-    missing = RunRecord(Case("hand", "slipmap", "slipmap"), "not available")
+    missing = RunRecord(Case("hand", "slipmap", "slipmap"), "error: RuntimeError: diverged")
     for r in (friction, classes, mapped):
         score(r)
     return [friction, classes, mapped, missing]
@@ -111,7 +111,7 @@ def test_report_is_self_contained_with_all_sections(report):
     pngs = sorted(f.name for f in report.parent.glob("*.png"))
     assert len(pngs) == len(p.imgs)
     assert any(n.startswith("map-") for n in pngs) and any(n.startswith("curves-") for n in pngs)
-    assert "not available" in text  # the missing method is listed, not silently dropped
+    assert "error: RuntimeError: diverged" in text  # the failed run is listed, not silently dropped
 
 
 def test_report_benchmark_rows_carry_the_scores(report):
@@ -209,6 +209,6 @@ def test_report_command_with_a_benchmark_folder(tmp_path):
                                    str(tmp_path / "bench"), "-o", str(tmp_path / "out")])
     assert res.exit_code == 0, res.output
     text = (tmp_path / "out" / "index.html").read_text()
-    # the benchmark section shows the folder's table (4 rows, one not available)
-    assert text.count("<tr") - text.count("<tr><th") >= 4 and "not available" in text
+    # the benchmark section shows the folder's table (4 rows, one failed)
+    assert text.count("<tr") - text.count("<tr><th") >= 4 and "error: RuntimeError: diverged" in text
     assert "friction-drive-gpssm.png" in text

@@ -30,7 +30,8 @@ def _curvature_bound(mu, lo: float, hi: float) -> float:
 # -- binned against the parametric truth of the planar simulator --------------------------
 @pytest.fixture(scope="module")
 def planar_drives():
-    scen = pytest.importorskip("roadgrip.sim.scenarios", reason="simulator not available")
+    from roadgrip.sim import scenarios as scen
+
     return {"dry-gravel-dry": scen.simulate_scenario("dry-gravel-dry", seed=0, duration=150),
             "f1tenth-patches": scen.simulate_scenario("f1tenth-patches", seed=0, duration=60)}
 
