@@ -199,3 +199,25 @@ def test_estimate_rejects_an_unknown_method(drive_file, tmp_path):
     r = CliRunner().invoke(app, ["estimate", str(drive_file), "--method", "nonexistent", "-o",
                                  str(tmp_path / "e.parquet")])
     assert r.exit_code != 0 and "unknown method 'nonexistent'" in str(r.exception)
+
+
+def test_bench_and_demo_commands_print_the_table_and_write_files(tmp_path, monkeypatch):
+    from dataclasses import replace
+
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+    from roadgrip.evaluate import cases
+
+    tiny = replace(cases.DEMO, name="tiny", scenarios=("dry-gravel-dry",), multibody=(),
+                   real_data=False, durations={"dry-gravel-dry": 20.0})
+    monkeypatch.setattr(cases, "QUICK", tiny)
+    monkeypatch.setattr(cases, "DEMO", tiny)
+    r = CliRunner().invoke(app, ["bench", "--quick", "-o", str(tmp_path / "bench")])
+    assert r.exit_code == 0, r.output
+    assert "roadgrip benchmark (seed 0, tiny)" in r.output and "dry-gravel-dry / brls" in r.output
+    assert (tmp_path / "bench" / "bench.md").is_file() and (tmp_path / "bench" / "bench.csv").is_file()
+    r = CliRunner().invoke(app, ["demo", "--out", str(tmp_path / "demo")])
+    assert r.exit_code == 0, r.output
+    assert "roadgrip demo benchmark (seed 0)" in r.output and "report written to" in r.output
+    assert (tmp_path / "demo" / "index.html").is_file()
