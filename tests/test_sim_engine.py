@@ -41,9 +41,8 @@ def test_tire_mu_matches_brush():
     np.testing.assert_allclose(got, s.front.mu(slip), rtol=1e-12, atol=1e-14)
 
 
-def _field_args(field):
-    e = field.encode()
-    return (e["mode"], e["times"], e["time_idx"], e["rects"], e["rect_idx"], e.get("n_rects", 0), e["base"])
+def _field(field):
+    return engine.field_code(field.encode())
 
 
 def _lateral_run(dt, duration, vehicle, surf, k_r=0.0):
@@ -52,11 +51,12 @@ def _lateral_run(dt, duration, vehicle, surf, k_r=0.0):
     vx = 12.0 + 2.0 * np.sin(0.3 * th)
     steer = 0.06 * np.sin(1.3 * th) + 0.02 * np.sin(3.1 * th)
     table, _ = tire_table([surf])
-    p = np.array([vehicle.mass, vehicle.yaw_inertia, vehicle.lf, vehicle.lr,
-                  vehicle.fz_front, vehicle.fz_rear, 0.5])
+    p = engine.LateralParams(mass=vehicle.mass, yaw_inertia=vehicle.yaw_inertia, lf=vehicle.lf, lr=vehicle.lr,
+                             fz_front=vehicle.fz_front, fz_rear=vehicle.fz_rear, v_eps=0.5)
+    driver = engine.LateralDriver(vx_h=vx, steer_h=steer, rref_h=np.zeros_like(th), k_r=k_r, k_b=0.0,
+                                  max_steer=vehicle.max_steer)
     states, st, _ = engine.integrate_lateral(
-        np.zeros(5), dt, n, vx, steer, np.zeros_like(th), k_r, 0.0, vehicle.max_steer, table, p,
-        *_field_args(ConstantFriction(surf.label)),
+        np.zeros(engine.LateralSimState.SIZE), dt, n, driver, table, p, _field(ConstantFriction(surf.label)),
     )
     return states, st
 
@@ -66,6 +66,7 @@ def test_lateral_integrator_matches_adaptive_solver_on_reference_model():
     v = PRESETS["suv"]
     snow = surface_from_preset("snow")
     states, _ = _lateral_run(1 / 500, 10.0, v, snow)
+    S = engine.LateralSimState
 
     def rhs(t, x):
         steer = 0.06 * np.sin(1.3 * t) + 0.02 * np.sin(3.1 * t)
@@ -74,9 +75,9 @@ def test_lateral_integrator_matches_adaptive_solver_on_reference_model():
         return lateral_derivatives(x, np.array([steer, vx]), snow.front.mu(af), snow.rear.mu(ar), v)
 
     sol = solve_ivp(rhs, (0, 10.0), [0.0, 0.0], rtol=1e-10, atol=1e-12, t_eval=np.arange(0, 10.001, 1.0))
-    np.testing.assert_allclose(states[::500, :2], sol.y.T, atol=1e-7)
+    np.testing.assert_allclose(states[::500, [S.VY, S.YAW_RATE]], sol.y.T, atol=1e-7)
     # the excitation reaches the nonlinear part of the snow curve
-    af, _ = slip_angles(12.0, states[:, 0], states[:, 1], 0.0, v)
+    af, _ = slip_angles(12.0, states[:, S.VY], states[:, S.YAW_RATE], 0.0, v)
     assert np.abs(af).max() > 0.03
 
 
@@ -104,28 +105,35 @@ def test_planar_integrator_matches_adaptive_solver_with_fixed_torques():
     a_cmd = 1.5
     torque = v.mass * a_cmd * v.wheel_radius
     steer0 = 0.03
-    x0 = np.array([15.0, 0.0, 0.0, 15.0 / v.wheel_radius, 15.0 / v.wheel_radius, 0.0, 0.0, 0.0])
-    p = np.zeros(engine.P_SIZE)
-    p[[engine.P_MASS, engine.P_IZ, engine.P_LF, engine.P_LR, engine.P_H, engine.P_R, engine.P_IW,
-       engine.P_VEPS, engine.P_G, engine.P_WEPS, engine.P_MAXSTEER]] = [
-        v.mass, v.yaw_inertia, v.lf, v.lr, v.cg_height, v.wheel_radius, 2 * v.wheel_inertia,
-        0.5, GRAVITY, OMEGA_EPS, v.max_steer]
+    S = engine.PlanarSimState
+    x0 = np.zeros(S.SIZE)
+    x0[S.VX] = 15.0
+    x0[S.OMEGA_F] = x0[S.OMEGA_R] = 15.0 / v.wheel_radius
+    p = engine.PlanarParams(
+        mass=v.mass, yaw_inertia=v.yaw_inertia, lf=v.lf, lr=v.lr, cg_height=v.cg_height,
+        wheel_radius=v.wheel_radius, wheel_inertia=2 * v.wheel_inertia, v_eps=0.5, gravity=GRAVITY,
+        omega_eps=OMEGA_EPS, max_steer=v.max_steer,
+    ).vector()
     z = np.zeros(n + 1)
     share = axle_torques(1.0, 0.0, v)[0]
     states, ctrl, _, _ = engine.integrate_planar(
-        x0, dt, n, p, table, peaks, 1e3, 1e2, 0, z + steer0, z, 0.0,
-        np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0, 0.0,
-        z, z + a_cmd, 0.0, 0.0, share, 0.65, 1e9, 1e9,
-        *_field_args(ConstantFriction(surf.label)),
+        x0, dt, n,
+        engine.PlanarModel(p, table, peaks, lam_wheel=1e3, lam_body=1e2),
+        0,
+        engine.SteerReference(steer_ff=z + steer0, rref=z, v_ref=z, a_ref=z + a_cmd, k_r=0.0),
+        engine.PursuitPath(np.zeros(1), np.zeros(1), np.zeros(1), lookahead0=0.0, lookahead_gain=0.0,
+                           speed_preview=0.0),
+        engine.SpeedControl(kp=0.0, ki=0.0, drive_front=share, brake_front=0.65, max_drive=1e9, max_brake=1e9),
+        _field(ConstantFriction(surf.label)),
     )
-    np.testing.assert_allclose(ctrl[:-1, 1] + ctrl[:-1, 2], torque)
+    np.testing.assert_allclose(ctrl[:-1, engine.C_DRIVE_F] + ctrl[:-1, engine.C_DRIVE_R], torque)
 
     def rhs(t, x):
         return planar_derivatives(x, np.array([steer0, torque, 0.0]), v, tires)
 
-    sol = solve_ivp(rhs, (0, T), x0[:5], method="Radau", rtol=1e-10, atol=1e-10, t_eval=[1.0, 2.0, 3.0])
-    np.testing.assert_allclose(states[[1000, 2000, 3000], :5], sol.y.T, rtol=1e-6, atol=1e-6)
-    assert states[-1, 0] > 15.0 + 0.5 * a_cmd * T  # it accelerated
+    sol = solve_ivp(rhs, (0, T), x0[:S.X], method="Radau", rtol=1e-10, atol=1e-10, t_eval=[1.0, 2.0, 3.0])
+    np.testing.assert_allclose(states[[1000, 2000, 3000], :S.X], sol.y.T, rtol=1e-6, atol=1e-6)
+    assert states[-1, S.VX] > 15.0 + 0.5 * a_cmd * T  # it accelerated
 
 
 def test_surface_index_matches_numpy_fields():
@@ -139,6 +147,11 @@ def test_surface_index_matches_numpy_fields():
         PatchFriction("a", (Patch(0, 3, 0, 2, "b"), Patch(2, 5, 1, 3, "c"), Patch(-5, -1, -3, 0, "b"))),
     ]
     for f in fields:
-        args = _field_args(f)
-        got = np.array([engine.surface_index(args[0], ti, xi, yi, *args[1:]) for ti, xi, yi in zip(t, x, y, strict=True)])
+        code = _field(f)
+        got = np.array([engine.field_surface(code, ti, xi, yi) for ti, xi, yi in zip(t, x, y, strict=True)])
         np.testing.assert_array_equal(got, f.labels_at(t, x, y))
+        e = f.encode()  # the flat form the kernels' field_surface unpacks
+        flat = np.array([engine.surface_index(e["mode"], ti, xi, yi, e["times"], e["time_idx"], e["rects"],
+                                              e["rect_idx"], e["n_rects"], e["base"])
+                         for ti, xi, yi in zip(t, x, y, strict=True)])
+        np.testing.assert_array_equal(flat, got)

@@ -14,7 +14,7 @@ from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb
 from roadgrip.constants import GRAVITY
 from roadgrip.sim import mb_model
 from roadgrip.sim.friction import ConstantFriction
-from roadgrip.sim.mb_driver import Path
+from roadgrip.sim.mb_driver import MBPath, Path
 from roadgrip.sim.multibody import simulate_multibody
 from roadgrip.sim.scenarios import MB_VEHICLES, SCENARIOS, simulate_scenario
 from roadgrip.vehicle.params import PRESETS
@@ -228,6 +228,16 @@ def test_friction_drop_and_patches_follow_the_position():
     drop = d.meta.truth["friction_drop_x"]
     x = d.col("x_true")
     np.testing.assert_array_equal(d.col("mu_true"), np.where(x >= drop, 0.3, 1.0))
+
+
+def test_path_encoding_for_the_compiled_driver():
+    path = Path([0.0, 1.0, 3.0, 6.0], [0.0, 0.0, 0.0, 0.0], [5.0, 6.0, 7.0, 8.0], closed=True)
+    enc = path.encode()
+    assert isinstance(enc, MBPath)
+    for name in ("x", "y", "v"):
+        np.testing.assert_array_equal(getattr(enc, name), getattr(path, name))
+    np.testing.assert_array_equal(enc.a, path.acceleration())
+    assert enc.closed is True
 
 
 def test_bad_requests_are_named():

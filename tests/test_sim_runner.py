@@ -58,24 +58,31 @@ def test_braking_to_standstill_stays_finite():
     v = SEDAN
     table, peaks = tire_table([DRY])
     dt, n = 1e-3, 6000
-    p = np.zeros(engine.P_SIZE)
-    p[[engine.P_MASS, engine.P_IZ, engine.P_LF, engine.P_LR, engine.P_H, engine.P_R, engine.P_IW,
-       engine.P_VEPS, engine.P_G, engine.P_WEPS, engine.P_MAXSTEER]] = [
-        v.mass, v.yaw_inertia, v.lf, v.lr, v.cg_height, v.wheel_radius, 2 * v.wheel_inertia,
-        0.5, GRAVITY, OMEGA_EPS, v.max_steer]
-    x0 = np.array([5.0, 0.0, 0.0, 5.0 / v.wheel_radius, 5.0 / v.wheel_radius, 0.0, 0.0, 0.0])
+    p = engine.PlanarParams(
+        mass=v.mass, yaw_inertia=v.yaw_inertia, lf=v.lf, lr=v.lr, cg_height=v.cg_height,
+        wheel_radius=v.wheel_radius, wheel_inertia=2 * v.wheel_inertia, v_eps=0.5, gravity=GRAVITY,
+        omega_eps=OMEGA_EPS, max_steer=v.max_steer,
+    ).vector()
+    S = engine.PlanarSimState
+    x0 = np.zeros(S.SIZE)
+    x0[S.VX] = 5.0
+    x0[S.OMEGA_F] = x0[S.OMEGA_R] = 5.0 / v.wheel_radius
     z = np.zeros(n + 1)
     lam_w = 1.2 * v.wheel_radius**2 * v.mass * GRAVITY * DRY.front_long.slope0() / (2 * v.wheel_inertia)
-    e = ConstantFriction("dry_asphalt").encode()
     states, ctrl, _, nsub = engine.integrate_planar(
-        x0, dt, n, p, table, peaks, lam_w, 100.0, 0, z, z, 0.0,
-        np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0, 0.0,
-        z, z - 3.0, 0.0, 0.0, 1.0, 0.65, 1e5, 0.5 * v.mass * GRAVITY * v.wheel_radius,
-        e["mode"], e["times"], e["time_idx"], e["rects"], e["rect_idx"], 0, e["base"],
+        x0, dt, n,
+        engine.PlanarModel(p, table, peaks, lam_wheel=lam_w, lam_body=100.0),
+        0,
+        engine.SteerReference(steer_ff=z, rref=z, v_ref=z, a_ref=z - 3.0, k_r=0.0),
+        engine.PursuitPath(np.zeros(1), np.zeros(1), np.zeros(1), lookahead0=0.0, lookahead_gain=0.0,
+                           speed_preview=0.0),
+        engine.SpeedControl(kp=0.0, ki=0.0, drive_front=1.0, brake_front=0.65, max_drive=1e5,
+                            max_brake=0.5 * v.mass * GRAVITY * v.wheel_radius),
+        engine.field_code(ConstantFriction("dry_asphalt").encode()),
     )
     assert np.isfinite(states).all()
-    assert np.all(ctrl[:, 3] > 0)  # braking throughout
-    assert abs(states[-1, 0]) < 0.05 and abs(states[-1, 3]) < 1.0  # stopped, wheels held
+    assert np.all(ctrl[:, engine.C_BRAKE_F] > 0)  # braking throughout
+    assert abs(states[-1, S.VX]) < 0.05 and abs(states[-1, S.OMEGA_F]) < 1.0  # stopped, wheels held
     assert nsub.max() > 1
 
 

@@ -16,20 +16,71 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from roadgrip.sim.engine import nearest_on_path, surface_index
-from roadgrip.sim.mb_model import WHEEL_SIZE, compiled_rhs, wheel_forces
+from roadgrip.sim.engine import field_surface, nearest_on_path
+from roadgrip.sim.mb_model import WHEEL_SIZE, MBState, compiled_rhs, wheel_forces
 
-__all__ = ["SLIP_LIMIT", "Path", "integrate_mb"]
+__all__ = ["SLIP_LIMIT", "MBDriver", "MBPath", "MBStepping", "Path", "integrate_mb"]
 
 SLIP_LIMIT = 0.08
 """Longitudinal wheel slip above which the ABS / TCS reduces the command [-]."""
 
 _RHS = compiled_rhs().mb
+
+# The state entries the driver reads, as module constants (numba freezes them when it
+# compiles; it cannot read the attributes of the plain class ``MBState``).
+_X, _Y, _STEER, _VX, _PSI, _YAW_RATE, _VY = (MBState.X, MBState.Y, MBState.STEER, MBState.VX, MBState.PSI,
+                                             MBState.YAW_RATE, MBState.VY)
+_OMEGA_0 = MBState.OMEGA_LF
+"""First of the four wheel speeds (``LF, RF, LR, RR``)."""
+
+# Entries of the package's input vector ``u``.
+_U_STEER_RATE, _U_ACCEL = 0, 1
+_U_SIZE = 2
+
+
+class MBStepping(NamedTuple):
+    """Time stepping of :func:`integrate_mb`: internal step [s], recorded steps after the
+    pre-roll, unrecorded pre-roll steps (straight, at the initial speed), output stride."""
+
+    dt: float
+    n_steps: int
+    n_settle: int
+    stride: int
+
+
+class MBPath(NamedTuple):
+    """A path as the compiled driver takes it (:meth:`Path.encode`): points [m], speed
+    profile [m/s], its acceleration ``v dv/ds`` [m/s²], and whether it is a loop."""
+
+    x: np.ndarray
+    y: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    closed: bool
+
+
+class MBDriver(NamedTuple):
+    """Gains of the multi-body driver.
+
+    Pure-pursuit look-ahead ``lookahead0 + lookahead_gain vx`` [m, s]; the speed
+    profile is read ``preview`` ahead [s]; steering servo gain ``k_steer`` [1/s]
+    (steering rate ``k_steer (delta_ref - delta)``); PI speed gains ``kp``, ``ki``
+    [1/s, 1/s²]; ABS / TCS threshold ``slip_limit`` on the longitudinal wheel slip [-].
+    """
+
+    lookahead0: float
+    lookahead_gain: float
+    preview: float
+    k_steer: float
+    kp: float
+    ki: float
+    slip_limit: float
 
 
 @njit(cache=True)
@@ -58,7 +109,7 @@ def _rk4(x, u, p, h, k1, k2, k3, k4, tmp, xs):
     for i in range(n):
         x[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
     # the package forbids negative wheel spin
-    for i in range(23, 27):
+    for i in range(_OMEGA_0, _OMEGA_0 + 4):
         if x[i] < 0.0:
             x[i] = 0.0
 
@@ -74,8 +125,8 @@ def _next_on_path(j, n, closed):
 @njit(cache=True)
 def _max_wheel_slip(x, p):
     """Largest braking slip and largest driving slip over the four wheels [-]."""
-    vx = x[3]
-    r = x[5]
+    vx = x[_VX]
+    r = x[_YAW_RATE]
     brk = 0.0
     drv = 0.0
     if vx < 1.0:
@@ -85,54 +136,78 @@ def _max_wheel_slip(x, p):
         sgn = 1.0 if i % 2 == 0 else -1.0
         uw = vx + sgn * half * r
         if i < 2:
-            uw = uw * math.cos(x[2]) + (x[10] + p.a * r) * math.sin(x[2])
+            uw = uw * math.cos(x[_STEER]) + (x[_VY] + p.a * r) * math.sin(x[_STEER])
         uw = max(uw, 0.5)
-        s = 1.0 - p.R_w * x[23 + i] / uw
+        s = 1.0 - p.R_w * x[_OMEGA_0 + i] / uw
         brk = max(brk, s)
         drv = max(drv, -s)
     return brk, drv
 
 
 @njit(cache=True)
-def integrate_mb(
-    x0, dt, n_steps, n_settle, stride, params,
-    path_x, path_y, path_v, path_a, closed, lookahead0, lookahead_gain, preview,
-    k_steer, kp, ki, slip_limit,
-    mode, times, time_idx, rects, rect_idx, n_rects, base,
-):
+def _pursuit(path, drv, x, idx, wb):
+    """Pure-pursuit road-wheel angle target [rad] and the speed reference [m/s] read
+    ahead along the :class:`MBPath` ``path`` from the state ``x``; ``idx``: nearest point."""
+    npath = path.x.shape[0]
+    vx = max(x[_VX], 0.0)
+    la = drv.lookahead0 + drv.lookahead_gain * vx
+    j = idx
+    for _ in range(npath):
+        jn = _next_on_path(j, npath, path.closed)
+        if jn < 0:
+            break
+        dxp = path.x[jn] - x[_X]
+        dyp = path.y[jn] - x[_Y]
+        j = jn
+        if dxp * dxp + dyp * dyp >= la * la:
+            break
+    dxp = path.x[j] - x[_X]
+    dyp = path.y[j] - x[_Y]
+    cp = math.cos(x[_PSI])
+    sp = math.sin(x[_PSI])
+    lx = cp * dxp + sp * dyp
+    ly = -sp * dxp + cp * dyp
+    ld2 = max(lx * lx + ly * ly, 1e-6)
+    delta_ref = math.atan(2.0 * wb * ly / ld2)
+    # speed reference previewed along the path
+    dist = drv.preview * vx
+    jj = idx
+    acc = 0.0
+    vr = path.v[idx]
+    for _ in range(npath):
+        jn = _next_on_path(jj, npath, path.closed)
+        if jn < 0:
+            break
+        acc += math.sqrt((path.x[jn] - path.x[jj]) ** 2 + (path.y[jn] - path.y[jj]) ** 2)
+        jj = jn
+        vr = min(vr, path.v[jj])
+        if acc >= dist:
+            break
+    return delta_ref, vr
+
+
+@njit(cache=True)
+def integrate_mb(x0, steps, params, path, driver, field):
     """RK4 of the multi-body model with its path-following driver (module docstring).
 
     Parameters
     ----------
     x0 : ndarray, shape (29,)
-        Initial state (``init_mb``); the pre-roll starts from it.
-    dt : float
-        Internal step [s].
-    n_steps : int
-        Recorded steps after the pre-roll.
-    n_settle : int
-        Unrecorded pre-roll steps (straight, speed held at ``x0``'s speed).
-    stride : int
-        Record every ``stride``-th step (the output rate).
+        Initial state (``init_mb``, :class:`~roadgrip.sim.mb_model.MBState` layout); the
+        pre-roll starts from it.
+    steps : MBStepping
+        Internal step ``dt`` [s], ``n_steps`` recorded steps after ``n_settle`` unrecorded
+        pre-roll steps (straight, speed held at ``x0``'s speed); every ``stride``-th step
+        is recorded (the output rate).
     params : tuple of MBParameters
         One parameter tuple per surface index of the friction field.
-    path_x, path_y, path_v, path_a : ndarray, shape (n_path,)
-        Path points [m], speed profile [m/s] and its acceleration ``v dv/ds``
-        [m/s²], with ``(path_x[0], path_y[0])`` the start of the recorded drive.
-    closed : bool
-        The path is a loop.
-    lookahead0, lookahead_gain : float
-        Pure-pursuit look-ahead ``lookahead0 + lookahead_gain vx`` [m, s].
-    preview : float
-        The speed profile is read this far ahead [s].
-    k_steer : float
-        Steering servo gain [1/s]: steering rate ``k_steer (delta_ref - delta)``.
-    kp, ki : float
-        PI speed gains [1/s, 1/s²].
-    slip_limit : float
-        ABS / TCS threshold on the longitudinal wheel slip [-].
-    mode, times, time_idx, rects, rect_idx, n_rects, base
-        Friction field encoding (``FrictionField.encode``).
+    path : MBPath
+        Path points [m], speed profile [m/s] and its acceleration [m/s²], with
+        ``(path.x[0], path.y[0])`` the start of the recorded drive; ``closed``: a loop.
+    driver : MBDriver
+        Look-ahead, preview, steering servo, PI speed and ABS / TCS gains.
+    field : FieldCode
+        Friction field encoding (:func:`roadgrip.sim.engine.field_code`).
 
     Returns
     -------
@@ -146,11 +221,14 @@ def integrate_mb(
     surf : ndarray, shape (n_out,)
         Surface index at the recorded states.
     """
+    dt = steps.dt
+    n_steps = steps.n_steps
+    stride = steps.stride
     n = x0.shape[0]
     n_out = n_steps // stride + 1
     states = np.empty((n_out, n))
     derivs = np.empty((n_out, n))
-    inputs = np.empty((n_out, 2))
+    inputs = np.empty((n_out, _U_SIZE))
     wheels = np.empty((n_out, 4, WHEEL_SIZE))
     surf = np.empty(n_out, dtype=np.int64)
     x = x0.copy()
@@ -160,87 +238,53 @@ def integrate_mb(
     k4 = np.empty(n)
     tmp = np.empty(n)
     xs = np.empty(n)
-    u = np.zeros(2)
+    u = np.zeros(_U_SIZE)
     p0 = params[0]
     wb = p0.a + p0.b
-    v0 = x0[3]
+    v0 = x0[_VX]
     integ = 0.0
     k_brake = 1.0
     k_drive = 1.0
-    npath = path_x.shape[0]
     idx = 0
-    for k in range(-n_settle, n_steps + 1):
+    for k in range(-steps.n_settle, n_steps + 1):
         if k == 0:
             # place the settled car at the start of the path, heading along it
-            x[0] = path_x[0]
-            x[1] = path_y[0]
-            x[4] = math.atan2(path_y[1] - path_y[0], path_x[1] - path_x[0])
+            x[_X] = path.x[0]
+            x[_Y] = path.y[0]
+            x[_PSI] = math.atan2(path.y[1] - path.y[0], path.x[1] - path.x[0])
             idx = 0
         t = k * dt
         if k < 0:
-            si = base if mode != 1 else time_idx[0]
+            si = field.base if field.mode != 1 else field.time_idx[0]
             delta_ref = 0.0
             vr = v0
             ar = 0.0
         else:
-            si = surface_index(mode, t, x[0], x[1], times, time_idx, rects, rect_idx, n_rects, base)
-            idx = nearest_on_path(path_x, path_y, x[0], x[1], idx, 20, 200, closed)
-            vx = max(x[3], 0.0)
-            la = lookahead0 + lookahead_gain * vx
-            j = idx
-            for _ in range(npath):
-                jn = _next_on_path(j, npath, closed)
-                if jn < 0:
-                    break
-                dxp = path_x[jn] - x[0]
-                dyp = path_y[jn] - x[1]
-                j = jn
-                if dxp * dxp + dyp * dyp >= la * la:
-                    break
-            dxp = path_x[j] - x[0]
-            dyp = path_y[j] - x[1]
-            cp = math.cos(x[4])
-            sp = math.sin(x[4])
-            lx = cp * dxp + sp * dyp
-            ly = -sp * dxp + cp * dyp
-            ld2 = max(lx * lx + ly * ly, 1e-6)
-            delta_ref = math.atan(2.0 * wb * ly / ld2)
-            # speed reference previewed along the path
-            dist = preview * vx
-            jj = idx
-            acc = 0.0
-            vr = path_v[idx]
-            for _ in range(npath):
-                jn = _next_on_path(jj, npath, closed)
-                if jn < 0:
-                    break
-                acc += math.sqrt((path_x[jn] - path_x[jj]) ** 2 + (path_y[jn] - path_y[jj]) ** 2)
-                jj = jn
-                vr = min(vr, path_v[jj])
-                if acc >= dist:
-                    break
-            ar = path_a[idx]
+            si = field_surface(field, t, x[_X], x[_Y])
+            idx = nearest_on_path(path.x, path.y, x[_X], x[_Y], idx, 20, 200, path.closed)
+            delta_ref, vr = _pursuit(path, driver, x, idx, wb)
+            ar = path.a[idx]
         p = params[si]
-        u[0] = k_steer * (delta_ref - x[2])
-        e = vr - x[3]
-        a_cmd = ar + kp * e + ki * integ
+        u[_U_STEER_RATE] = driver.k_steer * (delta_ref - x[_STEER])
+        e = vr - x[_VX]
+        a_cmd = ar + driver.kp * e + driver.ki * integ
         if abs(a_cmd) < p.longitudinal.a_max:
             integ += e * dt
         brk, drv = _max_wheel_slip(x, p)
-        if brk > slip_limit:
+        if brk > driver.slip_limit:
             k_brake = max(k_brake - 20.0 * dt, 0.0)
         else:
             k_brake = min(k_brake + 4.0 * dt, 1.0)
-        if drv > slip_limit:
+        if drv > driver.slip_limit:
             k_drive = max(k_drive - 20.0 * dt, 0.0)
         else:
             k_drive = min(k_drive + 4.0 * dt, 1.0)
-        u[1] = a_cmd * (k_brake if a_cmd < 0.0 else k_drive)
+        u[_U_ACCEL] = a_cmd * (k_brake if a_cmd < 0.0 else k_drive)
         if k >= 0 and k % stride == 0:
             o = k // stride
             states[o] = x
-            inputs[o, 0] = u[0]
-            inputs[o, 1] = u[1]
+            inputs[o, _U_STEER_RATE] = u[_U_STEER_RATE]
+            inputs[o, _U_ACCEL] = u[_U_ACCEL]
             surf[o] = si
             _rhs_into(x, u, p, xs, tmp)
             derivs[o] = tmp
@@ -290,3 +334,7 @@ class Path:
         """Feed-forward acceleration ``v dv/ds`` along the path [m/s²], shape (n,)."""
         s = self.arc_length()
         return 0.5 * np.gradient(self.v**2, s)
+
+    def encode(self) -> MBPath:
+        """The path as :func:`integrate_mb` takes it."""
+        return MBPath(self.x, self.y, self.v, self.acceleration(), bool(self.closed))

@@ -31,8 +31,9 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from roadgrip.drive import Drive
+from roadgrip.sim.engine import field_code
 from roadgrip.sim.friction import FrictionField
-from roadgrip.sim.mb_driver import SLIP_LIMIT, Path, integrate_mb
+from roadgrip.sim.mb_driver import SLIP_LIMIT, MBDriver, MBStepping, Path, integrate_mb
 from roadgrip.sim.mb_model import (
     COMMONROAD_VEHICLES,
     WHEEL_FX,
@@ -164,7 +165,7 @@ def simulate_multibody(
     params = [parameter_tuple(vid, float(mu[lab])) for lab in labels]
     # a fixed-length tuple: one compiled integrator for any number of surfaces
     params = tuple(params + [params[-1]] * (MAX_SURFACES - len(params)))
-    enc = friction.encode()
+    field = field_code(friction.encode())
     from vehiclemodels.init_mb import init_mb
 
     p_pkg = commonroad_parameters(vid)
@@ -173,13 +174,10 @@ def simulate_multibody(
     n = round(duration * INTERNAL_RATE)
     if progress:
         print(f"simulating {name} (multi-body, {duration:.0f} s at 1 kHz)", file=sys.stderr, flush=True)
-    states, derivs, inputs, wheels, surf = integrate_mb(
-        x0, dt, n, round(SETTLE_TIME * INTERNAL_RATE), stride, params,
-        path.x, path.y, path.v, path.acceleration(), bool(path.closed),
-        float(lookahead[0]), float(lookahead[1]), 0.6, 20.0, 1.0, 0.2, SLIP_LIMIT,
-        enc["mode"], enc["times"], enc["time_idx"], enc["rects"], enc["rect_idx"],
-        enc.get("n_rects", 0), enc["base"],
-    )
+    steps = MBStepping(dt=dt, n_steps=n, n_settle=round(SETTLE_TIME * INTERNAL_RATE), stride=stride)
+    driver = MBDriver(lookahead0=float(lookahead[0]), lookahead_gain=float(lookahead[1]), preview=0.6,
+                      k_steer=20.0, kp=1.0, ki=0.2, slip_limit=SLIP_LIMIT)
+    states, derivs, inputs, wheels, surf = integrate_mb(x0, steps, params, path.encode(), driver, field)
     if not np.all(np.isfinite(states)):
         bad = int(np.argmax(~np.isfinite(states).all(1)))
         raise RuntimeError(f"multi-body simulation diverged (first non-finite state at t = {bad / output_rate:.2f} s)")

@@ -156,11 +156,7 @@ def simulate(
     n = round(duration * rate)
     surf_list = _surface_list(friction, surfaces)
     table, peaks = tire_table(surf_list)
-    enc = friction.encode()
-    field_args = (
-        enc["mode"], enc["times"], enc["time_idx"], enc["rects"], enc["rect_idx"],
-        enc.get("n_rects", 0), enc["base"],
-    )
+    field = engine.field_code(friction.encode())
     ss = np.random.SeedSequence(seed)
     rng_man, rng_sens = (np.random.default_rng(s) for s in ss.spawn(2))
     sensors = dict(sensors or {})
@@ -173,10 +169,10 @@ def simulate(
     if model == "lateral":
         if not isinstance(maneuver, Maneuver):
             raise ValueError("the lateral model needs an open-loop Maneuver (it has no path follower)")
-        true, extra = _run_lateral(vehicle, maneuver, n, dt, table, field_args, surf_list, v_eps,
+        true, extra = _run_lateral(vehicle, maneuver, n, dt, table, field, surf_list, v_eps,
                                    initial_pose, rng_man)
     else:
-        true, extra = _run_planar(vehicle, maneuver, n, dt, table, peaks, field_args, surf_list,
+        true, extra = _run_planar(vehicle, maneuver, n, dt, table, peaks, field, surf_list,
                                   v_eps, initial_pose, rng_man)
 
     t_int = np.arange(n + 1) * dt
@@ -219,19 +215,22 @@ def simulate(
     return Drive.from_frame(df, vehicle, source=f"sim:{name}", truth=truth, check_units=False)
 
 
-def _run_lateral(vehicle, maneuver, n, dt, table, field_args, surf_list, v_eps, pose0, rng):
+def _run_lateral(vehicle, maneuver, n, dt, table, field, surf_list, v_eps, pose0, rng):
     t_h = np.arange(2 * n + 1) * (dt / 2.0)
     sig = maneuver.sample(t_h, vehicle, rng)
     S = engine.LateralSimState
     x0 = np.zeros(S.SIZE)
     x0[S.X], x0[S.Y], x0[S.PSI] = pose0
-    p = np.array([vehicle.mass, vehicle.yaw_inertia, vehicle.lf, vehicle.lr,
-                  vehicle.fz_front, vehicle.fz_rear, v_eps])
-    states, steer, surf = engine.integrate_lateral(
-        x0, dt, n, sig.v_ref, sig.steer_ff, sig.r_ref, maneuver.yaw_gain, maneuver.sideslip_gain,
-        vehicle.max_steer,
-        table, p, *field_args,
+    p = engine.LateralParams(
+        mass=float(vehicle.mass), yaw_inertia=float(vehicle.yaw_inertia), lf=float(vehicle.lf),
+        lr=float(vehicle.lr), fz_front=float(vehicle.fz_front), fz_rear=float(vehicle.fz_rear),
+        v_eps=float(v_eps),
     )
+    driver = engine.LateralDriver(
+        vx_h=sig.v_ref, steer_h=sig.steer_ff, rref_h=sig.r_ref, k_r=float(maneuver.yaw_gain),
+        k_b=float(maneuver.sideslip_gain), max_steer=float(vehicle.max_steer),
+    )
+    states, steer, surf = engine.integrate_lateral(x0, dt, n, driver, table, p, field)
     vx = sig.v_ref[::2]
     dvx = sig.a_ref[::2]
     vy, r = states[:, S.VY], states[:, S.YAW_RATE]
@@ -277,7 +276,7 @@ def _max_slopes(surf_list):
     return kx, ky
 
 
-def _run_planar(vehicle, maneuver, n, dt, table, peaks, field_args, surf_list, v_eps, pose0, rng):
+def _run_planar(vehicle, maneuver, n, dt, table, peaks, field, surf_list, v_eps, pose0, rng):
     S = engine.PlanarSimState
     t = np.arange(n + 1) * dt
     zeros = np.zeros(n + 1)
@@ -306,18 +305,11 @@ def _run_planar(vehicle, maneuver, n, dt, table, peaks, field_args, surf_list, v
         raise ValueError(f"maneuver must be a Maneuver or TrackDriver, got {type(maneuver).__name__}")
     x0[S.OMEGA_F] = x0[S.OMEGA_R] = x0[S.VX] / vehicle.wheel_radius
     iw = 2.0 * vehicle.wheel_inertia
-    p = np.zeros(engine.P_SIZE)
-    p[engine.P_MASS] = vehicle.mass
-    p[engine.P_IZ] = vehicle.yaw_inertia
-    p[engine.P_LF] = vehicle.lf
-    p[engine.P_LR] = vehicle.lr
-    p[engine.P_H] = vehicle.cg_height
-    p[engine.P_R] = vehicle.wheel_radius
-    p[engine.P_IW] = iw
-    p[engine.P_VEPS] = v_eps
-    p[engine.P_G] = GRAVITY
-    p[engine.P_WEPS] = OMEGA_EPS
-    p[engine.P_MAXSTEER] = vehicle.max_steer
+    p = engine.PlanarParams(
+        mass=vehicle.mass, yaw_inertia=vehicle.yaw_inertia, lf=vehicle.lf, lr=vehicle.lr,
+        cg_height=vehicle.cg_height, wheel_radius=vehicle.wheel_radius, wheel_inertia=iw,
+        v_eps=v_eps, gravity=GRAVITY, omega_eps=OMEGA_EPS, max_steer=vehicle.max_steer,
+    ).vector()
     kx, ky = _max_slopes(surf_list)
     R = vehicle.wheel_radius
     m = vehicle.mass
@@ -325,18 +317,19 @@ def _run_planar(vehicle, maneuver, n, dt, table, peaks, field_args, surf_list, v
     lam_body = 1.2 * GRAVITY * ky * (1.0 + m * max(vehicle.lf, vehicle.lr) ** 2 / vehicle.yaw_inertia)
     tdf_share = axle_torques(1.0, 0.0, vehicle)[0]
     tbf_share = axle_torques(0.0, 1.0, vehicle)[2]
-    states, ctrl, surf, nsub = engine.integrate_planar(
-        x0, dt, n, p, table, peaks, float(lam_wheel), float(lam_body),
-        steer_mode, steer_ff, rref, k_r,
-        path_x, path_y, path_v, la0, lag, prev,
-        v_ref, a_ref, 2.0, 0.5, float(tdf_share), float(tbf_share),
-        0.6 * m * GRAVITY * R, 1.0 * m * GRAVITY * R,
-        *field_args,
+    model = engine.PlanarModel(p, table, peaks, lam_wheel=float(lam_wheel), lam_body=float(lam_body))
+    ref = engine.SteerReference(steer_ff, rref, v_ref, a_ref, k_r=float(k_r))
+    path = engine.PursuitPath(path_x, path_y, path_v, lookahead0=float(la0), lookahead_gain=float(lag),
+                              speed_preview=float(prev))
+    speed = engine.SpeedControl(
+        kp=2.0, ki=0.5, drive_front=float(tdf_share), brake_front=float(tbf_share),
+        max_drive=float(0.6 * m * GRAVITY * R), max_brake=float(1.0 * m * GRAVITY * R),
     )
+    states, ctrl, surf, nsub = engine.integrate_planar(x0, dt, n, model, steer_mode, ref, path, speed, field)
     if not np.all(np.isfinite(states)):
         raise RuntimeError(f"planar simulation diverged (first non-finite state at step "
                            f"{int(np.argmax(~np.isfinite(states).all(1)))})")
-    steer = ctrl[:, 0]
+    steer = ctrl[:, engine.C_STEER]
     vx, vy, r = states[:, S.VX], states[:, S.VY], states[:, S.YAW_RATE]
     wf, wr = states[:, S.OMEGA_F], states[:, S.OMEGA_R]
     xp = states[:, :5]
@@ -360,6 +353,7 @@ def _run_planar(vehicle, maneuver, n, dt, table, peaks, field_args, surf_list, v
         Fxf_true=fzf * fields["mxf"], Fxr_true=fzr * fields["mxr"],
         Fyf_true=fzf * fields["myf"], Fyr_true=fzr * fields["myr"], Fzf_true=fzf, Fzr_true=fzr,
         mu_true=np.array([s.mu for s in surf_list])[surf], surf=surf,
-        drive_torque=ctrl[:, 1] + ctrl[:, 2], brake_torque=ctrl[:, 3] + ctrl[:, 4],
+        drive_torque=ctrl[:, engine.C_DRIVE_F] + ctrl[:, engine.C_DRIVE_R],
+        brake_torque=ctrl[:, engine.C_BRAKE_F] + ctrl[:, engine.C_BRAKE_R],
     )
     return true, {"max_substeps": int(nsub.max())}
