@@ -303,6 +303,7 @@ def test_run_equals_stepping_with_the_options(dgd):
     assert (batch["grip_class"] == "low").any()  # the window contains the detection
 
 
+@pytest.mark.slow
 def test_calibrate_on_one_seed_classify_another(dgd):
     from roadgrip.sim.scenarios import simulate_scenario
 
@@ -446,6 +447,7 @@ def test_dart_concatenation_high_low_high_is_tracked():
     assert count_switches(cls) == 2
 
 
+@pytest.mark.slow
 def test_cli_calibrate_and_estimate(dgd, tmp_path):
     from typer.testing import CliRunner
 

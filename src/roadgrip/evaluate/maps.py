@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from roadgrip.evaluate.metrics import cell_truth
+from roadgrip.evaluate.map_metrics import cell_truth
 
 __all__ = ["cells_from_result", "true_cell_friction"]
 
@@ -71,7 +71,7 @@ def true_cell_friction(
       area (a ``sub x sub`` lattice at the drive's final time).
 
     Without a field, the mean ``mu_true`` of the drive samples inside the cell
-    (:func:`roadgrip.evaluate.metrics.cell_truth`); NaN where none.
+    (:func:`roadgrip.evaluate.map_metrics.cell_truth`); NaN where none.
     """
     field = (drive.meta.truth or {}).get("friction_field")
     x = cells["x"].to_numpy(float)

@@ -50,7 +50,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from roadgrip.evaluate._arrays import as_1d as _f
 from roadgrip.evaluate._arrays import same_length as _same_len
-from roadgrip.evaluate.map_metrics import cell_truth  # noqa: F401  (imported from here by evaluate.maps)
 from roadgrip.truth import has_parametric_truth
 
 __all__ = [
