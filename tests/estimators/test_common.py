@@ -10,7 +10,13 @@ import pytest
 
 from roadgrip import estimators
 from roadgrip.estimators.check import CHECKS, check_estimator
-from roadgrip.estimators.protocol import DriveInfo, Estimator, EstimatorConfig, Prepared, run_by_stepping
+from roadgrip.estimators.protocol import (
+    DriveInfo,
+    Estimator,
+    EstimatorConfig,
+    Prepared,
+    run_by_stepping,
+)
 
 
 # -- a fifth estimator, as docs/architecture.md describes: constant friction, prior band ------
