@@ -28,6 +28,10 @@ import pandas as pd
 from roadgrip.evaluate.suite import QUICK, default_cases, run_suite
 
 
+TIMING = {"wall_s", "rtf", "samples_per_s"}
+"""Scores that measure speed, not output: left out of the digest."""
+
+
 def _key(case) -> str:
     return f"{case.drive}|{case.label}".replace("/", "_").replace(":", "~")
 
@@ -40,8 +44,9 @@ def _frames(rec) -> dict[str, pd.DataFrame]:
             out["curves"] = rec.result.curves.reset_index(drop=True)
     if rec.map_cells is not None:
         out["cells"] = rec.map_cells.reset_index(drop=True)
-    if rec.metrics:
-        out["metrics"] = pd.DataFrame({k: [float(v)] for k, v in sorted(rec.metrics.items())})
+    scores = {k: v for k, v in rec.metrics.items() if k not in TIMING}
+    if scores:
+        out["metrics"] = pd.DataFrame({k: [float(v)] for k, v in sorted(scores.items())})
     return out
 
 

@@ -76,15 +76,16 @@ from roadgrip.estimators.base import EstimateResult, ProgressCallback, conform, 
 from roadgrip.estimators.classify.brls_config import BRLSConfig, default_config
 from roadgrip.estimators.classify.brls_kernel import BRLSState, brls_batch, brls_init, brls_step
 from roadgrip.estimators.classify.calibration import ClassifierConfig
-from roadgrip.estimators.classify.common import prior_band, summary_meta
+from roadgrip.estimators.classify.common import classifier_diagnostics, prior_band, summary_meta
 from roadgrip.estimators.classify.frontend import (
     FIRST_STEP_S,
+    KINEMATIC,
     Front,
     FrontState,
     front_batch,
     front_init,
     front_step,
-    kinematic_samples,
+    prepare_classifier,
 )
 from roadgrip.estimators.protocol import DriveInfo, Estimator, Prepared
 from roadgrip.inference.kinematic import KinematicConfig, KinematicInput, KinematicOutput
@@ -98,9 +99,6 @@ __all__ = [
     "regressors",
     "rolling_ratio",
 ]
-
-KINEMATIC = KinematicConfig()
-"""Tuning of the kinematic front end."""
 
 
 def rolling_ratio(kappa: NDArray) -> NDArray[np.float64]:
@@ -239,9 +237,8 @@ def brls_table(
 
 
 def prepare(drive: Drive, config: BRLSEstimatorConfig) -> Prepared:
-    """The drive's info (velocity aid in ``derived['aid']``) and its kinematic samples."""
-    aid = Front.for_drive(drive, config.settings.lateral_acceleration, KINEMATIC).aid
-    return Prepared(DriveInfo.from_drive(drive, aid=aid), kinematic_samples(drive))
+    """The drive\'s info (velocity aid in ``derived[\'aid\']``) and its kinematic samples."""
+    return prepare_classifier(drive, config.settings.lateral_acceleration)
 
 
 def init(info: DriveInfo, config: BRLSEstimatorConfig, seed: int = 0) -> BRLSRunState:
@@ -280,12 +277,8 @@ def run(
     if progress is not None:
         progress(drive.n)
     meta["summary"] = summary_meta(table, config.friction)
-    cls = table["grip_class"].to_numpy()
     meta["diagnostics"] = {
-        "calibration": "calibrated" if config.calibration is not None
-        else "uncalibrated defaults (dry asphalt / gravel presets)",
-        "excited_fraction": float(table["excited"].mean()),
-        "class_changes": int(np.sum(cls[1:] != cls[:-1])),
+        **classifier_diagnostics(table, config.calibration is not None, "dry asphalt / gravel presets"),
         "long_channel": "on" if cfg.long.enabled else "off",
         "lat_channel": "on" if cfg.lat.enabled else "off",
     }

@@ -24,6 +24,7 @@ __all__ = [
     "CLASS_SWITCH_PENALTY",
     "DEFAULT_FRICTION",
     "classes",
+    "classifier_diagnostics",
     "extra_switches",
     "friction_refs",
     "lowpass",
@@ -137,3 +138,16 @@ def lowpass(x: NDArray, dt: float, tau: float) -> NDArray:
 
     k = 1.0 - math.exp(-dt / tau)
     return lfilter([k], [1.0, k - 1.0], x)
+
+
+def classifier_diagnostics(table: pd.DataFrame, calibrated: bool, defaults: str) -> dict[str, Any]:
+    """``meta['diagnostics']`` shared by both classifiers: calibration, excitation, switches.
+
+    ``defaults`` describes the uncalibrated settings.
+    """
+    cls = table["grip_class"].to_numpy()
+    return {
+        "calibration": "calibrated" if calibrated else f"uncalibrated defaults ({defaults})",
+        "excited_fraction": float(table["excited"].mean()),
+        "class_changes": int(np.sum(cls[1:] != cls[:-1])),
+    }

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roadgrip.drive import Drive
+from roadgrip.estimators.protocol import DriveInfo, Prepared
 from roadgrip.inference.kinematic import (
     KinematicConfig,
     KinematicInput,
@@ -35,6 +36,7 @@ from roadgrip.vehicle.params import VehicleParams
 
 __all__ = [
     "FIRST_STEP_S",
+    "KINEMATIC",
     "Front",
     "FrontBatch",
     "FrontState",
@@ -42,7 +44,11 @@ __all__ = [
     "front_init",
     "front_step",
     "kinematic_samples",
+    "prepare_classifier",
 ]
+
+KINEMATIC = KinematicConfig()
+"""Tuning of the kinematic front end shared by both classifiers."""
 
 FIRST_STEP_S = 0.01
 """Time step [s] assumed for the first sample (no previous sample)."""
@@ -132,3 +138,10 @@ def front_batch(drive: Drive, front: Front) -> FrontBatch:
     kin = estimate_kinematics(drive, front.kinematic)
     ay = drive_lateral_acceleration(drive, kin, front.lateral_acceleration, front.kinematic)
     return FrontBatch(kin, ay)
+
+
+def prepare_classifier(drive: Drive, lateral_acceleration: str) -> Prepared:
+    """A classifier's ``prepare``: the drive's info (velocity aid in ``derived['aid']``) and
+    its kinematic samples."""
+    aid = Front.for_drive(drive, lateral_acceleration, KINEMATIC).aid
+    return Prepared(DriveInfo.from_drive(drive, aid=aid), kinematic_samples(drive))

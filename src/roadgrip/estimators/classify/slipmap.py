@@ -60,6 +60,7 @@ from roadgrip.estimators.base import EstimateResult, ProgressCallback, conform, 
 from roadgrip.estimators.classify.calibration import ClassifierConfig
 from roadgrip.estimators.classify.common import (
     CLASS_SWITCH_PENALTY,
+    classifier_diagnostics,
     extra_switches,
     prior_band,
     settled,
@@ -67,12 +68,13 @@ from roadgrip.estimators.classify.common import (
 )
 from roadgrip.estimators.classify.frontend import (
     FIRST_STEP_S,
+    KINEMATIC,
     Front,
     FrontState,
     front_batch,
     front_init,
     front_step,
-    kinematic_samples,
+    prepare_classifier,
 )
 from roadgrip.estimators.classify.slipmap_config import SlipMapConfig, default_config
 from roadgrip.estimators.classify.slipmap_evidence import (
@@ -96,9 +98,6 @@ from roadgrip.inference.kinematic import (
 )
 
 __all__ = ["SLIPMAP", "SlipMapEstimatorConfig", "SlipMapRunState", "calibrate_section", "slipmap_table"]
-
-KINEMATIC = KinematicConfig()
-"""Tuning of the kinematic front end."""
 
 
 @dataclass(frozen=True)
@@ -193,9 +192,8 @@ def slipmap_table(drive: Drive, config: SlipMapConfig, kin_cfg: KinematicConfig 
 
 
 def prepare(drive: Drive, config: SlipMapEstimatorConfig) -> Prepared:
-    """The drive's info (velocity aid in ``derived['aid']``) and its kinematic samples."""
-    aid = Front.for_drive(drive, config.settings.lateral_acceleration, KINEMATIC).aid
-    return Prepared(DriveInfo.from_drive(drive, aid=aid), kinematic_samples(drive))
+    """The drive\'s info (velocity aid in ``derived[\'aid\']``) and its kinematic samples."""
+    return prepare_classifier(drive, config.settings.lateral_acceleration)
 
 
 def init(info: DriveInfo, config: SlipMapEstimatorConfig, seed: int = 0) -> SlipMapRunState:
@@ -237,13 +235,7 @@ def run(
     if progress is not None:
         progress(drive.n)
     meta["summary"] = summary_meta(table, config.friction)
-    cls = table["grip_class"].to_numpy()
-    meta["diagnostics"] = {
-        "calibration": "calibrated" if config.calibration is not None
-        else "uncalibrated defaults (mid friction 0.8, dry-asphalt shapes)",
-        "excited_fraction": float(table["excited"].mean()),
-        "class_changes": int(np.sum(cls[1:] != cls[:-1])),
-    }
+    meta["diagnostics"] = classifier_diagnostics(table, config.calibration is not None, "mid friction 0.8, dry-asphalt shapes")
     meta["config"] = cfg.to_dict()
     meta["seed"] = int(seed)
     return EstimateResult("slipmap", conform(table), meta)
