@@ -27,7 +27,6 @@ import pandas as pd
 
 from roadgrip.evaluate.suite import QUICK, default_cases, run_suite
 
-
 TIMING = {"wall_s", "rtf", "samples_per_s"}
 """Scores that measure speed, not output: left out of the digest."""
 
