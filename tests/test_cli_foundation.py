@@ -207,7 +207,7 @@ def test_bench_and_demo_commands_print_the_table_and_write_files(tmp_path, monke
     from typer.testing import CliRunner
 
     from roadgrip.cli import app
-    from roadgrip.evaluate import cases
+    from roadgrip.evaluate import cases, suite  # noqa: F401  (suite binds the real settings before the patch)
 
     tiny = replace(cases.DEMO, name="tiny", scenarios=("dry-gravel-dry",), multibody=(),
                    real_data=False, durations={"dry-gravel-dry": 20.0})

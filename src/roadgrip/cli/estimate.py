@@ -48,7 +48,7 @@ def estimate(
         options["curve_times"] = PLOT_CURVE_TIMES
     est.Config.from_options(options)  # rejects options of other methods before reading the drive
     drive = load_drive(drive_path, fmt, vehicle)
-    from roadgrip.evaluate.suite import preset_options
+    from roadgrip.io.presets import preset_options
 
     config = est.Config.from_options({**preset_options(method, drive), **options})
     with progress_bar(method, drive.n) as advance:

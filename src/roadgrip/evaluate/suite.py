@@ -32,6 +32,7 @@ from roadgrip.evaluate.cases import (
 )
 from roadgrip.evaluate.scoring import score
 from roadgrip.evaluate.table import write_outputs
+from roadgrip.io.presets import preset_options
 
 __all__ = [
     "DEMO",
@@ -43,7 +44,6 @@ __all__ = [
     "bench",
     "case_options",
     "default_cases",
-    "preset_options",
     "run_case",
     "run_suite",
 ]
@@ -73,20 +73,10 @@ def _load_drive(case: Case, settings: BenchSettings, seed: int, cache: dict):
     return drive
 
 
-def preset_options(method: str, drive) -> dict[str, Any]:
-    """The options ``method`` takes for ``drive``'s data set (GP-SSM: the DART preset,
-    :func:`roadgrip.estimators.gpssm.options_for_drive`); given options override them."""
-    if method != "gpssm":
-        return {}
-    from roadgrip.estimators.gpssm import options_for_drive
-
-    return options_for_drive(drive)
-
-
 def case_options(case: Case, settings: BenchSettings, drive) -> dict[str, Any]:
     """The options of ``case``'s run (``Config.from_options`` of its method).
 
-    The data set's presets (:func:`preset_options`), then for the GP-SSM the settings'
+    The data set's presets (:func:`roadgrip.io.presets.preset_options`), then for the GP-SSM the settings'
     particles, the case's basis and its curve times, relative to the drive's start:
     t = 50 s (paper 000) where the drive is longer, and the end.
     """

@@ -5,13 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from roadgrip.estimators.gpssm import (
-    GPSSMConfig,
-    dart_options,
-    drive_vx,
-    options_for_drive,
-    run_filter,
-)
+from roadgrip.estimators.gpssm import GPSSMConfig, drive_vx, run_filter
+from roadgrip.io.presets import dart_options, options_for_drive, preset_options
 
 DART_OPTIONS = dart_options()
 DATA = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "dart"
@@ -31,6 +26,7 @@ def _run(name, seed=0):
         pytest.skip(f"DART data not found at {path}")
     d = read_drive(path, format="dart", vehicle="jetracer")
     assert options_for_drive(d) == DART_OPTIONS
+    assert preset_options("gpssm", d) == DART_OPTIONS and preset_options("brls", d) == {}
     cfg = GPSSMConfig(basis="separable-odd:20", particles=200, **DART_OPTIONS)
     table, _ = run_filter(d, cfg, seed=seed)
     return d, table

@@ -119,7 +119,6 @@ from roadgrip.estimators.gpssm.inputs import (
     upsample_inputs,
 )
 from roadgrip.estimators.gpssm.posterior import CurvePosterior, curves_frame, posterior_curves
-from roadgrip.estimators.gpssm.presets import dart_options, options_for_drive
 from roadgrip.estimators.gpssm.reference import step_reference
 from roadgrip.estimators.gpssm.state import (
     Context,
@@ -147,14 +146,12 @@ __all__ = [
     "Sample",
     "copy_state",
     "curves_frame",
-    "dart_options",
     "drive_inputs",
     "drive_vx",
     "drive_vy",
     "filter_step",
     "init",
     "init_state",
-    "options_for_drive",
     "posterior_curves",
     "prepare",
     "prior_band",

@@ -123,7 +123,7 @@ class GPSSMConfig(EstimatorConfig):
         eq. 7 pulls ``vy`` back: it integrates ``-vx r`` and runs away (hundreds of m/s on
         the DART recordings from the IMU alone). The other way into such a run-away, a
         slip past the basis domain, is closed by ``slip_limit``. A car that is not spinning
-        out stays well inside the bound (:func:`~roadgrip.estimators.gpssm.presets.dart_options`).
+        out stays well inside the bound (:func:`~roadgrip.io.presets.dart_options`).
     slip_limit : float or None
         Slip angle [rad] beyond which each axle's friction curve is held flat: the prior
         mean and the features are evaluated at ``±slip_limit`` for larger ``|alpha|``

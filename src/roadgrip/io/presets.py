@@ -1,9 +1,8 @@
-"""Options of the GP-SSM filter for particular data sets.
+"""Estimator options for particular data sets, next to the readers of those data sets.
 
-Presets belong next to the readers of their data sets (:mod:`roadgrip.io`); they
-live here until they move. The estimator never applies them by itself: the caller
-merges them into the options, ``GPSSMConfig.from_options({**options_for_drive(drive),
-**options})``.
+An estimator never applies them by itself: the caller (``roadgrip estimate``, the
+benchmark) merges them under the options it was given,
+``Config.from_options({**preset_options(method, drive), **options})``.
 """
 
 from __future__ import annotations
@@ -11,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["dart_options", "options_for_drive"]
+__all__ = ["dart_options", "options_for_drive", "preset_options"]
 
 _DART: dict[str, Any] = {
     "sigma_ay": 0.3,
@@ -24,7 +23,7 @@ _DART: dict[str, Any] = {
     "ay_source": "kinematic",
     "max_sideslip": math.radians(20.0),
 }
-"""Option overrides for the DART JetRacer recordings (``format='dart'``).
+"""GP-SSM option overrides for the DART JetRacer recordings (``format='dart'``).
 
 The recordings are steady turns in one direction at constant steering. From the IMU alone
 a common shift of both axles' slip angles (the lateral velocity) is not identified by such
@@ -56,3 +55,9 @@ def options_for_drive(drive: Any) -> dict[str, Any]:
     """The preset options of a drive's data set: :func:`dart_options` for a drive read
     with ``format='dart'``, else none."""
     return dart_options() if drive.meta.extra.get("format") == "dart" else {}
+
+
+def preset_options(method: str, drive: Any) -> dict[str, Any]:
+    """The options ``method`` takes for ``drive``'s data set (a new dictionary; GP-SSM on
+    DART: :func:`dart_options`); options given by the caller override them."""
+    return options_for_drive(drive) if method == "gpssm" else {}
