@@ -56,7 +56,7 @@ def estimate(
     result.to_parquet(output)
     written = [output]
     if curves is not None and result.curves is not None and len(result.curves):
-        curves_with_truth(result.curves, drive).to_parquet(curves, index=False)
+        result.curves.to_parquet(curves, index=False)
         written.append(curves)
     if plot is not None:
         from roadgrip.plots import plot_estimate
@@ -76,25 +76,3 @@ def _parse_times(text: str | None) -> tuple[float, ...] | None:
         return tuple(float(s) for s in text.split(","))
     except ValueError:
         raise ValueError(f"--curve-times must be comma-separated seconds, got {text!r}") from None
-
-
-def curves_with_truth(curves, drive):
-    """The curve table with ``mu_true``, the drive's true curve at each slip, where it has truth.
-
-    Layout of ``--curves``: ``t`` [s from the drive start], ``axle``, ``alpha`` [rad],
-    ``mu_mean``, ``mu_lower``, ``mu_upper``, ``mu_prior`` and, on a drive with truth,
-    ``mu_true`` (NaN where a binned truth visited no slip bin).
-    """
-    if "mu_true" in curves.columns or not drive.has_truth:
-        return curves
-    from roadgrip.truth import true_curve
-
-    out = curves.copy()
-    out["mu_true"] = float("nan")
-    try:
-        for axle in out["axle"].unique():
-            rows = out["axle"] == axle
-            out.loc[rows, "mu_true"] = true_curve(drive, axle)(out.loc[rows, "alpha"].to_numpy(float))
-    except Exception:  # a drive whose truth gives no curve: the column stays NaN
-        return curves
-    return out

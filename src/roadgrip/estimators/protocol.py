@@ -34,7 +34,6 @@ The registry in :mod:`roadgrip.estimators` maps a method name to its record.
 from __future__ import annotations
 
 import dataclasses
-import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar, TypeVar
@@ -43,7 +42,7 @@ import numpy as np
 import pandas as pd
 
 from roadgrip.drive import Drive
-from roadgrip.estimators.base import EstimateResult, ProgressCallback, conform
+from roadgrip.estimators.base import EstimateResult, ProgressCallback, conform, timed
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = [
@@ -53,6 +52,7 @@ __all__ = [
     "Prepared",
     "rows_to_table",
     "run_by_stepping",
+    "to_plain",
 ]
 
 C = TypeVar("C", bound="EstimatorConfig")
@@ -89,16 +89,18 @@ class EstimatorConfig:
 
     def to_meta(self) -> dict[str, Any]:
         """JSON-friendly dictionary of the fields (for ``EstimateResult.meta``)."""
-        return {f.name: _plain(getattr(self, f.name)) for f in fields(self)}
+        return {f.name: to_plain(getattr(self, f.name)) for f in fields(self)}
 
 
-def _plain(v: Any) -> Any:
+def to_plain(v: Any) -> Any:
+    """``v`` as plain Python (dicts, lists, scalars) for JSON or YAML: dataclasses by field,
+    mappings with string keys, tuples as lists, NumPy scalars and arrays unwrapped."""
     if dataclasses.is_dataclass(v) and not isinstance(v, type):
-        return {f.name: _plain(getattr(v, f.name)) for f in fields(v)}
+        return {f.name: to_plain(getattr(v, f.name)) for f in fields(v)}
     if isinstance(v, Mapping):
-        return {str(k): _plain(x) for k, x in v.items()}
+        return {str(k): to_plain(x) for k, x in v.items()}
     if isinstance(v, tuple | list):
-        return [_plain(x) for x in v]
+        return [to_plain(x) for x in v]
     if isinstance(v, np.generic):
         return v.item()
     if isinstance(v, np.ndarray):
@@ -175,10 +177,6 @@ class Estimator:
     run: Callable[..., EstimateResult]
     prior_band: Callable[[Any], tuple[float, float]]
 
-    def config(self, options: Mapping[str, Any] | None = None) -> EstimatorConfig:
-        """``Config.from_options(options)``."""
-        return self.Config.from_options(options)
-
 
 def rows_to_table(rows: Iterable[Mapping[str, Any] | None]) -> pd.DataFrame:
     """Table of the non-``None`` rows of stepping, contract columns first."""
@@ -200,23 +198,17 @@ def run_by_stepping(
     ``summary`` maps the table to ``meta['summary']``.
     """
     config = config if config is not None else estimator.Config()
-    t0 = time.perf_counter()
-    prepared = estimator.prepare(drive, config)
-    state = estimator.init(prepared.info, config, seed)
-    rows = []
-    for sample in prepared.samples:
-        state, row = estimator.step(state, sample)
-        rows.append(row)
-        if progress is not None:
-            progress(1)
-    table = rows_to_table(rows)
-    wall = max(time.perf_counter() - t0, 1e-12)
-    meta: dict[str, Any] = {
-        "config": config.to_meta(),
-        "seed": int(seed),
-        "timing": {"wall_s": wall, "samples": int(drive.n), "samples_per_s": drive.n / wall,
-                   "realtime_factor": drive.duration / wall},
-    }
+    meta: dict[str, Any] = {"config": config.to_meta(), "seed": int(seed)}
+    with timed(meta, drive.n, drive.duration):
+        prepared = estimator.prepare(drive, config)
+        state = estimator.init(prepared.info, config, seed)
+        rows = []
+        for sample in prepared.samples:
+            state, row = estimator.step(state, sample)
+            rows.append(row)
+            if progress is not None:
+                progress(1)
+        table = rows_to_table(rows)
     if summary is not None:
         meta["summary"] = summary(table)
     return EstimateResult(estimator.name, table, meta)

@@ -16,12 +16,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 from roadgrip.estimators.classify.brls_config import BRLSConfig
 from roadgrip.estimators.classify.common import DEFAULT_FRICTION, friction_refs
 from roadgrip.estimators.classify.slipmap_config import SlipMapConfig
-from roadgrip.estimators.protocol import EstimatorConfig
+from roadgrip.estimators.protocol import EstimatorConfig, to_plain
 
 __all__ = ["CALIBRATION_VERSION", "Calibration", "ClassifierConfig"]
 
@@ -82,10 +80,10 @@ class Calibration:
             "drives": [dict(d) for d in self.drives],
             "brls": self.brls.to_dict(),
             "slipmap": slipmap,
-            "diagnostics": _plain(self.diagnostics),
+            "diagnostics": to_plain(self.diagnostics),
             "friction": {k: float(v) for k, v in self.friction.items()},
         }
-        return _plain(doc)
+        return to_plain(doc)
 
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any], where: str = "calibration") -> Calibration:
@@ -112,16 +110,6 @@ class Calibration:
             diagnostics=dict(doc.get("diagnostics") or {}),
             friction=friction_refs(doc.get("friction") or DEFAULT_FRICTION, where),
         )
-
-
-def _plain(o: Any) -> Any:
-    if isinstance(o, dict):
-        return {str(k): _plain(v) for k, v in o.items()}
-    if isinstance(o, list | tuple):
-        return [_plain(v) for v in o]
-    if isinstance(o, np.generic):
-        return o.item()
-    return o
 
 
 @dataclass(frozen=True)
