@@ -202,6 +202,22 @@ def validate_frame(
         _check_units(df)
 
 
+def _pose_speed(df: pd.DataFrame) -> np.ndarray | None:
+    """Speed over ground [m/s] from the pose ``x, y`` (central differences), or None.
+
+    None where the frame has no pose, its time is not increasing or the pose
+    does not move (a pose that never changes carries no speed).
+    """
+    if not {"x", "y", "t"} <= set(df.columns) or len(df) < 3:
+        return None
+    t = df["t"].to_numpy(float)
+    if not np.all(np.diff(t) > 0):
+        return None
+    x, y = df["x"].to_numpy(float), df["y"].to_numpy(float)
+    v = np.hypot(np.gradient(x, t), np.gradient(y, t))
+    return v if np.max(v) > 0.5 else None
+
+
 def _check_units(df: pd.DataFrame) -> None:
     cols = df.columns
     for c in ("ax", "ay"):
@@ -222,9 +238,15 @@ def _check_units(df: pd.DataFrame) -> None:
         )
     # Consistency of ay with vx * yaw_rate in steady cornering: catches ay in g and
     # yaw rate in deg/s even when their magnitudes alone look plausible.
-    if {"ay", "vx", "yaw_rate"} <= set(cols) and len(df) >= 20:
+    # The speed comes from the pose where the frame has one: wheel or driveshaft
+    # speeds include wheel spin (a drifting car's encoder can read several times
+    # the true speed), which would make a valid ay look like g.
+    speed = _pose_speed(df)
+    if speed is None and "vx" in cols:
+        speed = df["vx"].to_numpy(float)
+    if speed is not None and {"ay", "yaw_rate"} <= set(cols) and len(df) >= 20:
         ay = df["ay"].to_numpy(float)
-        kin = df["vx"].to_numpy(float) * df["yaw_rate"].to_numpy(float)
+        kin = speed * df["yaw_rate"].to_numpy(float)
         sel = np.abs(kin) > 1.0
         if sel.sum() >= 20:
             ratio = float(np.dot(ay[sel], kin[sel]) / np.dot(kin[sel], kin[sel]))
@@ -241,12 +263,12 @@ def _check_units(df: pd.DataFrame) -> None:
     # Consistency of ax with the derivative of vx while accelerating or braking:
     # catches ax in g. Only where the two correlate clearly (noisy or spinning-wheel
     # speeds give no verdict).
-    if {"ax", "vx", "t"} <= set(cols) and len(df) >= 200:
+    if speed is not None and {"ax", "t"} <= set(cols) and len(df) >= 200:
         t = df["t"].to_numpy(float)
         if np.all(np.diff(t) > 0):
             # central difference over about 0.5 s, robust to speed-sensor noise
             w = max(1, int(0.25 / float(np.median(np.diff(t)))))
-            vx = df["vx"].to_numpy(float)
+            vx = speed
             ax = df["ax"].to_numpy(float)[w:-w]
             a_kin = (vx[2 * w:] - vx[:-2 * w]) / (t[2 * w:] - t[:-2 * w])
             sel = np.abs(a_kin) > 0.5
