@@ -12,6 +12,7 @@ from vehiclemodels.utils import tire_model
 from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb
 
 from roadgrip.constants import GRAVITY
+from roadgrip.signals import level_accelerations
 from roadgrip.sim import mb_model
 from roadgrip.sim.friction import ConstantFriction
 from roadgrip.sim.mb_driver import MBPath, Path
@@ -145,6 +146,10 @@ def test_steady_circle_lateral_acceleration_is_v2_over_r(vehicle):
     assert np.mean(roll) > 0.01  # ISO: a left turn rolls the body to the right
     expected = np.mean(ay * np.cos(roll) + GRAVITY * np.sin(roll))
     assert np.mean(late["ay"]) == pytest.approx(expected, abs=0.05)
+    # the preset's roll gradient is the engine's, and levelling removes the tilt
+    assert np.mean(roll) / np.mean(ay) == pytest.approx(d.vehicle.roll_gradient, rel=0.05)
+    ay_level = level_accelerations(late["ax"], late["ay"], d.vehicle)[1]
+    assert np.mean(ay_level) == pytest.approx(np.mean(ay), rel=0.01)
     # the vehicle's own yaw rate and wheel-speed kinematics: outer (right) wheels faster
     assert np.mean(late["omega_fr"] - late["omega_fl"]) > 0
     r = np.mean(late["yaw_rate_true"])

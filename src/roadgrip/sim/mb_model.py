@@ -55,6 +55,7 @@ from roadgrip.constants import GRAVITY
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = [
+    "BODY_GRADIENTS",
     "COMMONROAD_VEHICLES",
     "WHEEL_ALPHA",
     "WHEEL_CAMBER",
@@ -355,6 +356,13 @@ def wheel_forces(x, p, out):
 # ---------------------------------------------------------------------------------------
 # vehicles
 # ---------------------------------------------------------------------------------------
+BODY_GRADIENTS = {"ford-escort": (0.0157, 0.0062), "vw-vanagon": (0.0116, 0.0061)}
+"""Roll and pitch gradients [rad/(m/s²)] of the CommonRoad vehicles on this engine (8.8 and 6.5
+deg/g of roll, 3.5 deg/g of pitch): the slopes of the body angles over the horizontal
+accelerations in the engine's own drives, as a skid pad and a brake test measure them
+(checked by the tests of the engine)."""
+
+
 def vehicle_from_commonroad(name: str) -> VehicleParams:
     """roadgrip's single-track parameters of a CommonRoad vehicle.
 
@@ -364,7 +372,8 @@ def vehicle_from_commonroad(name: str) -> VehicleParams:
     package's CG height, rolling radius and wheel inertia; the mean of the two
     track widths; axle cornering stiffness ``|p_ky1|`` times the static axle
     load; the driven axle from the engine-torque split ``T_se``; the steering
-    limit.
+    limit; the body's roll and pitch gradients (:data:`BODY_GRADIENTS`), which
+    a user measures on a skid pad and in a straight-line brake test.
 
     Parameters
     ----------
@@ -389,4 +398,5 @@ def vehicle_from_commonroad(name: str) -> VehicleParams:
         wheel_radius=p.R_w, track_width=0.5 * (p.T_f + p.T_r), wheel_inertia=p.I_y_w,
         cornering_stiffness_front=ky * fzf, cornering_stiffness_rear=ky * fzr,
         drive=drive, max_steer=p.steering.max, gear_ratio=1.0,
+        roll_gradient=BODY_GRADIENTS[name][0], pitch_gradient=BODY_GRADIENTS[name][1],
     )

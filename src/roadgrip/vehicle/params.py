@@ -27,6 +27,7 @@ _DRIVEN = {
     "awd": (True, True, True, True),
 }
 _DRIVES = tuple(_DRIVEN)
+_BODY_GRADIENTS = ("roll_gradient", "pitch_gradient")  # may be 0 (rigid body / unknown)
 
 
 @dataclass(frozen=True)
@@ -63,6 +64,15 @@ class VehicleParams:
         Largest front road-wheel angle [rad].
     gear_ratio : float
         Motor revolutions per wheel revolution [-] (1 where no motor speed is used).
+    roll_gradient : float
+        Body roll per lateral acceleration [rad/(m/s²)] (0.0157 is 8.8 deg/g), >= 0;
+        0 for a rigid body or where unknown. A body-fixed accelerometer tilts with
+        the body and reads ``a_y (1 + g roll_gradient)``
+        (:func:`roadgrip.signals.level_accelerations`).
+    pitch_gradient : float
+        Body pitch per longitudinal acceleration [rad/(m/s²)] (nose up under
+        acceleration, down under braking), >= 0; the accelerometer reads
+        ``a_x (1 + g pitch_gradient)``.
     """
 
     name: str
@@ -79,6 +89,8 @@ class VehicleParams:
     drive: str = "fwd"
     max_steer: float = 0.6
     gear_ratio: float = 1.0
+    roll_gradient: float = 0.0
+    pitch_gradient: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -87,7 +99,11 @@ class VehicleParams:
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, int | float):
                 raise ValueError(f"vehicle field {f.name!r} must be a number, got {value!r}")
-            if not math.isfinite(value) or value <= 0:
+            if f.name in _BODY_GRADIENTS:
+                if not 0 <= value < 0.05:
+                    raise ValueError(f"vehicle field {f.name!r} must lie in [0, 0.05) rad/(m/s²) "
+                                     f"(0.05 is 28 deg/g), got {value!r}")
+            elif not math.isfinite(value) or value <= 0:
                 raise ValueError(f"vehicle field {f.name!r} must be positive and finite, got {value!r}")
             object.__setattr__(self, f.name, float(value))
         if self.drive not in _DRIVES:

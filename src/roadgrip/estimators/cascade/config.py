@@ -98,6 +98,11 @@ class CascadeConfig(EstimatorConfig):
         the differentiation): each sample's variance is inflated by
         ``corr_time / T`` so that one window carries the information of one
         independent measurement.
+    pose_window : float
+        Window [s] over which the body velocity is differentiated from the pose
+        when the drive has ``x, y, psi`` but no ``vx_pose, vy_pose`` columns
+        (its noise is estimated from the pose, its correlation time is the
+        window); 0 does not derive it.
     v_min : float
         No friction update below this speed [m/s].
     v_eps : float
@@ -134,6 +139,7 @@ class CascadeConfig(EstimatorConfig):
     ay_straight: float = 1.0
     pose_velocity_std: float = 0.1
     pose_velocity_corr_time: float = 0.3
+    pose_window: float = 1.0
     v_min: float = 1.0
     v_eps: float = 0.1
     speed_source: str = "auto"

@@ -119,7 +119,8 @@ def make_params(vehicle: VehicleParams, config: CascadeConfig, derived: dict[str
         steer_bias=f(config.steer_bias_std),
         vy_bias=f(config.vy_bias_std),
         consist_tau=CONSISTENCY_TIME,
-        var_pose=f(config.pose_velocity_std**2 * config.pose_velocity_corr_time),
+        var_pose=f(derived.get("pose_velocity_std", config.pose_velocity_std) ** 2
+                   * derived.get("pose_velocity_corr_time", config.pose_velocity_corr_time)),
         slip_z=f(config.slip_noise_z),
         steer_tau=f(derived["steer_response_time"] or 0.0),
     )
@@ -148,7 +149,7 @@ def prepare(drive: Drive, config: CascadeConfig) -> Prepared:
     DriveValidationError
         Missing or non-finite inputs (:func:`~roadgrip.estimators.cascade.inputs.drive_inputs`).
     """
-    inputs, src, share = drive_inputs(drive, config)
+    inputs, src, share, pose = drive_inputs(drive, config)
     bias = config.accel_bias_std
     if bias is None:
         bias = 0.3 if has_standstill(inputs) else 0.0
@@ -163,6 +164,7 @@ def prepare(drive: Drive, config: CascadeConfig) -> Prepared:
         vx0=float(inputs.speed[0]),
         accel_bias_std=float(bias),
         steer_response_time=float(tau),
+        **pose,
     )
     return Prepared(info, CascadeSamples(inputs, drive_pose(drive)))
 

@@ -24,7 +24,13 @@ from numpy.typing import NDArray
 from roadgrip.drive import Drive, DriveValidationError
 from roadgrip.estimators.cascade.config import CascadeConfig
 from roadgrip.estimators.cascade.kernel import Inputs
-from roadgrip.signals import WHEELS, undriven_wheels
+from roadgrip.signals import (
+    WHEELS,
+    level_accelerations,
+    pose_velocity,
+    undriven_wheels,
+    white_noise_std,
+)
 
 __all__ = [
     "NOISE_FLOORS",
@@ -35,6 +41,7 @@ __all__ = [
     "has_standstill",
     "measured_speed",
     "noise_from_drive",
+    "pose_velocity_noise",
     "resolve_noise",
 ]
 
@@ -193,8 +200,34 @@ def resolve_noise(cfg: CascadeConfig, drive: Drive, speed: NDArray[np.float64],
     return {k: float(given[k]) if given[k] is not None else est[k] for k in given}
 
 
-def drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[Inputs, str, float]:
-    """The filter inputs of a drive, the speed source's description and its front-wheel share.
+def pose_velocity_noise(drive: Drive, window: float) -> float:
+    """Standard deviation [m/s] of the body velocity differentiated from the pose over ``window`` [s].
+
+    A local fit over ``N`` samples ``h`` apart to positions with white noise
+    ``s`` (:func:`roadgrip.signals.white_noise_std` of ``x`` and ``y``) has a
+    slope error of ``s sqrt(12 / (N (N² - 1))) / h``; a heading noise ``s_psi``
+    adds ``|v| s_psi`` (the velocity is rotated into the body frame).
+    """
+    h = float(np.median(np.diff(drive.t)))
+    n = max(round(window / h) | 1, 5)
+    s_pos = max(white_noise_std(drive.col("x")), white_noise_std(drive.col("y")))
+    s_psi = white_noise_std(np.unwrap(drive.col("psi")))
+    v = float(np.percentile(np.abs(drive.col("vx")), 90)) if drive.has("vx") else 0.0
+    sd = np.hypot(s_pos * np.sqrt(12.0 / (n * (n * n - 1.0))) / h, v * s_psi)
+    return float(sd) if np.isfinite(sd) else float("nan")
+
+
+def drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[Inputs, str, float, dict[str, Any]]:
+    """The filter inputs of a drive, the speed source's description, its front-wheel share, pose use.
+
+    The accelerations are levelled (:func:`roadgrip.signals.level_accelerations`,
+    the vehicle's roll and pitch gradients). The body velocity from the pose is
+    the drive's ``vx_pose, vy_pose`` columns; without them, on a drive with
+    ``x, y, psi``, it is differentiated here over ``pose_window`` seconds
+    (:func:`roadgrip.signals.pose_velocity`) with the noise of
+    :func:`pose_velocity_noise`. The fourth value says which (``pose_velocity``:
+    ``'columns'``, ``'derived'`` or ``'none'``), with ``pose_velocity_std`` [m/s]
+    and ``pose_velocity_corr_time`` [s].
 
     Raises
     ------
@@ -208,17 +241,29 @@ def drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[Inputs, str, floa
     for k, v in cols.items():
         if not np.all(np.isfinite(v)):
             raise DriveValidationError(f"cascade input {k!r} holds NaN/inf")
+    cols["ax"], cols["ay"] = level_accelerations(cols["ax"], cols["ay"], drive.vehicle)
     n = len(cols["t"])
-    use_pose = config.pose_velocity_std > 0 and drive.has("vx_pose", "vy_pose")
-    for c in ("vx_pose", "vy_pose"):
-        v = np.asarray(drive.col(c), dtype=float) if use_pose else np.full(n, np.nan)
+    pose: dict[str, Any] = {"pose_velocity": "none", "pose_velocity_std": float(config.pose_velocity_std),
+                            "pose_velocity_corr_time": float(config.pose_velocity_corr_time)}
+    vxp = vyp = np.full(n, np.nan)
+    if config.pose_velocity_std > 0 and drive.has("vx_pose", "vy_pose"):
+        vxp, vyp = drive.col("vx_pose"), drive.col("vy_pose")
+        pose["pose_velocity"] = "columns"
+    elif config.pose_velocity_std > 0 and config.pose_window > 0 and drive.has("x", "y", "psi") and n >= 50:
+        sd = pose_velocity_noise(drive, config.pose_window)
+        if np.isfinite(sd):
+            vxp, vyp = pose_velocity(drive, window=config.pose_window)
+            pose.update(pose_velocity="derived", pose_velocity_std=max(sd, float(config.pose_velocity_std)),
+                        pose_velocity_corr_time=float(config.pose_window))
+    for c, v in (("vx_pose", vxp), ("vy_pose", vyp)):
+        v = np.asarray(v, dtype=float)
         if np.isinf(v).any():
             raise DriveValidationError(f"cascade input {c!r} holds inf (NaN marks a missing pose)")
         cols[c] = v
     # fresh writable C-contiguous copies: one array type for the compiled kernel (drive
     # columns may be read-only views, which numba would compile a second time for)
     arrays = {k: np.array(v, dtype=np.float64, order="C", copy=True) for k, v in cols.items()}
-    return Inputs(**arrays), src, share
+    return Inputs(**arrays), src, share, pose
 
 
 def drive_pose(drive: Drive) -> tuple[NDArray[np.float64], ...] | None:
