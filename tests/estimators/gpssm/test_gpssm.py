@@ -101,7 +101,9 @@ def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measu
     assert a["resampled"].sum() > 5 and (~a["excited"]).sum() > 5
     pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-7, atol=1e-9)
     np.testing.assert_allclose(b_state.Psi, a_state.Psi, rtol=1e-7, atol=1e-9)
-    np.testing.assert_allclose(la.information(b_state.lin), la.information(a_state.lin), rtol=1e-9)
+    # (fastmath sums in another order; with each particle's accelerometer gain the slips
+    # that enter the information matrices differ from the reference's by ~1e-9 relative)
+    np.testing.assert_allclose(la.information(b_state.lin), la.information(a_state.lin), rtol=1e-8)
     c = np.radians(np.linspace(-10, 10, 9))
     from roadgrip.estimators.gpssm import posterior_curves
 
@@ -265,12 +267,14 @@ def test_straight_drive_leaves_the_prior_and_says_so():
     assert t["mu_front"].iloc[-1] < 0.05
     # and nothing bounds it from above but the physical limit
     assert (t["mu_front_upper"] == GPSSMConfig.peak_max).all() and (t["mu_rear_upper"] == 2.0).all()
-    cfg = GPSSMConfig(basis="tensor:10x10", particles=30)
-    f, _ = _online(cfg, d)
+    # the paper's setting (tensor basis, fixed accelerometer gain) leaves the prior mean;
+    # with the learned gain (the default) the mean stays well inside the prior band too
     alpha = np.radians(np.r_[-12.0:-5.0:1.0, 6.0:13.0:1.0])
-    c = f.curves(alpha)
-    np.testing.assert_allclose(c.mean, c.prior, atol=0.05)
-    assert (c.upper - c.lower).min() > 0.4  # as wide as the prior band
+    for gain_sigma, tol in ((0.0, 0.05), (GPSSMConfig.ay_gain_sigma, 0.1)):
+        f, _ = _online(GPSSMConfig(basis="tensor:10x10", particles=30, ay_gain_sigma=gain_sigma), d)
+        c = f.curves(alpha)
+        np.testing.assert_allclose(c.mean, c.prior, atol=tol)
+        assert (c.upper - c.lower).min() > 0.4  # as wide as the prior band
 
 
 def test_learns_the_snow_curve_where_the_data_went(snow60):

@@ -57,12 +57,13 @@ __all__ = [
 class EST:
     """Slots of the estimate array written by :func:`particle_pass`."""
 
-    ESS, VY, YAW_RATE, VY_STD, YAW_RATE_STD, ALPHA_F, ALPHA_R, MU_NOW_F, MU_NOW_R, SIZE = range(10)
+    ESS, VY, YAW_RATE, VY_STD, YAW_RATE_STD, ALPHA_F, ALPHA_R, MU_NOW_F, MU_NOW_R, AY_GAIN, SIZE = range(11)
 
 
 # the same slots as module constants (compiled code reads globals, not class attributes)
-_ESS, _VY_EST, _YR, _VY_STD, _YR_STD, _AF, _AR, _MU_F, _MU_R, _EST_SIZE = range(10)
-_VY, _YAW_RATE = State.VY, State.YAW_RATE
+_ESS, _VY_EST, _YR, _VY_STD, _YR_STD, _AF, _AR, _MU_F, _MU_R, _GAIN_EST, _EST_SIZE = range(11)
+_VY, _YAW_RATE, _GAIN = State.VY, State.YAW_RATE, State.AY_GAIN
+_GAIN_MIN, _GAIN_MAX = 0.5, 2.0  # state.GAIN_MIN, GAIN_MAX
 
 regularised_speed_jit = numba.njit(cache=True, inline="always")(_regularised_speed)
 
@@ -152,6 +153,7 @@ class Draws(NamedTuple):
 
     gdraw: NDArray
     zdraw: NDArray
+    gwalk: NDArray
 
 
 class Outputs(NamedTuple):
@@ -228,7 +230,8 @@ def particle_pass(p, slots, inp, veh, prm, basis, peak, draws, out):  # pragma: 
     draws : Draws
         ``gdraw`` (N, G) chi-square draws with ``nu - d + 1`` degrees of freedom;
         ``zdraw`` (N, 1, 2) standard normals (conditional proposal) or (N, G, d)
-        (bootstrap).
+        (bootstrap); ``gwalk`` (N,) the random-walk steps of the accelerometer gains
+        (``State.AY_GAIN``, applied when ``inp.propagate``).
     out : Outputs
         ``alpha`` (N, 2) slip angles; ``M`` (N, G, d, m) posterior mean (eq. 28a);
         ``Lam`` (N, G, d, d) posterior ``Lambda``; ``vpk`` (N, G, np) ``f^T H^{-1} f`` of
@@ -249,7 +252,7 @@ def particle_pass(p, slots, inp, veh, prm, basis, peak, draws, out):  # pragma: 
     tensor, nf, fidx, ridx, wgt = basis.tensor, basis.nf, basis.fidx, basis.ridx, basis.wgt
     L, a_lim = basis.L, basis.a_lim
     fpk, wold, wnew, fresh = peak.fpk, peak.wold, peak.wnew, peak.fresh
-    gdraw, zdraw = draws.gdraw, draws.zdraw
+    gdraw, zdraw, gwalk = draws.gdraw, draws.zdraw, draws.gwalk
     out_alpha, out_M, out_Lam, out_vpk, out_munow, est = out.alpha, out.M, out.Lam, out.vpk, out.munow, out.est
     N = x.shape[0]
     G = Psi.shape[1]
@@ -293,14 +296,20 @@ def particle_pass(p, slots, inp, veh, prm, basis, peak, draws, out):  # pragma: 
         # 1. propagate (eq. 7), forget (eq. 29)
         vy = x[n, _VY]
         r = x[n, _YAW_RATE]
+        kg = x[n, _GAIN]
         if propagate:
             vy, r = euler_step_jit(vy, r, cp, vx_prev, mu[n, 0], mu[n, 1], dt, veh)
+            kg = min(max(kg + gwalk[n], _GAIN_MIN), _GAIN_MAX)
+            x[n, _GAIN] = kg
             for g in range(G):
                 for a in range(d):
                     for k in range(m):
                         Psi[n, g, a, k] *= lam
                     for b in range(d):
                         Phi[n, g, a, b] *= lam
+        # this particle's accelerometer gain on eq. 8
+        g0 = kg * c0
+        g1 = kg * c1
         if vy_max >= 0.0:
             vy = min(max(vy, -vy_max), vy_max)
         if has_vy:
@@ -424,10 +433,10 @@ def particle_pass(p, slots, inp, veh, prm, basis, peak, draws, out):  # pragma: 
                     S2[a, a] = lam_star[a, 0, 0] * (1.0 + s_g[a]) / gdraw[n, a]
                 S2[0, 1] = 0.0
                 S2[1, 0] = 0.0
-            v = ay - c0 * (mu_pr[0] + m0[0]) - c1 * (mu_pr[1] + m0[1])
-            sc0 = S2[0, 0] * c0 + S2[0, 1] * c1
-            sc1 = S2[1, 0] * c0 + S2[1, 1] * c1
-            sy = c0 * sc0 + c1 * sc1 + sigma_ay * sigma_ay
+            v = ay - g0 * (mu_pr[0] + m0[0]) - g1 * (mu_pr[1] + m0[1])
+            sc0 = S2[0, 0] * g0 + S2[0, 1] * g1
+            sc1 = S2[1, 0] * g0 + S2[1, 1] * g1
+            sy = g0 * sc0 + g1 * sc1 + sigma_ay * sigma_ay
             k0 = sc0 / sy
             k1 = sc1 / sy
             mean0 = m0[0] + k0 * v
@@ -468,7 +477,7 @@ def particle_pass(p, slots, inp, veh, prm, basis, peak, draws, out):  # pragma: 
                 z0, z1 = zeta[0, 0], zeta[0, 1]
             else:
                 z0, z1 = zeta[0, 0], zeta[1, 0]
-            v = ay - c0 * (mu_pr[0] + z0) - c1 * (mu_pr[1] + z1)
+            v = ay - g0 * (mu_pr[0] + z0) - g1 * (mu_pr[1] + z1)
             ll = -0.5 * (v / sigma_ay) ** 2
         mu[n, 0] = mu_pr[0] + z0
         mu[n, 1] = mu_pr[1] + z1
@@ -546,6 +555,7 @@ def particle_pass(p, slots, inp, veh, prm, basis, peak, draws, out):  # pragma: 
         est[_YR] += w * x[n, _YAW_RATE]
         est[_AF] += w * out_alpha[n, 0]
         est[_AR] += w * out_alpha[n, 1]
+        est[_GAIN_EST] += w * x[n, _GAIN]
         est[_MU_F] += w * out_munow[n, 0]
         est[_MU_R] += w * out_munow[n, 1]
     for n in range(N):

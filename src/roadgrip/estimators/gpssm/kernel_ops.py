@@ -315,7 +315,7 @@ def peak_summary(post, pg, a_vis, prm, out):  # pragma: no cover - compiled
         n_in = 0
         for k in range(ng):
             mean[k] = 0.0
-            if grid[k] <= a_vis[ax]:
+            if grid[k] < a_vis[ax]:
                 n_in += 1
         # every particle's curve on the grid as one matrix product (BLAS)
         for n in range(N):
@@ -333,7 +333,7 @@ def peak_summary(post, pg, a_vis, prm, out):  # pragma: no cover - compiled
                 mean[k] += w[n] * acc
                 if acc > best:
                     best = acc
-                if grid[k] <= a_vis[ax] and acc > best_in:
+                if grid[k] < a_vis[ax] and acc > best_in:
                     best_in = acc
             peaks[n] = best
             vis[n] = best_in
@@ -370,7 +370,7 @@ def peak_summary(post, pg, a_vis, prm, out):  # pragma: no cover - compiled
             lo = mu_hat - z95 * math.sqrt(max(vv, 0.0))
             jb = 0
             for k in range(1, ng):
-                if grid[k] <= a_vis[ax] and mean[k] > mean[jb]:
+                if grid[k] < a_vis[ax] and mean[k] > mean[jb]:
                     jb = k
             a_band = grid[jb]
         if not observed:

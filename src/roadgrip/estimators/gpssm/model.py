@@ -44,11 +44,14 @@ __all__ = [
 
 
 class State:
-    """Index layout of the filter's state vector ``x`` (N, SIZE)."""
+    """Index layout of the filter's state vector ``x`` (N, SIZE): lateral velocity
+    [m/s], yaw rate [rad/s] and the accelerometer gain [-] (``a_y,meas = AY_GAIN a_y``,
+    :attr:`~roadgrip.estimators.gpssm.config.GPSSMConfig.ay_gain_sigma`)."""
 
     VY = 0
     YAW_RATE = 1
-    SIZE = 2
+    AY_GAIN = 2
+    SIZE = 3
 
 
 class Input:

@@ -186,7 +186,7 @@ def peak_estimates(
             # past the visited range the curve is the prior's: the data bound the peak
             # only from below (GPSSMConfig.peak_max)
             hi = config.peak_max
-            inside = grid <= a_vis
+            inside = grid < a_vis  # strictly inside: the top bin's upper edge was not reached
             if inside.sum() <= 1:
                 mu_hat, lo = 0.0, 0.0
             else:

@@ -27,6 +27,8 @@ from roadgrip.estimators.gpssm.model import (
 )
 from roadgrip.estimators.gpssm.posterior import axle_rows, held, peak_estimates, peak_rhs
 from roadgrip.estimators.gpssm.state import (
+    GAIN_MAX,
+    GAIN_MIN,
     Context,
     GPSSMEstimate,
     GPSSMState,
@@ -64,7 +66,8 @@ def step_reference(
         vy, r = euler_step(state.x[:, State.VY], state.x[:, State.YAW_RATE],
                            math.cos(state.u[Input.STEER]), state.u[Input.VX],
                            state.mu[:, 0], state.mu[:, 1], dt, veh)
-        x = np.stack([vy, r], axis=1)
+        gain = np.clip(state.x[:, State.AY_GAIN] + ctx.gain_steps(state.rng, dt), GAIN_MIN, GAIN_MAX)
+        x = np.stack([vy, r, gain], axis=1)
         lin = la.forget(state.lin, lam, config.refactor_every)
         Psi = state.Psi
         Psi *= lam
@@ -108,13 +111,14 @@ def step_reference(
     Lam_star = sym_pd(Lam_star, 1e-12)
     dof = nu - d + 1.0
     scale = Lam_star * ((1.0 + s) / dof)[..., None, None]
-    c_ay = np.array(ay_gains(math.cos(sample.steer), veh))  # eq. 8: ay = c_ay . mu
+    # eq. 8 with each particle's accelerometer gain: ay = c_ay . mu
+    c_ay = x[:, State.AY_GAIN, None] * np.array(ay_gains(math.cos(sample.steer), veh))[None]
     r_pred = x[:, State.YAW_RATE]
     if config.proposal == "prior":
         # bootstrap proposal (eq. 22): zeta from the predictive, weight by y_k
         zeta = _student_t(rng, loc, scale, dof)
         mu = mu_prior + _zeta_to_axles(config, zeta)
-        ay_pred = mu @ c_ay
+        ay_pred = np.einsum("nj,nj->n", mu, c_ay)
         loglik = -0.5 * ((sample.ay - ay_pred) / ctx.sigma_ay) ** 2
     else:
         zeta, loglik = _conditional_sample(ctx, rng, loc, scale, dof, mu_prior, c_ay, sample.ay)
@@ -174,6 +178,7 @@ def step_reference(
         t=float(sample.t),
         vy=float(xm[State.VY]), vy_std=float(xs[State.VY]),
         yaw_rate=float(xm[State.YAW_RATE]), yaw_rate_std=float(xs[State.YAW_RATE]),
+        ay_gain=float(xm[State.AY_GAIN]),
         alpha_f=af_m, alpha_r=ar_m,
         mu_now_front=float(mu_now[0]), mu_now_rear=float(mu_now[1]),
         mu_front=peak["mu"][0], mu_rear=peak["mu"][1],

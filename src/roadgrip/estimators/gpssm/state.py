@@ -19,7 +19,10 @@ from roadgrip.estimators.gpssm.inputs import Sample
 from roadgrip.estimators.gpssm.model import State, VehicleConstants, vehicle_constants
 from roadgrip.vehicle.params import VehicleParams
 
-__all__ = ["Context", "GPSSMEstimate", "GPSSMState", "copy_state", "init_state", "resample"]
+GAIN_MIN, GAIN_MAX = 0.5, 2.0
+"""Range of the accelerometer gain [-] (``State.AY_GAIN``)."""
+
+__all__ = ["GAIN_MAX", "GAIN_MIN", "Context", "GPSSMEstimate", "GPSSMState", "copy_state", "init_state", "resample"]
 
 
 class Context:
@@ -38,7 +41,8 @@ class Context:
     substeps : int
     """
 
-    __slots__ = ("config", "kernel", "sigma_ay", "sigma_yaw_rate", "substeps", "veh", "vehicle")
+    __slots__ = ("config", "gain_sigma", "gain_walk", "kernel", "sigma_ay", "sigma_yaw_rate", "substeps",
+                 "veh", "vehicle")
 
     def __init__(self, config: GPSSMConfig, vehicle: VehicleParams, substeps: int = 1) -> None:
         if int(substeps) != substeps or substeps < 1:
@@ -52,7 +56,19 @@ class Context:
         if substeps > 1:
             self.sigma_ay *= math.sqrt(substeps)
             self.sigma_yaw_rate *= math.sqrt(substeps)
+        # the accelerometer gain is learned from an accelerometer only (not from r vx + dvy/dt)
+        imu = config.ay_source == "imu"
+        self.gain_sigma = config.ay_gain_sigma if imu else 0.0
+        self.gain_walk = config.ay_gain_walk if (imu and config.ay_gain_sigma > 0.0) else 0.0
         self.kernel: dict[str, Any] = {}
+
+    def gain_steps(self, rng: np.random.Generator, dt: float) -> NDArray:
+        """Random-walk increments of the particles' accelerometer gains over ``dt`` [s],
+        shape (N,) (zeros, and no draw, when the gain is fixed)."""
+        N = self.config.particles
+        if self.gain_walk == 0.0:
+            return np.zeros(N)
+        return self.gain_walk * math.sqrt(dt) * rng.standard_normal(N)
 
     def __repr__(self) -> str:
         return f"Context({self.config!r}, {self.vehicle.name!r}, substeps={self.substeps})"
@@ -71,7 +87,7 @@ class GPSSMState(NamedTuple):
     u : ndarray, shape (Input.SIZE,)
         Last input ``[steer, vx]`` (:class:`~roadgrip.estimators.gpssm.model.Input`).
     x : ndarray, shape (N, State.SIZE)
-        Particle states ``[vy, yaw_rate]`` at ``t`` (:class:`~roadgrip.estimators.gpssm.model.State`).
+        Particle states ``[vy, yaw_rate, ay_gain]`` at ``t`` (:class:`~roadgrip.estimators.gpssm.model.State`).
     mu : ndarray, shape (N, 2)
         Each particle's friction sample at ``t`` (drives the next propagation).
     logw : ndarray, shape (N,)
@@ -127,6 +143,7 @@ class GPSSMEstimate(NamedTuple):
     vy_std: float
     yaw_rate: float
     yaw_rate_std: float
+    ay_gain: float
     alpha_f: float
     alpha_r: float
     mu_now_front: float
@@ -193,6 +210,9 @@ def init_state(ctx: Context, sample: Sample, seed: int = 0) -> GPSSMState:
     x = np.empty((N, State.SIZE))
     x[:, State.VY] = config.sigma_vy0 * rng.standard_normal(N)
     x[:, State.YAW_RATE] = sample.yaw_rate + ctx.sigma_yaw_rate * rng.standard_normal(N)
+    x[:, State.AY_GAIN] = 1.0
+    if ctx.gain_sigma > 0.0:
+        x[:, State.AY_GAIN] = np.clip(1.0 + ctx.gain_sigma * rng.standard_normal(N), GAIN_MIN, GAIN_MAX)
     return GPSSMState(
         k=0,
         t=float(sample.t),

@@ -133,6 +133,7 @@ def _step_compiled(
     if learn:
         lin = la.reserve(lin)
     rng = state.rng
+    gwalk = ctx.gain_steps(rng, dt) if propagate else np.zeros(N)
     ratio = manifold_ratio(state)
     fpk_g = peak_rhs(ctx, ratio, state.peak_alpha)  # (G, m, np)
     dof = nu - d + 1.0
@@ -174,7 +175,7 @@ def _step_compiled(
                   config.proposal == "conditional", carry),
         kc["basis"],
         gk.PeakColumns(fpk_g, wold, wnew, fresh),
-        gk.Draws(gdraw, zdraw),
+        gk.Draws(gdraw, zdraw, gwalk),
         gk.Outputs(alpha, M, Lam, vpk, munow, e),
     )
     lin = lin._replace(pend=pend_new, pgain=pgain_new, panc=pdst, pkw=wnew, pkf=fpk_g)
@@ -204,6 +205,7 @@ def _step_compiled(
         t=float(sample.t),
         vy=float(e[gk.EST.VY]), vy_std=float(e[gk.EST.VY_STD]),
         yaw_rate=float(e[gk.EST.YAW_RATE]), yaw_rate_std=float(e[gk.EST.YAW_RATE_STD]),
+        ay_gain=float(e[gk.EST.AY_GAIN]),
         alpha_f=af_m, alpha_r=ar_m,
         mu_now_front=float(e[gk.EST.MU_NOW_F]), mu_now_rear=float(e[gk.EST.MU_NOW_R]),
         mu_front=float(pk[0, PEAK.MU]), mu_rear=float(pk[1, PEAK.MU]),
