@@ -211,14 +211,6 @@ def test_files_and_command_line(tmp_path):
         M.FrictionGrid.from_npz(tmp_path / "other.npz")
 
 
-def _field_mu(ff, x, y):
-    mu = np.full(np.shape(x), ff["mu"][ff["base"]])
-    for p in ff["patches"]:
-        inside = (x >= p["x0"]) & (x < p["x1"]) & (y >= p["y0"]) & (y < p["y1"])
-        mu = np.where(inside, ff["mu"][p["surface"]], mu)
-    return mu
-
-
 @pytest.mark.parametrize("seed", [0, 1, 2, 3, 4, 5, 6, 7])
 def test_acceptance_f1tenth_patches_two_laps(seed):
     """Cascade + grid on the simulated patch track after two laps (the issue's acceptance)."""
@@ -234,11 +226,13 @@ def test_acceptance_f1tenth_patches_two_laps(seed):
     grid = M.grid_from_estimates(res.table, 0.5)
     cells = grid.cells_frame(min_obs=10)
     assert len(cells) >= 8
-    # true friction of a cell: the patch field at the observations fused into it, with
-    # their weights (a cell on a patch edge holds what was observed on its two sides)
-    ff = drive.meta.truth["friction_field"]
+    # true friction of a cell: the friction under the tires of the observations fused into
+    # it, with their weights (a cell on a patch edge holds what was observed on its two
+    # sides; the simulator applies the surface under the CG to both axles, so near an edge
+    # an axle's observation carries the friction of the CG's side)
     obs = M.observations_from_estimates(res.table, 0.5)  # the ones the grid fused
-    truth_grid = M.fuse(M.empty_grid(0.5), obs.x, obs.y, _field_mu(ff, obs.x, obs.y), obs.var)
+    mu_tire = np.interp(obs.t, two_laps.t, two_laps.col("mu_true"))
+    truth_grid = M.fuse(M.empty_grid(0.5), obs.x, obs.y, mu_tire, obs.var)
     truth = truth_grid.s1 / np.where(truth_grid.s0 > 0, truth_grid.s0, 1.0)
     truth = truth[truth_grid.n_obs >= 10]
     err = np.abs(cells["mu_mean"].to_numpy() - truth)

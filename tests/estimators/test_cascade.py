@@ -67,9 +67,22 @@ def test_compiled_brush_equals_tire_module():
     rng = np.random.default_rng(4)
     M = rng.uniform(0.1, 1.2, (50, 2))
     for af, ar in ((0.0, 0.0), (0.03, -0.02), (-0.2, 0.4)):
-        Z = C.friction_measurement(M, af, ar, 20.0, 11.0, 7.0, 13.0, 0.05, 2.0)
+        Z = C.friction_measurement(M, af, ar, 20.0, 11.0, 7.0, 13.0, 0.0, 0.0, 0.05, 2.0)
         np.testing.assert_allclose(Z[:, 0], brush_force(af, 20.0, M[:, 0], 7.0), rtol=1e-13, atol=1e-13)
         np.testing.assert_allclose(Z[:, 1], brush_force(ar, 11.0, M[:, 1], 13.0), rtol=1e-13, atol=1e-13)
+
+
+def test_combined_slip_leaves_the_friction_circle_to_the_lateral_force():
+    """With a longitudinal force Fx on the axle, the lateral brush saturates at sqrt((mu Fz)² - Fx²)."""
+    M = np.array([[0.6, 0.6], [1.0, 0.3]])
+    fzf, fzr, fxf, fxr = 20.0, 11.0, -0.5 * 20.0, 0.4 * 11.0
+    Z = C.friction_measurement(M, 0.4, -0.4, fzf, fzr, 7.0, 13.0, fxf, fxr, 0.05, 2.0)  # both saturated
+    np.testing.assert_allclose(np.hypot(Z[:, 0], fxf), M[:, 0] * fzf, rtol=1e-12)
+    np.testing.assert_allclose(np.hypot(Z[1, 1], fxr), np.hypot(0.05, 0.4) * fzr, rtol=1e-12)  # Fx alone > mu Fz
+    np.testing.assert_allclose(np.hypot(Z[0, 1], fxr), 0.6 * fzr, rtol=1e-12)
+    # in the linear range the force does not depend on the friction left
+    lin = C.friction_measurement(M, 1e-4, 1e-4, fzf, fzr, 7.0, 13.0, fxf, fxr, 0.05, 2.0)
+    np.testing.assert_allclose(lin[:, 0], fzf * 7.0 * np.tan(1e-4), rtol=1e-3)
 
 
 def test_force_models_match_rigid_body_equations():
@@ -136,8 +149,8 @@ def test_variance_grows_without_excitation():
     tab = C.run(straight, cfg).table
     assert not tab["excited"].any()
     np.testing.assert_allclose(tab["mu_front_std"].iloc[-1], 0.4, rtol=1e-3)
-    # from a confident state, the variance grows as the random walk says
-    cfg = dataclasses.replace(cfg, accel_std=0.05, gyro_std=0.005, speed_std=0.02)
+    # from a confident state, the variance grows as the random walk says (the paper's model)
+    cfg = dataclasses.replace(cfg, accel_std=0.05, gyro_std=0.005, speed_std=0.02, mu_length=0.0)
     prep = C.prepare(straight, cfg)
     st = C.init(prep.info, cfg)._replace(friction_cov=np.eye(2) * 0.01)
     stds = []
@@ -147,6 +160,31 @@ def test_variance_grows_without_excitation():
     dt = 1 / 100.0
     np.testing.assert_allclose(stds[-1] ** 2, 0.01 + cfg.mu_rate_std**2 * dt * 199, rtol=1e-3)
     assert np.all(np.diff(stds) > 0)
+
+
+def test_friction_returns_to_the_prior_over_distance():
+    """With a correlation length L, an unexcited state decays to the prior as exp(-distance / L)."""
+    straight = simulate_brush(mu=0.6, duration=5.0, steer_amp=0.0, seed=2)
+    cfg = C.CascadeConfig(mu_prior=0.9, mu_prior_std=0.4, mu_length=1.5, accel_std=0.05, gyro_std=0.005,
+                          speed_std=0.02)
+    prep = C.prepare(straight, cfg)
+    st = C.init(prep.info, cfg)._replace(friction_mean=np.array([0.3, 0.3]), friction_cov=np.eye(2) * 1e-4)
+    rows = []
+    for s in prep.samples[:150]:
+        st, row = C.step(st, s)
+        rows.append(row)
+    # the same recursion, written out from the rows' speeds
+    m, v, q = 0.3, 1e-4, cfg.mu_rate_std**2
+    for k, row in enumerate(rows):
+        dt = 0.0 if k == 0 else row["t"] - rows[k - 1]["t"]
+        a = np.exp(-abs(row["vx"]) * dt / cfg.mu_length)
+        m = 0.9 + a * (m - 0.9)
+        v = min(a * a * v + (1 - a * a) * 0.16 + q * dt, 0.16)
+        assert row["mu_front"] == pytest.approx(m, abs=1e-12)
+        assert row["mu_front_std"] == pytest.approx(np.sqrt(v), rel=1e-9)
+    travelled = sum(abs(r["vx"]) for r in rows[1:]) * 0.01
+    assert travelled > 2 * cfg.mu_length  # the test covers a real return
+    assert abs(rows[-1]["mu_front"] - 0.9) < 0.6 * np.exp(-travelled / cfg.mu_length) + 1e-9
 
 
 def test_online_steps_give_the_stage_estimates_and_state_of_run(drive06):

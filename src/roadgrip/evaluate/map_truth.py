@@ -1,10 +1,13 @@
 """A friction map and a per-sample friction estimate scored against the simulator's friction field.
 
 What a user of a friction map asks of a cell is the friction where the car
-drives inside it. The truth of a cell is therefore the true friction at the
-axle positions (true pose, axles ``lf`` ahead of and ``lr`` behind the CG) of
-every sample of the drive that lies in the cell, averaged; it does not depend
-on which samples the estimator chose to use.
+drives inside it. The truth of a cell is therefore the true friction under the
+tires of every sample whose axle (true pose, ``lf`` ahead of and ``lr`` behind
+the CG) lies in the cell, averaged; it does not depend on which samples the
+estimator chose to use. The friction under the tires is the drive's
+``mu_true`` column where it has one (the multi-body engine applies the surface
+at its reference point to all four wheels), else the friction field at the
+axle.
 
 The physics floor needs no truth: a car that holds ``|a_y|`` for a second on a
 surface proves a friction of at least ``|a_y| / g`` there.
@@ -55,8 +58,8 @@ def axle_positions(drive: Drive, true_pose: bool = True) -> dict[str, tuple[NDAr
 def axle_truth(drive: Drive) -> dict[str, NDArray[np.float64]]:
     """True friction under each axle for every sample [-].
 
-    From the simulator's friction field (``meta.truth['friction_field']``) at
-    the axle positions, else the drive's ``mu_true`` for both axles.
+    The drive's ``mu_true`` for both axles, else the simulator's friction field
+    (``meta.truth['friction_field']``) at the axle positions.
 
     Raises
     ------
@@ -64,11 +67,11 @@ def axle_truth(drive: Drive) -> dict[str, NDArray[np.float64]]:
         When the drive carries neither.
     """
     field = (drive.meta.truth or {}).get("friction_field")
-    if field is None:
-        if not drive.has("mu_true"):
-            raise ValueError("the drive has no friction truth (no friction field, no mu_true column)")
+    if drive.has("mu_true"):
         mu = drive.col("mu_true")
         return {"front": mu, "rear": mu}
+    if field is None:
+        raise ValueError("the drive has no friction truth (no friction field, no mu_true column)")
     from roadgrip.sim.friction import mu_at
 
     pos = axle_positions(drive)

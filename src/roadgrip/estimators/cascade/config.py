@@ -57,8 +57,14 @@ class CascadeConfig(EstimatorConfig):
         Force random-walk intensity expressed as a jerk [m/s³]: ``Q_F = (m j T)²``.
     mu_rate_std : float
         Friction random-walk intensity [1/sqrt(s)] (eq. 11).
+    mu_length : float
+        Correlation length of the road friction [m]: over a distance ``d`` the
+        friction state returns to the prior by the factor ``exp(-d / mu_length)``
+        (mean and information), so that a band never carries the friction of a
+        place the car has left into a new one. 0: no return (the paper's
+        random walk in time alone).
     mu_prior : float
-        Initial friction estimate [-].
+        Initial friction estimate [-], and the value the state returns to.
     mu_prior_std : float
         Initial standard deviation [-], also the cap of the variance growth.
     mu_bounds : tuple of float
@@ -82,6 +88,11 @@ class CascadeConfig(EstimatorConfig):
         would move its ``mu`` observation by at most this much [-]: close to the
         linear range of the tire, ``mu`` follows from the small curvature of the
         force and any slip bias maps into a large friction error.
+    max_slip_ratio : float
+        A sample counts as excited only while its slip angle lies at most this
+        multiple of the brush model's sliding slip angle ``atan(3 mu / k)``: far
+        past its peak a real tire's force falls below the peak, so the force
+        there is only a lower bound of the friction.
     slip_noise_z : float
         A sample counts as excited only if the brush inversion also moves by at
         most ``max_slip_bias_effect`` when the slip angle moves by ``slip_noise_z``
@@ -103,6 +114,12 @@ class CascadeConfig(EstimatorConfig):
         when the drive has ``x, y, psi`` but no ``vx_pose, vy_pose`` columns
         (its noise is estimated from the pose, its correlation time is the
         window); 0 does not derive it.
+    wheel_slip_stiffness : float
+        Normalised longitudinal slip stiffness ``C_x = (Fx / Fz) / slip`` [-] of
+        the wheels the speed is measured with: under a deceleration (or, on
+        driven wheels, an acceleration) ``a`` they slip by about ``|a| / (g C_x)``,
+        which is added to the speed measurement's standard deviation as
+        ``|v| |a| / (g C_x)``. 0 ignores wheel slip.
     v_min : float
         No friction update below this speed [m/s].
     v_eps : float
@@ -127,6 +144,7 @@ class CascadeConfig(EstimatorConfig):
     accel_bias_rate_std: float = 0.002
     jerk_std: float = 30.0
     mu_rate_std: float = 0.2
+    mu_length: float = 5.0
     mu_prior: float = 0.7
     mu_prior_std: float = 0.4
     mu_bounds: tuple[float, float] = (0.05, 2.0)
@@ -135,11 +153,13 @@ class CascadeConfig(EstimatorConfig):
     slip_bias_std: float = 0.01
     vy_bias_std: float = 0.03
     max_slip_bias_effect: float = 0.1
+    max_slip_ratio: float = 2.0
     slip_noise_z: float = 2.0
     ay_straight: float = 1.0
     pose_velocity_std: float = 0.1
     pose_velocity_corr_time: float = 0.3
     pose_window: float = 1.0
+    wheel_slip_stiffness: float = 10.0
     v_min: float = 1.0
     v_eps: float = 0.1
     speed_source: str = "auto"

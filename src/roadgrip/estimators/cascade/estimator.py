@@ -31,6 +31,7 @@ from roadgrip.estimators.cascade.model import ForceState, FrictionState, Velocit
 from roadgrip.estimators.cascade.result import diagnostics, output_columns, summary
 from roadgrip.estimators.protocol import DriveInfo, Estimator, Prepared
 from roadgrip.inference.kalman import merwe_weights
+from roadgrip.signals import WHEELS, driven_wheels
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = ["ESTIMATOR", "CascadeState", "init", "prepare", "run", "run_filter", "step"]
@@ -123,6 +124,12 @@ def make_params(vehicle: VehicleParams, config: CascadeConfig, derived: dict[str
                    * derived.get("pose_velocity_corr_time", config.pose_velocity_corr_time)),
         slip_z=f(config.slip_noise_z),
         steer_tau=f(derived["steer_response_time"] or 0.0),
+        mu_prior=f(config.mu_prior),
+        mu_length=f(config.mu_length) if config.mu_length > 0 else float("inf"),
+        traction_front={"fwd": 1.0, "rwd": 0.0}.get(vehicle.drive, float("nan")),
+        speed_slip_brake=f(derived["speed_slip"][0]),
+        speed_slip_drive=f(derived["speed_slip"][1]),
+        max_slip_ratio=f(config.max_slip_ratio),
     )
 
 
@@ -131,6 +138,20 @@ def make_weights(config: CascadeConfig) -> Weights:
     w6 = merwe_weights(ForceState.SIZE, config.alpha, config.beta, config.kappa)
     w2 = merwe_weights(FrictionState.SIZE, config.alpha, config.beta, config.kappa)
     return Weights(w6.wm, w6.wc, float(w6.gamma), w2.wm, w2.wc, float(w2.gamma))
+
+
+def _speed_slip(source: str, drive: Drive, config: CascadeConfig) -> tuple[float, float]:
+    """Wheel slip per acceleration of the wheels the speed comes from, braking and driving [s²/m].
+
+    ``1 / (g C_x)`` with ``C_x = config.wheel_slip_stiffness``; driving counts only
+    when a measured wheel is driven. Zero for a speed that is not from wheel speeds.
+    """
+    if not source.startswith("wheel speeds") or config.wheel_slip_stiffness <= 0:
+        return 0.0, 0.0
+    gain = 1.0 / (GRAVITY * config.wheel_slip_stiffness)
+    driven = set(np.flatnonzero(driven_wheels(drive.vehicle.drive)))
+    used = {WHEELS.index(c.split("_")[1]) for c in source.split()[2].split("+")}
+    return gain, gain if used & driven else 0.0
 
 
 def prepare(drive: Drive, config: CascadeConfig) -> Prepared:
@@ -164,6 +185,7 @@ def prepare(drive: Drive, config: CascadeConfig) -> Prepared:
         vx0=float(inputs.speed[0]),
         accel_bias_std=float(bias),
         steer_response_time=float(tau),
+        speed_slip=_speed_slip(src, drive, config),
         **pose,
     )
     return Prepared(info, CascadeSamples(inputs, drive_pose(drive)))

@@ -34,8 +34,10 @@ from roadgrip.signals import (
 
 __all__ = [
     "NOISE_FLOORS",
+    "POSE_WINDOWS",
     "CascadeSample",
     "CascadeSamples",
+    "derive_pose_velocity",
     "drive_inputs",
     "drive_pose",
     "has_standstill",
@@ -201,20 +203,60 @@ def resolve_noise(cfg: CascadeConfig, drive: Drive, speed: NDArray[np.float64],
 
 
 def pose_velocity_noise(drive: Drive, window: float) -> float:
-    """Standard deviation [m/s] of the body velocity differentiated from the pose over ``window`` [s].
+    """Standard deviation [m/s] of the white-noise part of the body velocity differentiated
+    from the pose over ``window`` [s].
 
     A local fit over ``N`` samples ``h`` apart to positions with white noise
     ``s`` (:func:`roadgrip.signals.white_noise_std` of ``x`` and ``y``) has a
     slope error of ``s sqrt(12 / (N (N² - 1))) / h``; a heading noise ``s_psi``
-    adds ``|v| s_psi`` (the velocity is rotated into the body frame).
+    adds ``|v|`` times the error of the fitted heading, ``1.5 s_psi / sqrt(N)``
+    (centre value of a local quadratic fit; the velocity is rotated into the
+    body frame with it).
     """
     h = float(np.median(np.diff(drive.t)))
     n = max(round(window / h) | 1, 5)
     s_pos = max(white_noise_std(drive.col("x")), white_noise_std(drive.col("y")))
     s_psi = white_noise_std(np.unwrap(drive.col("psi")))
     v = float(np.percentile(np.abs(drive.col("vx")), 90)) if drive.has("vx") else 0.0
-    sd = np.hypot(s_pos * np.sqrt(12.0 / (n * (n * n - 1.0))) / h, v * s_psi)
+    sd = np.hypot(s_pos * np.sqrt(12.0 / (n * (n * n - 1.0))) / h, 1.5 * v * s_psi / np.sqrt(n))
     return float(sd) if np.isfinite(sd) else float("nan")
+
+
+POSE_WINDOWS = (0.25, 0.5, 1.0)
+"""Candidate differentiation windows [s] of the pose velocity (up to ``pose_window``)."""
+
+
+def derive_pose_velocity(drive: Drive, speed: NDArray[np.float64], max_window: float
+                         ) -> tuple[NDArray, NDArray, float, float] | None:
+    """Body velocity from the drive's ``x, y, psi``, the window that fits best, and its error.
+
+    A short window follows fast manoeuvres but passes the position noise; a
+    long one averages the noise but bends the velocity of a car that changes
+    direction within it. Each window of :data:`POSE_WINDOWS` up to
+    ``max_window`` is judged by the error of its ``vx`` against the measured
+    speed ``speed`` [m/s] (robust root mean square, which also contains the
+    speed sensor's own error, so it errs on the side of caution), at least the
+    white-noise level of :func:`pose_velocity_noise`; the window with the
+    smallest error is used and that error is the velocity's standard deviation.
+
+    Returns
+    -------
+    (vx, vy, window, std) or None
+        [m/s, m/s, s, m/s]; None when no window gives a finite error.
+    """
+    best = None
+    for w in [w for w in POSE_WINDOWS if w <= max_window + 1e-12] or [max_window]:
+        try:
+            vx, vy = pose_velocity(drive, window=w)
+        except ValueError:
+            continue
+        e = (vx - speed)[np.isfinite(vx)]
+        if len(e) < 20:
+            continue
+        sd = max(float(np.sqrt(np.median(e * e) / 0.4549)), pose_velocity_noise(drive, w), 0.01)
+        if np.isfinite(sd) and (best is None or sd < best[3]):
+            best = (vx, vy, w, sd)
+    return best
 
 
 def drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[Inputs, str, float, dict[str, Any]]:
@@ -223,9 +265,8 @@ def drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[Inputs, str, floa
     The accelerations are levelled (:func:`roadgrip.signals.level_accelerations`,
     the vehicle's roll and pitch gradients). The body velocity from the pose is
     the drive's ``vx_pose, vy_pose`` columns; without them, on a drive with
-    ``x, y, psi``, it is differentiated here over ``pose_window`` seconds
-    (:func:`roadgrip.signals.pose_velocity`) with the noise of
-    :func:`pose_velocity_noise`. The fourth value says which (``pose_velocity``:
+    ``x, y, psi``, it is differentiated here (:func:`derive_pose_velocity`,
+    windows up to ``pose_window`` seconds). The fourth value says which (``pose_velocity``:
     ``'columns'``, ``'derived'`` or ``'none'``), with ``pose_velocity_std`` [m/s]
     and ``pose_velocity_corr_time`` [s].
 
@@ -250,11 +291,10 @@ def drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[Inputs, str, floa
         vxp, vyp = drive.col("vx_pose"), drive.col("vy_pose")
         pose["pose_velocity"] = "columns"
     elif config.pose_velocity_std > 0 and config.pose_window > 0 and drive.has("x", "y", "psi") and n >= 50:
-        sd = pose_velocity_noise(drive, config.pose_window)
-        if np.isfinite(sd):
-            vxp, vyp = pose_velocity(drive, window=config.pose_window)
-            pose.update(pose_velocity="derived", pose_velocity_std=max(sd, float(config.pose_velocity_std)),
-                        pose_velocity_corr_time=float(config.pose_window))
+        got = derive_pose_velocity(drive, cols["speed"], config.pose_window)
+        if got is not None:
+            vxp, vyp, w, sd = got
+            pose.update(pose_velocity="derived", pose_velocity_std=sd, pose_velocity_corr_time=w)
     for c, v in (("vx_pose", vxp), ("vy_pose", vyp)):
         v = np.asarray(v, dtype=float)
         if np.isinf(v).any():

@@ -26,6 +26,8 @@ from roadgrip.estimators.cascade.model import (
     force_measurement,
     force_transition,
     friction_measurement,
+    inverted_observation,
+    lateral_capacity,
     rotate_integrate,
     slip_bias_effect,
     slip_sensitivity,
@@ -90,7 +92,9 @@ class Out(IntEnum):
     R3_R = 30
     SYS_F = 31
     SYS_R = 32
-    SIZE = 33
+    FX_F = 33
+    FX_R = 34
+    SIZE = 35
 
 
 # sizes as plain integers for the compiled code (numba's array constructors take no IntEnum)
@@ -140,6 +144,12 @@ class Params(NamedTuple):
     var_pose: float  # pose-velocity variance [m²/s²] times its correlation time [s]
     slip_z: float  # slip-angle noise test, in standard deviations [-]
     steer_tau: float  # steering-actuator time constant [s] (0: measured angle)
+    mu_prior: float  # prior friction mean [-], which the state returns to over distance
+    mu_length: float  # friction correlation length [m] (inf: no return to the prior)
+    traction_front: float  # share of a driving force on the front axle [-] (NaN: by axle load)
+    speed_slip_brake: float  # wheel slip of the measured wheels per braking deceleration [s²/m]
+    speed_slip_drive: float  # the same per driving acceleration (0 for undriven wheels) [s²/m]
+    max_slip_ratio: float  # observations only up to this multiple of the sliding slip angle [-]
 
 
 class Weights(NamedTuple):
@@ -237,7 +247,12 @@ def _velocity_stage(f, u, k, dt, p):  # pragma: no cover - compiled
     H[0, Vs.VX] = 1.0 - fs + fs * cd
     H[0, Vs.VY] = fs * sd
     resid = np.array([vmeas - (H[0, Vs.VX] * xe[Vs.VX] + H[0, Vs.VY] * xe[Vs.VY] + fs * sd * p.lf * r)])
-    xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), resid, H, np.array([[p.var_speed]]))
+    # wheels that brake (or drive) slip: their speed under-(over-)reads vx by about
+    # |ax| / (g C_x); counted as noise, so that the pose and the kinematics carry vx then
+    axw = ax - xe[Vs.BIAS_AX]
+    kappa = -axw * p.speed_slip_brake if axw < 0.0 else axw * p.speed_slip_drive
+    var_v = p.var_speed + (vmeas * kappa) ** 2
+    xn, Pn, _ = joseph_update(xe.copy(), Pe.copy(), resid, H, np.array([[var_v]]))
     xe[:] = xn
     Pe[:, :] = Pn
     # body velocity from the localisation pose: bounds the drift of the integrated vy
@@ -327,9 +342,13 @@ def _force_stage(f, u, k, dt, p, w):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _slip_and_loads(f, u, k, dt, p):  # pragma: no cover - compiled
-    """Slip angles, their variances and the axle loads; updates the consistency residuals.
+    """Slip angles, their variances, the axle loads and longitudinal forces; updates the consistency residuals.
 
-    Returns ``(alpha_f, alpha_r, var_alpha_f, var_alpha_r, Fzf, Fzr)`` [rad, rad², N].
+    Returns ``(alpha_f, alpha_r, var_alpha_f, var_alpha_r, Fzf, Fzr, Fxf, Fxr)`` [rad, rad², N].
+    The stage-2 longitudinal force is split between the axles: a driving force
+    by ``traction_front`` (the driven axles), a braking force in proportion to
+    the axle loads (the ideal brake balance; NaN ``traction_front`` splits a
+    driving force that way too).
     """
     xe = f.xe
     xu = f.xu
@@ -370,6 +389,10 @@ def _slip_and_loads(f, u, k, dt, p):  # pragma: no cover - compiled
     dfz = m * ax_est * p.h / wb
     fzf = max(m * GRAVITY * lr / wb - dfz, 0.0)
     fzr = max(m * GRAVITY * lf / wb + dfz, 0.0)
+    fx = xu[Fs.FXF]
+    share = p.traction_front if (fx > 0.0 and p.traction_front == p.traction_front) else fzf / max(fzf + fzr, 1e-9)
+    fxf = share * fx
+    fxr = fx - fxf
     # slip-angle consistency: rear slip against the linear tire at moderate ay
     ayb = abs(u.ay[k] - xe[Vs.BIAS_AY])
     if (dt > 0.0 and abs(vx) >= p.v_min and p.ay_straight <= ayb <= 2.0 * p.ay_straight
@@ -380,7 +403,7 @@ def _slip_and_loads(f, u, k, dt, p):  # pragma: no cover - compiled
         if fzf > 0.0:
             e_lin_f = alpha_f - xu[Fs.FYF] / (p.kf * fzf)
             aux[Aux.CONSIST_F] += lam * (e_lin_f * e_lin_f - aux[Aux.CONSIST_F])
-    return alpha_f, alpha_r, var_af, var_ar, fzf, fzr
+    return alpha_f, alpha_r, var_af, var_ar, fzf, fzr, fxf, fxr
 
 
 @njit(cache=True)
@@ -391,14 +414,20 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
     xm = f.xm
     Pm = f.Pm
     aux = f.aux
-    alpha_f, alpha_r, var_af, var_ar, fzf, fzr = slip
+    alpha_f, alpha_r, var_af, var_ar, fzf, fzr, fxf, fxr = slip
     vx = xu[Fs.VX]
     repairs = 0
     mu_min = p.mu_min
     mu_max = p.mu_max
     if dt > 0.0:
-        Pm[Ms.MU_F, Ms.MU_F] = min(Pm[Ms.MU_F, Ms.MU_F] + p.q_mu * dt, p.mu_var0)
-        Pm[Ms.MU_R, Ms.MU_R] = min(Pm[Ms.MU_R, Ms.MU_R] + p.q_mu * dt, p.mu_var0)
+        # friction is a property of the place: over a distance d the state returns to the
+        # prior, x <- mu0 + a (x - mu0), P <- a² P + (1 - a²) P0 with a = exp(-d / length)
+        a = np.exp(-abs(vx) * dt / p.mu_length)
+        for i in range(_NM):
+            xm[i] = p.mu_prior + a * (xm[i] - p.mu_prior)
+        Pm[:, :] = a * a * Pm
+        Pm[Ms.MU_F, Ms.MU_F] = min(Pm[Ms.MU_F, Ms.MU_F] + (1.0 - a * a) * p.mu_var0 + p.q_mu * dt, p.mu_var0)
+        Pm[Ms.MU_R, Ms.MU_R] = min(Pm[Ms.MU_R, Ms.MU_R] + (1.0 - a * a) * p.mu_var0 + p.q_mu * dt, p.mu_var0)
     prior_m0 = xm[Ms.MU_F]
     prior_m1 = xm[Ms.MU_R]
     prior_v0 = Pm[Ms.MU_F, Ms.MU_F]
@@ -417,8 +446,10 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
     if abs(vx) >= p.v_min and fzf > 0.0 and fzr > 0.0:
         kf = p.kf
         kr = p.kr
-        sf = brush_slope(alpha_f, fzf, min(max(xm[Ms.MU_F], mu_min), mu_max), kf)
-        sr = brush_slope(alpha_r, fzr, min(max(xm[Ms.MU_R], mu_min), mu_max), kr)
+        cap_f = lateral_capacity(min(max(xm[Ms.MU_F], mu_min), mu_max), fxf, fzf, mu_min)
+        cap_r = lateral_capacity(min(max(xm[Ms.MU_R], mu_min), mu_max), fxr, fzr, mu_min)
+        sf = brush_slope(alpha_f, fzf, cap_f, kf)
+        sr = brush_slope(alpha_r, fzr, cap_r, kr)
         me = p.model_err
         R3 = np.zeros((_NM, _NM))
         R3[Ms.MU_F, Ms.MU_F] = Pu[Fs.FYF, Fs.FYF] + sf * sf * var_af + (me * fzf) ** 2
@@ -428,7 +459,7 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
         L, Pm_used, rep = psd_sqrt(Pm)
         repairs += rep
         X = sigma_points(xm, L, w.gamma2)
-        Z = friction_measurement(X, alpha_f, alpha_r, fzf, fzr, kf, kr, mu_min, mu_max)
+        Z = friction_measurement(X, alpha_f, alpha_r, fzf, fzr, kf, kr, fxf, fxr, mu_min, mu_max)
         z = np.empty(_NM)
         z[Ms.MU_F] = xu[Fs.FYF]
         z[Ms.MU_R] = xu[Fs.FYR]
@@ -445,8 +476,9 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
         # a lateral-velocity bias of vy_bias_std is a slip-angle bias of vy_bias_std / |vx|
         sb = max(p.slip_bias, p.vy_bias / abs(vx))
         sbf = np.sqrt(sb * sb + p.steer_bias ** 2)
-        bias_f = sbf * slip_sensitivity(alpha_f, fzf, xm[Ms.MU_F], kf)
-        bias_r = sb * slip_sensitivity(alpha_r, fzr, xm[Ms.MU_R], kr)
+        # (in units of the lateral capacity, which moves no more than mu itself)
+        bias_f = sbf * slip_sensitivity(alpha_f, fzf, lateral_capacity(xm[Ms.MU_F], fxf, fzf, mu_min), kf)
+        bias_r = sb * slip_sensitivity(alpha_r, fzr, lateral_capacity(xm[Ms.MU_R], fxr, fzr, mu_min), kr)
         # slip angles measurably worse than assumed: test the whole inversion at that error
         sc = np.sqrt(aux[Aux.CONSIST_R])
         if sc > sb:
@@ -460,22 +492,24 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
         if zs > 0.0:
             gate_f = slip_bias_effect(xu[Fs.FYF], alpha_f, fzf, kf, zs * np.sqrt(var_af + aux[Aux.CONSIST_F]))
             gate_r = slip_bias_effect(xu[Fs.FYR], alpha_r, fzr, kr, zs * np.sqrt(var_ar + aux[Aux.CONSIST_R]))
+        # the single-sample observation: the brush model inverted at this sample's force and
+        # slip (not the filter's update, whose linearisation point remembers earlier places)
         if (lam_f >= p.exc_prec * dt and dt > 0.0 and bias_f <= p.max_bias and not clipped_f
                 and gate_f <= p.max_bias):
-            obs_f = (xm[Ms.MU_F] / Pm[Ms.MU_F, Ms.MU_F] - prior_m0 / prior_v0) / lam_f
-            if mu_min <= obs_f <= mu_max:
-                exc_f = 1.0
-                obs_vf = 1.0 / lam_f
-            else:
+            obs_f, obs_vf = inverted_observation(xu[Fs.FYF], alpha_f, fzf, kf, fxf, r3f, mu_min, mu_max,
+                                                 p.max_slip_ratio)
+            exc_f = 1.0 if (np.isfinite(obs_f) and 1.0 / obs_vf >= p.exc_prec * dt) else 0.0
+            if exc_f < 0.5:
                 obs_f = np.nan
+                obs_vf = np.inf
         if (lam_r >= p.exc_prec * dt and dt > 0.0 and bias_r <= p.max_bias and not clipped_r
                 and gate_r <= p.max_bias):
-            obs_r = (xm[Ms.MU_R] / Pm[Ms.MU_R, Ms.MU_R] - prior_m1 / prior_v1) / lam_r
-            if mu_min <= obs_r <= mu_max:
-                exc_r = 1.0
-                obs_vr = 1.0 / lam_r
-            else:
+            obs_r, obs_vr = inverted_observation(xu[Fs.FYR], alpha_r, fzr, kr, fxr, r3r, mu_min, mu_max,
+                                                 p.max_slip_ratio)
+            exc_r = 1.0 if (np.isfinite(obs_r) and 1.0 / obs_vr >= p.exc_prec * dt) else 0.0
+            if exc_r < 0.5:
                 obs_r = np.nan
+                obs_vr = np.inf
         # a sample that fails the excitation test does not move that axle's estimate
         if exc_f < 0.5:
             xm[Ms.MU_F] = prior_m0
@@ -511,7 +545,7 @@ def _step(f, u, k, dt, p, w, out):  # pragma: no cover - compiled
     Pe = f.Pe
     Pu = f.Pu
     Pm = f.Pm
-    alpha_f, alpha_r, var_af, var_ar, fzf, fzr = slip
+    alpha_f, alpha_r, var_af, var_ar, fzf, fzr, fxf, fxr = slip
     nis = res2 @ np.linalg.solve(S2, res2)
     out[Out.VX] = xu[Fs.VX]
     out[Out.YAW_RATE] = xu[Fs.YAW_RATE]
@@ -542,6 +576,8 @@ def _step(f, u, k, dt, p, w, out):  # pragma: no cover - compiled
     out[Out.FYR_VAR] = Pu[Fs.FYR, Fs.FYR]
     out[Out.ALPHA_F_VAR] = var_af
     out[Out.ALPHA_R_VAR] = var_ar
+    out[Out.FX_F] = fxf
+    out[Out.FX_R] = fxr
 
 
 @njit(cache=True)

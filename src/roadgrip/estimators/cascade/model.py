@@ -24,6 +24,8 @@ __all__ = [
     "force_measurement",
     "force_transition",
     "friction_measurement",
+    "inverted_observation",
+    "lateral_capacity",
     "rotate_integrate",
     "slip_bias_effect",
     "slip_sensitivity",
@@ -215,14 +217,62 @@ def slip_bias_effect(force, alpha, fz, k, dalpha):  # pragma: no cover - compile
 
 
 @njit(cache=True)
-def friction_measurement(M, alpha_f, alpha_r, fzf, fzr, kf, kr, mu_min, mu_max):  # pragma: no cover
-    """Stage-3 measurement model, eq. 11: brush forces of each row ``[mu_f, mu_r]`` (N, 2) -> (N, 2)."""
+def lateral_capacity(mu, fx, fz, mu_min):  # pragma: no cover - compiled
+    """Friction left for the lateral force when the axle carries ``fx`` [N] at load ``fz`` [N].
+
+    The friction circle ``Fx² + Fy² <= (mu Fz)²``: ``sqrt(mu² - (Fx/Fz)²)``, at
+    least ``mu_min`` (an axle whose longitudinal force alone exceeds ``mu Fz``
+    keeps a small lateral capacity, so the brush model stays defined).
+    """
+    ux = fx / fz if fz > 0.0 else 0.0
+    return np.sqrt(max(mu * mu - ux * ux, mu_min * mu_min))
+
+
+@njit(cache=True)
+def inverted_observation(force, alpha, fz, k, fx, force_var, mu_min, mu_max, max_slip_ratio):  # pragma: no cover
+    """Friction of one axle from its lateral force and slip angle alone, and its variance.
+
+    The exact inversion of the brush model (:func:`brush_mu`) gives the
+    lateral capacity; with the axle's longitudinal force ``fx`` [N] the friction
+    is ``sqrt(capacity² + (fx / fz)²)`` (:func:`lateral_capacity`). The
+    variance is ``force_var / (dF/dmu)²`` at that friction (``force_var``
+    [N²]: the force's variance with the slip angle's contribution). The value
+    does not depend on any earlier state: a map cell that fuses it collects
+    what the samples taken in the cell say. ``(nan, inf)`` where no friction in
+    ``[mu_min, mu_max]`` explains the force, or where the slip angle lies more
+    than ``max_slip_ratio`` times beyond the brush model's sliding limit
+    ``atan(3 capacity / k)``: far past the peak a real tire's force falls below
+    its peak (the brush model's sliding force stays at it), so the force there
+    is only a lower bound of the friction.
+    """
+    cap = brush_mu(force, alpha, fz, k)
+    if not np.isfinite(cap) or fz <= 0.0:
+        return np.nan, np.inf
+    if k * abs(np.tan(min(max(alpha, -1.5), 1.5))) > 3.0 * max_slip_ratio * cap:
+        return np.nan, np.inf
+    ux = fx / fz
+    mu = np.sqrt(cap * cap + ux * ux)
+    if not (mu_min <= mu <= mu_max):
+        return np.nan, np.inf
+    h = 1e-4 * cap
+    dfdcap = (brush(alpha, fz, cap + h, k) - brush(alpha, fz, cap - h, k)) / (2.0 * h)
+    dfdmu = abs(dfdcap) * mu / cap
+    if dfdmu <= 0.0:
+        return np.nan, np.inf
+    return mu, force_var / (dfdmu * dfdmu)
+
+
+@njit(cache=True)
+def friction_measurement(M, alpha_f, alpha_r, fzf, fzr, kf, kr, fxf, fxr, mu_min, mu_max):  # pragma: no cover
+    """Stage-3 measurement model, eq. 11 with combined slip: lateral brush forces of each row
+    ``[mu_f, mu_r]`` (N, 2) -> (N, 2), each axle at the friction its longitudinal force
+    ``fxf``, ``fxr`` [N] leaves (:func:`lateral_capacity`)."""
     out = np.empty((M.shape[0], _NM))
     for i in range(M.shape[0]):
         muf = min(max(M[i, FrictionState.MU_F], mu_min), mu_max)
         mur = min(max(M[i, FrictionState.MU_R], mu_min), mu_max)
-        out[i, FrictionState.MU_F] = brush(alpha_f, fzf, muf, kf)
-        out[i, FrictionState.MU_R] = brush(alpha_r, fzr, mur, kr)
+        out[i, FrictionState.MU_F] = brush(alpha_f, fzf, lateral_capacity(muf, fxf, fzf, mu_min), kf)
+        out[i, FrictionState.MU_R] = brush(alpha_r, fzr, lateral_capacity(mur, fxr, fzr, mu_min), kr)
     return out
 
 
