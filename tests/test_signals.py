@@ -184,3 +184,48 @@ def test_white_noise_std_of_noise_on_a_smooth_signal():
     assert signals.white_noise_std(x) == pytest.approx(0.2, rel=0.03)
     assert signals.white_noise_std(np.sin(0.7 * t)) < 1e-4
     assert np.isnan(signals.white_noise_std(x[:11]))
+
+
+def test_level_accelerations_remove_the_tilt_of_a_rolled_body():
+    """A body rolled by K a_y reads a_y cos(phi) + g sin(phi): levelling returns a_y to first order."""
+    import dataclasses
+
+    from roadgrip.constants import GRAVITY
+    from roadgrip.signals import level_accelerations
+    from roadgrip.vehicle import load_vehicle
+
+    veh = dataclasses.replace(load_vehicle("sedan"), roll_gradient=0.0157, pitch_gradient=0.006)
+    ay = np.linspace(-5.0, 5.0, 11)
+    ax = np.linspace(-6.0, 3.0, 11)
+    phi, theta = veh.roll_gradient * ay, veh.pitch_gradient * ax
+    ay_meas = ay * np.cos(phi) + GRAVITY * np.sin(phi)
+    ax_meas = ax * np.cos(theta) + GRAVITY * np.sin(theta)
+    lx, ly = level_accelerations(ax_meas, ay_meas, veh)
+    assert np.abs(ly - ay).max() < 0.01 * np.abs(ay).max()  # second-order terms only
+    assert np.abs(ay_meas - ay).max() > 0.7  # what was removed
+    assert np.abs(lx - ax).max() < 0.01 * np.abs(ax).max()
+    plain = load_vehicle("sedan")
+    np.testing.assert_array_equal(level_accelerations(ax_meas, ay_meas, plain)[1], ay_meas)
+
+
+def test_sustained_grip_against_brute_force_and_online():
+    from roadgrip.constants import GRAVITY
+    from roadgrip.signals import sustained_grip, sustained_grip_step
+
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(0.005, 0.03, 400))
+    ay = rng.normal(2.0, 3.0, 400)
+    got = sustained_grip(t, ay, 1.0)
+    best, expected = 0.0, []
+    for k in range(len(t)):
+        inside = (t > t[k] - 1.0 + 1e-9) & (t <= t[k])
+        if t[k] - t[0] >= 1.0 - 1e-9:
+            best = max(best, abs(ay[inside].mean()) / GRAVITY)
+        expected.append(best)
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-15)
+    mem, online = None, []
+    for tk, ak in zip(t, ay, strict=True):
+        mem, f = sustained_grip_step(mem, float(tk), float(ak), 1.0)
+        online.append(f)
+    np.testing.assert_array_equal(online, got)
+    assert got[0] == 0.0 and np.all(np.diff(got) >= 0)

@@ -18,6 +18,7 @@ function                          what
 :func:`pose_velocity`             the same from a drive's ``x, y, psi`` columns
 :func:`axle_loads`                axle normal loads with longitudinal load transfer
 :func:`level_accelerations`       accelerometer readings with the body's roll and pitch removed
+:func:`sustained_grip`            largest ``|a_y| / g`` held for a second so far (a friction floor)
 :func:`white_noise_std`           white-noise level of a sampled signal
 ================================  ======================================================
 
@@ -51,6 +52,8 @@ __all__ = [
     "driven_wheels",
     "level_accelerations",
     "pose_velocity",
+    "sustained_grip",
+    "sustained_grip_step",
     "undriven_wheels",
     "wheel_centre_speeds",
     "wheel_cg_speeds",
@@ -238,3 +241,56 @@ def level_accelerations(ax: ArrayLike, ay: ArrayLike, vehicle: VehicleParams
     ax = np.asarray(ax, dtype=float)
     ay = np.asarray(ay, dtype=float)
     return ax / (1.0 + GRAVITY * vehicle.pitch_gradient), ay / (1.0 + GRAVITY * vehicle.roll_gradient)
+
+
+SUSTAIN_WINDOW = 1.0
+"""Window [s] over which a lateral acceleration counts as sustained."""
+
+
+def sustained_grip(t: ArrayLike, ay: ArrayLike, window: float = SUSTAIN_WINDOW) -> NDArray[np.float64]:
+    """The largest ``|a_y| / g`` sustained for ``window`` seconds up to each sample [-].
+
+    The mean lateral acceleration over the samples of the trailing window
+    ``(t_k - window, t_k]``, its absolute value over ``g``, and the running
+    maximum of that: a friction the car demonstrably used by then, which no
+    honest upper bound of the friction may undercut (it needs no truth). 0
+    until the drive is ``window`` long. The mean, not the smallest value, so
+    that sensor noise does not lower it.
+
+    Examples
+    --------
+    >>> t = [0.0, 0.5, 1.0, 1.5, 2.0]
+    >>> sustained_grip(t, [0.0, 4.903325, 4.903325, 4.903325, 0.0]).round(3).tolist()
+    [0.0, 0.0, 0.5, 0.5, 0.5]
+    """
+    t = np.asarray(t, dtype=float)
+    ay = np.asarray(ay, dtype=float)
+    if t.size == 0:
+        return np.zeros(0)
+    c = np.concatenate([[0.0], np.cumsum(ay)])
+    lo = np.searchsorted(t, t - window + 1e-9, side="left")
+    hi = np.arange(1, len(t) + 1)
+    mean = (c[hi] - c[lo]) / (hi - lo)
+    full = t - t[0] >= window - 1e-9
+    return np.maximum.accumulate(np.where(full, np.abs(mean), 0.0) / GRAVITY)
+
+
+def sustained_grip_step(memory: tuple | None, t: float, ay: float,
+                        window: float = SUSTAIN_WINDOW) -> tuple[tuple, float]:
+    """One sample of :func:`sustained_grip`, online: ``(memory, floor)`` after the sample.
+
+    ``memory`` is ``None`` before the first sample, then the returned tuple
+    (first time, the window's times and running sums of ``a_y`` with the sum
+    before the window, the floor so far); it is never modified. The floors
+    equal those of the batch function to the last bit.
+    """
+    t0, ts, cs, c_before, best = (t, (), (), 0.0, 0.0) if memory is None else memory
+    c = (cs[-1] if cs else c_before) + ay
+    ts, cs = (*ts, t), (*cs, c)
+    first = next(i for i, tj in enumerate(ts) if tj >= t - window + 1e-9)
+    if first > 0:
+        c_before = cs[first - 1]
+        ts, cs = ts[first:], cs[first:]
+    if t - t0 >= window - 1e-9:
+        best = max(best, abs((c - c_before) / len(ts)) / GRAVITY)
+    return (t0, ts, cs, c_before, best), best

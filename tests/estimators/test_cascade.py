@@ -201,6 +201,24 @@ def test_online_steps_give_the_stage_estimates_and_state_of_run(drive06):
     np.testing.assert_allclose([r["vy"] for r in rows], tab["vy"], rtol=0, atol=1e-12)
     np.testing.assert_allclose([r["x_front"] for r in rows], tab["x_front"], rtol=0, atol=1e-12)
     np.testing.assert_allclose(st.friction_cov, _filter(short, cfg)[1].friction_cov, atol=1e-14)
+    np.testing.assert_array_equal([r["grip_floor"] for r in rows], tab["grip_floor"])
+    np.testing.assert_allclose([r["mu_rear_upper"] for r in rows], tab["mu_rear_upper"], rtol=0, atol=1e-12)
+
+
+def test_upper_bound_never_below_the_sustained_lateral_acceleration(drive06):
+    """A car that held |a_y| for a second proves mu >= |a_y| / g: no band may end below it,
+    even one that a confident prior would put there."""
+    cfg = C.CascadeConfig(mu_prior=0.2, mu_prior_std=0.05, mu_bounds=(0.05, 2.0))
+    res = C.run(drive06, cfg)
+    tab = res.table
+    from roadgrip.signals import sustained_grip
+
+    floor = sustained_grip(drive06.t, drive06.col("ay"))  # no roll: levelled = measured
+    assert floor.max() > 0.45  # the drive holds 0.6 g-ish turns
+    np.testing.assert_allclose(tab["grip_floor"], floor, rtol=0, atol=1e-15)
+    for axle in ("front", "rear"):
+        assert np.all(tab[f"mu_{axle}_upper"] >= floor)
+    assert res.meta["summary"]["UpperBound"] >= floor[-1]
 
 
 def test_run_columns_and_option_checks(drive06, tmp_path):

@@ -10,7 +10,8 @@ at its reference point to all four wheels), else the friction field at the
 axle.
 
 The physics floor needs no truth: a car that holds ``|a_y|`` for a second on a
-surface proves a friction of at least ``|a_y| / g`` there.
+surface proves a friction of at least ``|a_y| / g`` there
+(:func:`roadgrip.signals.sustained_grip`).
 """
 
 from __future__ import annotations
@@ -19,10 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from roadgrip.constants import GRAVITY, Z95
+from roadgrip.constants import Z95
 from roadgrip.drive import Drive
+from roadgrip.signals import level_accelerations, sustained_grip
 
 __all__ = [
     "AXLES",
@@ -33,7 +35,6 @@ __all__ = [
     "path_cell_truth",
     "sample_score",
     "score_map",
-    "sustained_grip",
 ]
 
 AXLES = ("front", "rear")
@@ -119,56 +120,18 @@ def cells_needing_observations(drive: Drive, cell: float, util_min: float = 0.6,
     return out.unique()
 
 
-def sustained_grip(t: ArrayLike, ay: ArrayLike, window: float = 1.0) -> NDArray[np.float64]:
-    """Largest ``|a_y| / g`` held for ``window`` seconds up to each sample [-].
-
-    For every sample, the maximum over all windows ending at or before it of
-    the smallest ``|a_y| / g`` in the window: a friction the car demonstrably
-    used. 0 before the first full window.
-
-    Examples
-    --------
-    >>> t = [0.0, 0.5, 1.0, 1.5, 2.0]
-    >>> sustained_grip(t, [0.0, 4.905, 4.905, 4.905, 0.0]).round(3).tolist()
-    [0.0, 0.0, 0.0, 0.5, 0.5]
-    """
-    t = np.asarray(t, float)
-    a = np.abs(np.asarray(ay, float)) / GRAVITY
-    n = len(t)
-    out = np.zeros(n)
-    if n == 0:
-        return out
-    # windowed minimum over [t - window, t] with a monotone deque (O(n))
-    from collections import deque
-
-    dq: deque[int] = deque()
-    lo = 0
-    best = 0.0
-    for k in range(n):
-        while dq and a[dq[-1]] >= a[k]:
-            dq.pop()
-        dq.append(k)
-        while t[k] - t[lo] > window + 1e-9:
-            lo += 1
-        while dq[0] < lo:
-            dq.popleft()
-        # the window [t[lo], t[k]] must span the full duration
-        if lo > 0 or t[k] - t[0] >= window - 1e-9:
-            best = max(best, a[dq[0]])
-        out[k] = best
-    return out
-
-
 def sample_score(drive: Drive, table: pd.DataFrame, margin: float = 0.05) -> dict[str, float]:
     """Per-sample bands against the truth under each axle.
 
     Returns the fraction of samples (per axle and both pooled) whose 95 % band
     ``mu_<axle>_lower .. mu_<axle>_upper`` excludes the truth by more than
     ``margin``, and the fraction whose upper bound lies below the sustained
-    ``|a_y| / g`` floor (:func:`sustained_grip`, on the measured ``ay``).
+    ``|a_y| / g`` floor (:func:`roadgrip.signals.sustained_grip` of the
+    levelled ``ay``, :func:`roadgrip.signals.level_accelerations`).
     """
     truth = axle_truth(drive)
-    floor = sustained_grip(drive.t, drive.col("ay"))
+    ay = level_accelerations(drive.col("ax"), drive.col("ay"), drive.vehicle)[1]
+    floor = sustained_grip(drive.t, ay)
     out: dict[str, float] = {}
     wrong_all = []
     for a in AXLES:

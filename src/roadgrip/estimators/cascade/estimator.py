@@ -31,7 +31,7 @@ from roadgrip.estimators.cascade.model import ForceState, FrictionState, Velocit
 from roadgrip.estimators.cascade.result import diagnostics, output_columns, summary
 from roadgrip.estimators.protocol import DriveInfo, Estimator, Prepared
 from roadgrip.inference.kalman import merwe_weights
-from roadgrip.signals import WHEELS, driven_wheels
+from roadgrip.signals import WHEELS, driven_wheels, sustained_grip, sustained_grip_step
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = ["ESTIMATOR", "CascadeState", "init", "prepare", "run", "run_filter", "step"]
@@ -63,6 +63,8 @@ class CascadeState(NamedTuple):
         Constants of the compiled step.
     weights : Weights
         Unscented weights of stages 2 and 3.
+    floor_memory : tuple or None
+        Memory of the sustained-grip floor (:func:`roadgrip.signals.sustained_grip_step`).
     """
 
     t: float
@@ -75,6 +77,7 @@ class CascadeState(NamedTuple):
     aux: NDArray[np.float64]
     params: Params
     weights: Weights
+    floor_memory: tuple | None = None
 
     def filter_copy(self) -> Filter:
         """The arrays as a fresh :class:`Filter` for the kernel (the state itself is never written)."""
@@ -234,11 +237,11 @@ def _check_sample(sample: CascadeSample) -> None:
             raise ValueError(f"cascade sample field {name!r} is not finite: {v!r}")
 
 
-def _row(out: NDArray[np.float64], sample: CascadeSample, params: Params) -> dict[str, Any]:
+def _row(out: NDArray[np.float64], sample: CascadeSample, params: Params, floor: float) -> dict[str, Any]:
     pose = None
     if np.isfinite(sample.x) and np.isfinite(sample.y):
         pose = tuple(np.array([v]) for v in (sample.x, sample.y, sample.psi) if np.isfinite(v))
-    cols = output_columns(out, np.array([sample.t]), pose, params.lf, params.lr)
+    cols = output_columns(out, np.array([sample.t]), pose, params.lf, params.lr, np.array([floor]))
     return {k: v[0].item() for k, v in cols.items()}
 
 
@@ -250,7 +253,9 @@ def step(state: CascadeState, sample: CascadeSample) -> tuple[CascadeState, dict
     f = state.filter_copy()
     u = Inputs(*(np.array([getattr(sample, name)]) for name in Inputs._fields))
     out = run_kernel(f, u, state.t, state.params, state.weights)
-    return CascadeState(float(sample.t), *f, state.params, state.weights), _row(out, sample, state.params)
+    memory, floor = sustained_grip_step(state.floor_memory, sample.t, sample.ay)
+    return (CascadeState(float(sample.t), *f, state.params, state.weights, memory),
+            _row(out, sample, state.params, floor))
 
 
 def run_filter(state: CascadeState, samples: CascadeSamples,
@@ -295,7 +300,9 @@ def run(drive: Drive, config: CascadeConfig | None = None, seed: int = 0,
         samples: CascadeSamples = prepared.samples  # type: ignore[assignment]
         out, _ = run_filter(state, samples, progress)
     derived = dict(prepared.info.derived)
-    table = pd.DataFrame(output_columns(out, samples.inputs.t, samples.pose, state.params.lf, state.params.lr))
+    floor = sustained_grip(samples.inputs.t, samples.inputs.ay)
+    table = pd.DataFrame(output_columns(out, samples.inputs.t, samples.pose, state.params.lf, state.params.lr,
+                                        floor))
     meta["summary"] = summary(table.iloc[-1])
     meta["diagnostics"] = diagnostics(table, out, derived)
     meta["config"] = config.to_meta()

@@ -16,11 +16,15 @@ __all__ = ["diagnostics", "output_columns", "summary"]
 
 
 def output_columns(out: NDArray[np.float64], t: NDArray[np.float64],
-                   pose: tuple[NDArray[np.float64], ...] | None, lf: float, lr: float) -> dict[str, NDArray]:
+                   pose: tuple[NDArray[np.float64], ...] | None, lf: float, lr: float,
+                   floor: NDArray[np.float64] | None = None) -> dict[str, NDArray]:
     """Columns of the estimates table from kernel rows ``out`` (n, Out.SIZE) at times ``t`` [s].
 
     The contract columns (:data:`roadgrip.estimators.base.CONTRACT_COLUMNS`;
-    the 95 % band is ``mu ± Z95 std``, clipped at 0) and the stage estimates.
+    the 95 % band is ``mu ± Z95 std``, clipped at 0, its upper end at least the
+    friction the car demonstrably used, ``floor``: the largest levelled
+    ``|a_y| / g`` sustained for a second so far, :func:`roadgrip.signals.sustained_grip`,
+    column ``grip_floor``) and the stage estimates.
     With ``pose = (x, y[, psi])`` [m, m, rad] the positions ``x, y`` and, with
     the heading, the axle positions ``x_front, y_front, x_rear, y_rear``
     (``lf``, ``lr`` [m] from the CG), which the friction grid uses.
@@ -29,14 +33,16 @@ def output_columns(out: NDArray[np.float64], t: NDArray[np.float64],
     std_r = np.sqrt(out[:, Out.VAR_R])
     exc_f = out[:, Out.EXC_F] > 0.5
     exc_r = out[:, Out.EXC_R] > 0.5
+    floor = np.zeros(len(t)) if floor is None else np.asarray(floor, dtype=float)
     tab = {
         "t": t,
         "mu_front": out[:, Out.MU_F],
         "mu_rear": out[:, Out.MU_R],
         "mu_front_lower": np.maximum(out[:, Out.MU_F] - Z95 * std_f, 0.0),
-        "mu_front_upper": out[:, Out.MU_F] + Z95 * std_f,
+        "mu_front_upper": np.maximum(out[:, Out.MU_F] + Z95 * std_f, floor),
         "mu_rear_lower": np.maximum(out[:, Out.MU_R] - Z95 * std_r, 0.0),
-        "mu_rear_upper": out[:, Out.MU_R] + Z95 * std_r,
+        "mu_rear_upper": np.maximum(out[:, Out.MU_R] + Z95 * std_r, floor),
+        "grip_floor": floor,
         "excited": exc_f | exc_r,
         "vx": out[:, Out.VX],
         "vy": out[:, Out.VY],
@@ -83,13 +89,14 @@ def summary(row: Mapping[str, Any]) -> dict[str, float]:
     """VSS-style summary of one output row: both axles combined by inverse-variance weights.
 
     ``MostProbable`` is the weighted mean of ``mu_front`` and ``mu_rear``,
-    the bounds ``± Z95`` of its standard deviation (lower clipped at 0).
+    the bounds ``± Z95`` of its standard deviation (lower clipped at 0, upper
+    at least the row's ``grip_floor``).
     """
     wf, wr = 1.0 / row["mu_front_std"] ** 2, 1.0 / row["mu_rear_std"] ** 2
     mp = (wf * row["mu_front"] + wr * row["mu_rear"]) / (wf + wr)
     sd = 1.0 / np.sqrt(wf + wr)
     return {"MostProbable": float(mp), "LowerBound": float(max(mp - Z95 * sd, 0.0)),
-            "UpperBound": float(mp + Z95 * sd)}
+            "UpperBound": float(max(mp + Z95 * sd, row.get("grip_floor", 0.0)))}
 
 
 def diagnostics(table: pd.DataFrame, out: NDArray[np.float64], derived: Mapping[str, Any]) -> dict[str, Any]:
