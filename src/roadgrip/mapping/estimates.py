@@ -19,13 +19,14 @@ __all__ = ["GridSummary", "compare_grids", "grid_from_estimates", "grip_used_bou
 
 def grip_used_bound(table: pd.DataFrame, cell: float) -> tuple[NDArray[np.int64], NDArray[np.int64],
                                                                 NDArray[np.float64]] | None:
-    """Per cell, the largest friction demonstrably used: ``max (|Fy| - 2 std(Fy)) / Fz`` over both axles.
+    """Per cell, the largest friction demonstrably used: ``max hypot(|Fy| - 2 std(Fy), Fx) / Fz`` over both axles.
 
     Parameters
     ----------
     table : DataFrame
-        Estimates with ``Fy<f|r>``, ``Fy<f|r>_std``, ``Fz<f|r>`` and positions
-        (``x_<axle>, y_<axle>`` or ``x, y``).
+        Estimates with ``Fy<f|r>``, ``Fy<f|r>_std``, ``Fz<f|r>``, optionally the
+        axle's longitudinal force ``Fx_<axle>``, and positions (``x_<axle>,
+        y_<axle>`` or ``x, y``).
     cell : float
         Cell size [m].
 
@@ -41,8 +42,11 @@ def grip_used_bound(table: pd.DataFrame, cell: float) -> tuple[NDArray[np.int64]
             continue
         xc, yc = (f"x_{axle}", f"y_{axle}") if f"x_{axle}" in table.columns else ("x", "y")
         load = table[fz].to_numpy(float)
+        lateral = np.maximum(np.abs(table[f].to_numpy(float)) - 2.0 * table[f"{f}_std"].to_numpy(float), 0.0)
+        # the axle's longitudinal force uses the same friction (friction circle), where given
+        fx = table[f"Fx_{axle}"].to_numpy(float) if f"Fx_{axle}" in table.columns else np.zeros(len(table))
         with np.errstate(divide="ignore", invalid="ignore"):
-            used = (np.abs(table[f].to_numpy(float)) - 2.0 * table[f"{f}_std"].to_numpy(float)) / load
+            used = np.hypot(lateral, fx) / load
         x, y = table[xc].to_numpy(float), table[yc].to_numpy(float)
         ok = np.isfinite(used) & (load > 0) & np.isfinite(x) & np.isfinite(y)
         parts.append((np.floor(x[ok] / cell).astype(np.int64), np.floor(y[ok] / cell).astype(np.int64), used[ok]))

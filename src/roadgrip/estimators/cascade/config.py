@@ -89,10 +89,11 @@ class CascadeConfig(EstimatorConfig):
         linear range of the tire, ``mu`` follows from the small curvature of the
         force and any slip bias maps into a large friction error.
     max_slip_ratio : float
-        A sample counts as excited only while its slip angle lies at most this
-        multiple of the brush model's sliding slip angle ``atan(3 mu / k)``: far
-        past its peak a real tire's force falls below the peak, so the force
-        there is only a lower bound of the friction.
+        A sample counts as excited only while its slip angle, raised by
+        ``slip_noise_z`` of its standard deviations, lies at most this multiple
+        of the brush model's sliding slip angle ``atan(3 mu / k)``: far past its
+        peak a real tire's force falls below the peak, so the force there is
+        only a lower bound of the friction.
     slip_noise_z : float
         A sample counts as excited only if the brush inversion also moves by at
         most ``max_slip_bias_effect`` when the slip angle moves by ``slip_noise_z``

@@ -489,15 +489,17 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
         zs = p.slip_z
         gate_f = 0.0
         gate_r = 0.0
+        slip_f = zs * np.sqrt(var_af + aux[Aux.CONSIST_F])
+        slip_r = zs * np.sqrt(var_ar + aux[Aux.CONSIST_R])
         if zs > 0.0:
-            gate_f = slip_bias_effect(xu[Fs.FYF], alpha_f, fzf, kf, zs * np.sqrt(var_af + aux[Aux.CONSIST_F]))
-            gate_r = slip_bias_effect(xu[Fs.FYR], alpha_r, fzr, kr, zs * np.sqrt(var_ar + aux[Aux.CONSIST_R]))
+            gate_f = slip_bias_effect(xu[Fs.FYF], alpha_f, fzf, kf, slip_f)
+            gate_r = slip_bias_effect(xu[Fs.FYR], alpha_r, fzr, kr, slip_r)
         # the single-sample observation: the brush model inverted at this sample's force and
         # slip (not the filter's update, whose linearisation point remembers earlier places)
         if (lam_f >= p.exc_prec * dt and dt > 0.0 and bias_f <= p.max_bias and not clipped_f
                 and gate_f <= p.max_bias):
             obs_f, obs_vf = inverted_observation(xu[Fs.FYF], alpha_f, fzf, kf, fxf, r3f, mu_min, mu_max,
-                                                 p.max_slip_ratio)
+                                                 p.max_slip_ratio, abs(alpha_f) + slip_f)
             exc_f = 1.0 if (np.isfinite(obs_f) and 1.0 / obs_vf >= p.exc_prec * dt) else 0.0
             if exc_f < 0.5:
                 obs_f = np.nan
@@ -505,7 +507,7 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
         if (lam_r >= p.exc_prec * dt and dt > 0.0 and bias_r <= p.max_bias and not clipped_r
                 and gate_r <= p.max_bias):
             obs_r, obs_vr = inverted_observation(xu[Fs.FYR], alpha_r, fzr, kr, fxr, r3r, mu_min, mu_max,
-                                                 p.max_slip_ratio)
+                                                 p.max_slip_ratio, abs(alpha_r) + slip_r)
             exc_r = 1.0 if (np.isfinite(obs_r) and 1.0 / obs_vr >= p.exc_prec * dt) else 0.0
             if exc_r < 0.5:
                 obs_r = np.nan

@@ -229,7 +229,8 @@ def lateral_capacity(mu, fx, fz, mu_min):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def inverted_observation(force, alpha, fz, k, fx, force_var, mu_min, mu_max, max_slip_ratio):  # pragma: no cover
+def inverted_observation(force, alpha, fz, k, fx, force_var, mu_min, mu_max, max_slip_ratio,
+                         slip_upper):  # pragma: no cover
     """Friction of one axle from its lateral force and slip angle alone, and its variance.
 
     The exact inversion of the brush model (:func:`brush_mu`) gives the
@@ -239,8 +240,9 @@ def inverted_observation(force, alpha, fz, k, fx, force_var, mu_min, mu_max, max
     [N²]: the force's variance with the slip angle's contribution). The value
     does not depend on any earlier state: a map cell that fuses it collects
     what the samples taken in the cell say. ``(nan, inf)`` where no friction in
-    ``[mu_min, mu_max]`` explains the force, or where the slip angle lies more
-    than ``max_slip_ratio`` times beyond the brush model's sliding limit
+    ``[mu_min, mu_max]`` explains the force, or where the slip angle may lie
+    (``slip_upper`` [rad]: the largest ``|alpha|`` its uncertainty allows)
+    more than ``max_slip_ratio`` times beyond the brush model's sliding limit
     ``atan(3 capacity / k)``: far past the peak a real tire's force falls below
     its peak (the brush model's sliding force stays at it), so the force there
     is only a lower bound of the friction.
@@ -248,7 +250,7 @@ def inverted_observation(force, alpha, fz, k, fx, force_var, mu_min, mu_max, max
     cap = brush_mu(force, alpha, fz, k)
     if not np.isfinite(cap) or fz <= 0.0:
         return np.nan, np.inf
-    if k * abs(np.tan(min(max(alpha, -1.5), 1.5))) > 3.0 * max_slip_ratio * cap:
+    if k * np.tan(min(max(abs(alpha), slip_upper), 1.5)) > 3.0 * max_slip_ratio * cap:
         return np.nan, np.inf
     ux = fx / fz
     mu = np.sqrt(cap * cap + ux * ux)
