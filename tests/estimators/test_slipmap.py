@@ -129,8 +129,10 @@ def dgd():
     return simulate_scenario("dry-gravel-dry", seed=0)
 
 
-def test_dry_gravel_dry_detection_and_no_false_switch(dgd):
-    table = run_estimator("slipmap", dgd).table
+def test_dry_gravel_dry_detection_and_no_false_switch_paper_presets(dgd):
+    """The paper's mid-friction curves on the planar drive (surface presets of different
+    stiffness); the uncalibrated default is the saturation model (test below)."""
+    table = run_estimator("slipmap", dgd, {"calibration": Calibration(brls_default(), default_config())}).table
     assert table["theta_lat"].isna().all()
     kappa = sum(dgd.col(f"kappa_{w}_true") for w in ("fl", "fr", "rl", "rr"))
     phi_lat = dgd.col("alpha_f_true") * np.cos(dgd.col("steer")) + dgd.col("alpha_r_true")
@@ -147,6 +149,15 @@ def test_dry_gravel_dry_detection_and_no_false_switch(dgd):
     print(f"fraction of time classified correctly: {acc:.3f}")
     assert count_switches(cls) == 2
     assert acc > 0.75
+
+
+def test_uncalibrated_default_is_honest_on_the_planar_drive(dgd):
+    table = run_estimator("slipmap", dgd).table
+    cls = table["grip_class"].to_numpy()
+    truth = truth_grip_class(dgd.col("mu_true"))
+    assert not ((cls == "low") & (truth == "high")).any()
+    assert not ((cls == "high") & (truth == "low")).any()
+    assert (cls[(dgd.t > 60) & (dgd.t < 120)] == "low").any()
 
 
 def test_straight_cruise_never_switches():

@@ -73,10 +73,15 @@ from numpy.typing import NDArray
 
 from roadgrip.drive import Drive
 from roadgrip.estimators.base import EstimateResult, ProgressCallback, conform, timed
-from roadgrip.estimators.classify.brls_config import BRLSConfig, default_config
+from roadgrip.estimators.classify.brls_config import BRLSConfig, saturation_config
 from roadgrip.estimators.classify.brls_kernel import BRLSState, brls_batch, brls_init, brls_step
 from roadgrip.estimators.classify.calibration import ClassifierConfig
-from roadgrip.estimators.classify.common import classifier_diagnostics, prior_band, summary_meta
+from roadgrip.estimators.classify.common import (
+    DEFAULT_FRICTION,
+    classifier_diagnostics,
+    prior_band,
+    summary_meta,
+)
 from roadgrip.estimators.classify.frontend import (
     FIRST_STEP_S,
     KINEMATIC,
@@ -87,6 +92,12 @@ from roadgrip.estimators.classify.frontend import (
     front_step,
     prepare_classifier,
 )
+from roadgrip.estimators.classify.grip_model import GripModel, channels, default_grip_model
+from roadgrip.estimators.classify.slipmap_evidence import (
+    BRAKING_MEMORY_MAX,
+    PREFILTER_SIZE,
+    prefilter,
+)
 from roadgrip.estimators.protocol import DriveInfo, Estimator, Prepared
 from roadgrip.inference.kinematic import KinematicConfig, KinematicInput, KinematicOutput
 from roadgrip.vehicle.params import VehicleParams
@@ -96,6 +107,8 @@ __all__ = [
     "BRLSEstimatorConfig",
     "BRLSRunState",
     "brls_table",
+    "grip_of",
+    "model_regressors",
     "regressors",
     "rolling_ratio",
 ]
@@ -165,6 +178,46 @@ def regressors(
     return phi_long, phi_lat
 
 
+def grip_of(config: BRLSConfig, params: VehicleParams) -> GripModel:
+    """The saturation model of ``config``, or the vehicle's default one (class friction
+    :data:`~roadgrip.estimators.classify.common.DEFAULT_FRICTION`)."""
+    if config.grip is not None:
+        return config.grip
+    return default_grip_model(params, DEFAULT_FRICTION["high"], DEFAULT_FRICTION["low"])
+
+
+def model_regressors(
+    kin: KinematicOutput, ax: NDArray, ay: NDArray, steer: NDArray, params: VehicleParams,
+    config: BRLSConfig, t: NDArray | None = None, dt0: float = FIRST_STEP_S,
+    filtered: NDArray | None = None,
+) -> tuple[tuple[NDArray, NDArray, NDArray, NDArray], NDArray]:
+    """``(phi_long, y_long, phi_lat, y_lat)`` of the configured model, shapes (T,), and
+    the input filter's state after the last sample.
+
+    ``'stiffness'``: eq. 4 (:func:`regressors`) with the accelerations as outputs;
+    ``'saturation'``: the whitened class positions of
+    :func:`roadgrip.estimators.classify.grip_model.channels` on the slips and
+    accelerations low-passed over ``config.slip_filter_tau_s`` (the slip noise
+    enters both the regressor and the output through the model: unfiltered it
+    biases the position towards the low class where the classes differ little),
+    the longitudinal channel waiting after braking
+    (:data:`~roadgrip.estimators.classify.slipmap_evidence.BRAKING_MEMORY_MAX`).
+    ``t`` [s] (shape (T,)), ``dt0`` and ``filtered`` (shape (PREFILTER_SIZE,),
+    default zeros) drive that filter.
+    """
+    state = np.zeros(PREFILTER_SIZE) if filtered is None else np.asarray(filtered, float)
+    if config.model == "saturation":
+        tt = np.zeros(np.shape(np.atleast_1d(ax))) if t is None else np.atleast_1d(t)
+        kin_f, ax_f, ay_f, braking, state = prefilter(kin, ax, ay, tt, config.slip_filter_tau_s, dt0, state)
+        ch, _ = channels(kin_f, ax_f, ay_f, steer, params, grip_of(config, params), config.min_speed)
+        settled = braking < BRAKING_MEMORY_MAX
+        return (np.where(settled, ch.phi_long, 0.0), np.where(settled, ch.y_long, 0.0),
+                ch.phi_lat, ch.y_lat), state
+    phi_long, phi_lat = regressors(kin, np.asarray(steer), config.min_speed, config.lateral_regressor,
+                                   theoretical_slip=config.theoretical_slip)
+    return (phi_long, np.asarray(ax, float), phi_lat, np.asarray(ay, float)), state
+
+
 @dataclass(frozen=True)
 class BRLSEstimatorConfig(ClassifierConfig):
     """Configuration of the bRLS classifier (``calibration``: its ``brls`` settings)."""
@@ -173,8 +226,10 @@ class BRLSEstimatorConfig(ClassifierConfig):
 
     @property
     def settings(self) -> BRLSConfig:
-        """The bRLS settings: the calibration's, else :func:`default_config`."""
-        return self.calibration.brls if self.calibration is not None else default_config()
+        """The bRLS settings: the calibration's, else the uncalibrated saturation model
+        (:func:`~roadgrip.estimators.classify.brls_config.saturation_config`: the
+        vehicle's parameters, large model error, claims that expire)."""
+        return self.calibration.brls if self.calibration is not None else saturation_config()
 
 
 class BRLSRunState(NamedTuple):
@@ -189,12 +244,15 @@ class BRLSRunState(NamedTuple):
         Kinematic stage.
     core : BRLSState
         The two bRLS channels and the state machine.
+    filtered : tuple of float
+        Input filter of the saturation model (:func:`model_regressors`).
     """
 
     front: Front
     settings: BRLSConfig
     kin: FrontState
     core: BRLSState
+    filtered: tuple[float, ...] = (0.0,) * PREFILTER_SIZE
 
 
 def brls_table(
@@ -211,9 +269,9 @@ def brls_table(
     """
     front = Front.for_drive(drive, config.lateral_acceleration, kin_cfg)
     kin, ay = front_batch(drive, front)
-    phi_long, phi_lat = regressors(kin, drive.col("steer"), config.min_speed, config.lateral_regressor,
-                                   theoretical_slip=config.theoretical_slip)
-    _, out = brls_batch(drive.t, phi_long, drive.col("ax"), phi_lat, ay, config, dt0=FIRST_STEP_S)
+    (phi_long, y_long, phi_lat, y_lat), _ = model_regressors(
+        kin, drive.col("ax"), ay, drive.col("steer"), drive.vehicle, config, drive.t)
+    _, out = brls_batch(drive.t, phi_long, y_long, phi_lat, y_lat, config, dt0=FIRST_STEP_S)
     table = pd.DataFrame({
         "t": drive.t,
         "grip_class": out.grip_class,
@@ -252,16 +310,19 @@ def step(state: BRLSRunState, sample: KinematicInput) -> tuple[BRLSRunState, dic
     """One sample: kinematic stage, regressors (eq. 4), both bRLS channels and eq. 8."""
     cfg = state.settings
     fst, kin, dt, ay = front_step(state.kin, sample, state.front)
-    phi_long, phi_lat = regressors(kin, np.asarray(sample.steer), cfg.min_speed,
-                                   cfg.lateral_regressor, theoretical_slip=cfg.theoretical_slip)
-    core, out = brls_step(state.core, dt, float(phi_long), float(sample.ax), float(phi_lat), ay, cfg)
+    (phi_long, y_long, phi_lat, y_lat), filtered = model_regressors(
+        kin, np.atleast_1d(float(sample.ax)), np.atleast_1d(ay), np.atleast_1d(float(sample.steer)),
+        state.front.params, cfg, np.array([float(sample.t)]), dt, np.array(state.filtered))
+    phi_long, phi_lat = float(np.ravel(phi_long)[0]), float(np.ravel(phi_lat)[0])
+    core, out = brls_step(state.core, dt, phi_long, float(np.ravel(y_long)[0]), phi_lat,
+                          float(np.ravel(y_lat)[0]), cfg)
     row = {
         "t": float(sample.t), "grip_class": out.grip_class, "grip_index": out.grip_index,
         "excited": out.excited, "theta_long": out.theta_long, "theta_lat": out.theta_lat,
         "phi_long": float(phi_long), "phi_lat": float(phi_lat), "w_long": float(out.w_long),
         "w_lat": float(out.w_lat), "ay_used": ay, "vx_hat": float(kin.vx), "beta_hat": float(kin.beta),
     }
-    return BRLSRunState(state.front, cfg, fst, core), row
+    return BRLSRunState(state.front, cfg, fst, core, tuple(float(v) for v in filtered)), row
 
 
 def run(

@@ -10,14 +10,26 @@ derives uncalibrated references from the tire presets.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 from roadgrip.constants import GRAVITY
+from roadgrip.estimators.classify.grip_model import GripModel
 from roadgrip.inference.kinematic import LATERAL_ACCELERATION_SOURCES
 from roadgrip.tire import SURFACES
 
-__all__ = ["BRLSConfig", "ChannelCalibration", "default_config", "gamma_from_noise"]
+__all__ = [
+    "BRLS_MODELS",
+    "BRLSConfig",
+    "ChannelCalibration",
+    "default_config",
+    "gamma_from_noise",
+    "saturation_config",
+]
+
+BRLS_MODELS = ("stiffness", "saturation")
+"""Regressions of the channels: the paper's equivalent stiffness (eq. 4) or the class position
+between the saturation model's predictions (:mod:`roadgrip.estimators.classify.grip_model`)."""
 
 
 @dataclass(frozen=True)
@@ -103,6 +115,24 @@ class BRLSConfig:
     theoretical_slip : bool
         Lateral regressor from the theoretical slips ``tan(alpha) vx / (R omega)``
         instead of the slip angles (see :func:`regressors`).
+    model : {'stiffness', 'saturation'}
+        ``'stiffness'``: the paper's regressors (eq. 4), stiffness references.
+        ``'saturation'``: each channel regresses the measured acceleration's
+        position between the high and the low class's prediction of the
+        saturation model (whitened, references 1 and 0;
+        :func:`roadgrip.estimators.classify.grip_model.channels`).
+    grip : GripModel or None
+        The saturation model (``None``: derived from the vehicle's parameters,
+        :func:`roadgrip.estimators.classify.grip_model.default_grip_model`).
+    hold_high_s, hold_low_s : float
+        A class is claimed only while some informed channel has supported it
+        within this time [s]; then 'unknown', the estimates relax to the
+        thresholds and only an estimate clearly past its threshold claims a
+        class again (the road may have changed). ``inf``: the paper's state
+        machine, which holds its state.
+    slip_filter_tau_s : float
+        Saturation model: time constant [s] of the first-order low-pass of the
+        slips and accelerations before the model (0 = none).
     """
 
     long: ChannelCalibration
@@ -121,8 +151,18 @@ class BRLSConfig:
     error_clip: float = math.inf
     lateral_acceleration: str = "auto"
     theoretical_slip: bool = False
+    model: str = "stiffness"
+    grip: GripModel | None = None
+    hold_high_s: float = math.inf
+    hold_low_s: float = math.inf
+    slip_filter_tau_s: float = 0.0
 
     def __post_init__(self) -> None:
+        if self.model not in BRLS_MODELS:
+            raise ValueError(f"model must be one of {BRLS_MODELS}, got {self.model!r}")
+        for name in ("hold_high_s", "hold_low_s"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be positive (inf = hold), got {getattr(self, name)!r}")
         if self.lateral_acceleration not in LATERAL_ACCELERATION_SOURCES:
             raise ValueError(
                 f"lateral_acceleration must be one of {LATERAL_ACCELERATION_SOURCES}, "
@@ -134,8 +174,9 @@ class BRLSConfig:
             )
         if not self.error_clip > 0:
             raise ValueError(f"error_clip must be positive (inf = off), got {self.error_clip!r}")
-        if not (math.isfinite(self.prefilter_tau_s) and self.prefilter_tau_s >= 0):
-            raise ValueError(f"prefilter_tau_s must be >= 0, got {self.prefilter_tau_s!r}")
+        for name in ("prefilter_tau_s", "slip_filter_tau_s"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
         if not (math.isfinite(self.min_speed) and self.min_speed >= 0):
             raise ValueError(f"min_speed must be >= 0, got {self.min_speed!r}")
         for name in ("memory_s", "s0", "s_max", "excitation_tau_s"):
@@ -166,6 +207,8 @@ class BRLSConfig:
             if extra:
                 raise ValueError(f"unknown key(s) {sorted(extra)} in bRLS channel {ch!r}")
             d[ch] = ChannelCalibration(**d[ch])
+        if d.get("grip") is not None:
+            d["grip"] = GripModel.from_dict(dict(d["grip"]))
         return cls(**d)
 
 
@@ -191,3 +234,41 @@ def default_config(accel_noise: float = 0.3) -> BRLSConfig:
         long=chan(GRAVITY * hi.longitudinal.slope0() / 4, GRAVITY * lo.longitudinal.slope0() / 4),
         lat=chan(GRAVITY * hi.lateral.slope0() / 2, GRAVITY * lo.lateral.slope0() / 2),
     )
+
+
+SATURATION_PHI_HALF = 0.3
+"""Separation of the class predictions, in noise units, at which a sample's bRLS weight is 1/2."""
+
+UNCALIBRATED_HOLD_S = 2.0
+"""Claim time of both classes without a calibration [s]: the defaults support a claim
+only about the road just measured."""
+
+CALIBRATED_HOLD_HIGH_S = 3.0
+"""Claim time of 'high' with a calibration [s]; 'low' is held (``inf``) until evidence
+of high grip: a wrong 'high' on a road that has turned slippery is the dangerous error,
+a 'low' held onto a grippier road the cautious one."""
+
+
+def saturation_config(
+    grip: GripModel | None = None, hold_high_s: float = UNCALIBRATED_HOLD_S,
+    hold_low_s: float = UNCALIBRATED_HOLD_S, lateral: bool = False,
+) -> BRLSConfig:
+    """bRLS on the saturation model: both channels with references 1 (high) and 0 (low).
+
+    The regressions are whitened (unit noise), so ``gamma`` puts the measurement
+    weight at 1/2 where the two classes' predictions differ by one noise unit;
+    the threshold is halfway. The weight is 1/2 where the predictions differ by
+    :data:`SATURATION_PHI_HALF` noise units: a single sample says little, but the
+    memory accumulates about a hundred of them per second at 100 Hz.
+
+    The lateral channel is off unless ``lateral``: it needs the sideslip, which the
+    kinematic stage estimates well only with a pose or in quasi-linear driving (on
+    the multi-body drives the accelerometer's roll leak drifts it by as much as the
+    slip angles themselves in sustained cornering); a calibration turns it on where
+    the labelled drives show that it separates the classes. ``grip=None`` derives the model from the vehicle's
+    parameters at run time (the uncalibrated default).
+    """
+    chan = ChannelCalibration(1.0, 0.0, 0.5, SATURATION_PHI_HALF / math.log(2.0))
+    return BRLSConfig(long=chan, lat=replace(chan, enabled=lateral), memory_s=1.0,
+                      slip_filter_tau_s=0.05, model="saturation", grip=grip,
+                      hold_high_s=hold_high_s, hold_low_s=hold_low_s)

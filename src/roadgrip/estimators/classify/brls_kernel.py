@@ -34,7 +34,9 @@ __all__ = [
 # state vector layout
 THETA_LONG, S_LONG, THETA_LAT, S_LAT, HIGH, INFORMED, E_LONG, E_LAT = range(8)
 F_PHI_LONG, F_Y_LONG, F_PHI_LAT, F_Y_LAT = range(8, 12)
-STATE_SIZE = 12
+SINCE = 12
+"""Time since an informed channel last supported the state [s]."""
+STATE_SIZE = 13
 THETA = (THETA_LONG, THETA_LAT)
 """Stiffness estimate of channel ``c`` (0 long, 1 lat)."""
 S = (S_LONG, S_LAT)
@@ -64,6 +66,8 @@ class BRLSParams(NamedTuple):
     excitation_min: float
     prefilter_tau_s: float
     error_clip: float
+    hold_high_s: float
+    hold_low_s: float
 
 
 class BRLSState(NamedTuple):
@@ -83,6 +87,8 @@ class BRLSState(NamedTuple):
         Low-passed measurement weights (channel information) in [0, 1].
     filtered : tuple of 4 float
         Prefilter states of ``phi_long, ax, phi_lat, ay``.
+    since_support : float
+        Time since an informed channel last supported the state [s] (inf before).
     """
 
     theta_long: float
@@ -94,6 +100,7 @@ class BRLSState(NamedTuple):
     e_long: float
     e_lat: float
     filtered: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    since_support: float = math.inf
 
 
 class BRLSOutput(NamedTuple):
@@ -132,6 +139,8 @@ def brls_params(cfg: BRLSConfig) -> BRLSParams:
         excitation_min=float(cfg.excitation_min),
         prefilter_tau_s=float(cfg.prefilter_tau_s),
         error_clip=float(cfg.error_clip),
+        hold_high_s=float(cfg.hold_high_s),
+        hold_low_s=float(cfg.hold_low_s),
     )
 
 
@@ -141,6 +150,7 @@ def _state_vector(s: BRLSState) -> NDArray[np.float64]:
     v[HIGH], v[INFORMED] = float(s.high), float(s.informed)
     v[E_LONG], v[E_LAT] = s.e_long, s.e_lat
     v[F_PHI_LONG], v[F_Y_LONG], v[F_PHI_LAT], v[F_Y_LAT] = s.filtered
+    v[SINCE] = s.since_support
     return v
 
 
@@ -149,6 +159,7 @@ def _state_from_vector(v: NDArray[np.float64]) -> BRLSState:
         float(v[THETA_LONG]), float(v[S_LONG]), float(v[THETA_LAT]), float(v[S_LAT]),
         bool(v[HIGH] > 0.5), bool(v[INFORMED] > 0.5), float(v[E_LONG]), float(v[E_LAT]),
         (float(v[F_PHI_LONG]), float(v[F_Y_LONG]), float(v[F_PHI_LAT]), float(v[F_Y_LAT])),
+        float(v[SINCE]),
     )
 
 
@@ -161,6 +172,8 @@ def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - 
     e_min = p.excitation_min
     clip = p.error_clip
     high = st[HIGH] > 0.5
+    # an expired claim: no state to hold, the estimates relax to the thresholds
+    stale = st[SINCE] > (p.hold_high_s if high else p.hold_low_s)
     # identical first-order prefilter on regressor and output (keeps y = theta phi)
     st[F_PHI_LONG] += kf * (phi_long - st[F_PHI_LONG])
     st[F_Y_LONG] += kf * (y_long - st[F_Y_LONG])
@@ -177,6 +190,8 @@ def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - 
         g = p.gamma[c]
         w = 1.0 if g == 0.0 else 1.0 - np.exp(-abs(ph) / g)
         ref = p.ref_high[c] if high else p.ref_low[c]
+        if stale:
+            ref = p.threshold[c]
         eps = st[F_Y[c]] - ph * th
         if eps > clip:
             eps = clip
@@ -207,12 +222,35 @@ def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - 
             elif st[THETA[c]] > p.threshold[c]:
                 says_high = True
     switch = (high and says_low and not says_high) or ((not high) and says_high and not says_low)
+    if stale:
+        # a fresh decision: only an estimate clearly past its threshold (by a tenth
+        # of the reference gap) claims a class again
+        says_low = False
+        says_high = False
+        for c in range(2):
+            if p.enabled[c] and st[E[c]] >= e_min:
+                margin = 0.1 * (p.ref_high[c] - p.ref_low[c])
+                if st[THETA[c]] < p.threshold[c] - margin:
+                    says_low = True
+                elif st[THETA[c]] > p.threshold[c] + margin:
+                    says_high = True
+        switch = (high and says_low and not says_high) or ((not high) and says_high and not says_low)
     if switch:
         high = not high
         st[HIGH] = 1.0 if high else 0.0
         for c in range(2):
             if p.enabled[c] and st[E[c]] < e_min:
                 st[THETA[c]] = p.ref_high[c] if high else p.ref_low[c]
+    # support of the (new) state by an informed channel: the claim's age
+    support = False
+    for c in range(2):
+        if p.enabled[c] and st[E[c]] >= e_min:
+            margin = 0.1 * (p.ref_high[c] - p.ref_low[c]) if stale else 0.0
+            if (high and st[THETA[c]] > p.threshold[c] + margin) or (
+                (not high) and st[THETA[c]] < p.threshold[c] - margin
+            ):
+                support = True
+    st[SINCE] = 0.0 if support else st[SINCE] + dt
     # grip index: channel estimates between their references, weighted by information
     num = 0.05 * (1.0 if high else 0.0)
     den = 0.05
@@ -252,7 +290,7 @@ def brls_init(config: BRLSConfig) -> BRLSState:
     if ta is None:
         ta = config.lat.ref_high if high else config.lat.ref_low
     return BRLSState(float(tl), config.s0, float(ta), config.s0, high, False, 0.0, 0.0,
-                     (0.0, 0.0, 0.0, 0.0))
+                     (0.0, 0.0, 0.0, 0.0), math.inf)
 
 
 def brls_step(
@@ -291,7 +329,8 @@ def brls_step(
     idx, wl, wa = _update(st, dt, phi_long, ax, phi_lat, ay, brls_params(config))
     new = _state_from_vector(st)
     excited = (wl >= 0.5 and config.long.enabled) or (wa >= 0.5 and config.lat.enabled)
-    cls = str(classes(np.array(new.high), np.array(new.informed)))
+    known = new.informed and new.since_support <= (config.hold_high_s if new.high else config.hold_low_s)
+    cls = str(classes(np.array(new.high), np.array(known)))
     return new, BRLSOutput(cls, float(idx), bool(excited), new.theta_long, new.theta_lat, wl, wa)
 
 
@@ -334,7 +373,8 @@ def brls_batch(
         dt0 = float(arrs[0][1] - arrs[0][0]) if n > 1 else 0.01
     st = _state_vector(state if state is not None else brls_init(config))
     sv, idx, wl, wa = _batch(st, *arrs, brls_params(config), float(dt0))
-    high, informed = sv[:, HIGH] > 0.5, sv[:, INFORMED] > 0.5
+    high = sv[:, HIGH] > 0.5
+    informed = (sv[:, INFORMED] > 0.5) & (sv[:, SINCE] <= np.where(high, config.hold_high_s, config.hold_low_s))
     excited = ((wl >= 0.5) & config.long.enabled) | ((wa >= 0.5) & config.lat.enabled)
     out = BRLSOutput(classes(high, informed), idx, excited, sv[:, THETA_LONG],
                      sv[:, THETA_LAT], wl, wa)

@@ -30,6 +30,7 @@ from roadgrip.estimators.classify.common import (
     lowpass,
     settled,
 )
+from roadgrip.estimators.classify.fit import saturation_calibration
 from roadgrip.estimators.classify.slipmap import calibrate_section
 from roadgrip.inference.kinematic import (
     KinematicConfig,
@@ -152,6 +153,7 @@ def calibrate(
     error_clips: Sequence[float] = (math.inf, 1.0),
     theoretical_slips: Sequence[bool] = (False, True),
     friction: dict[str, float] | None = None,
+    model: str = "saturation",
 ) -> Calibration:
     """Learn the bRLS references, thresholds, gammas and memory, and the slip-map curves.
 
@@ -205,17 +207,28 @@ def calibrate(
     friction : dict, optional
         Peak-friction reference per class (``{'high': ..., 'low': ...}``); by
         default the median true friction of the drives of each class where they
-        carry simulator truth (``mu_true``), else :data:`~roadgrip.estimators.classify.common.DEFAULT_FRICTION`.
+        all carry simulator truth (``mu_true``); else, with the saturation model,
+        estimated from the drives
+        (:func:`~roadgrip.estimators.classify.fit.fit_class_friction`), and with
+        the stiffness model :data:`~roadgrip.estimators.classify.common.DEFAULT_FRICTION`.
     error_clips : sequence of float
         Prediction-error bounds tried [m/s²] (``BRLSConfig.error_clip``).
     theoretical_slips : sequence of bool
         Slip-angle or theoretical-slip lateral regressors tried
         (``BRLSConfig.theoretical_slip``).
 
+    model : {'saturation', 'stiffness'}
+        ``'saturation'`` (default): both classifiers on the saturation model, its
+        few physical parameters fitted to the drives
+        (:func:`roadgrip.estimators.classify.fit.saturation_calibration`; the
+        candidate grids above are not used). ``'stiffness'``: the paper's
+        stiffness regressors and curves, by the search described above.
+
     Returns
     -------
     Calibration
-        ``diagnostics`` holds the winning score and each channel's status.
+        ``diagnostics`` holds the fit (saturation) or the winning score (stiffness)
+        and each channel's status.
     """
     labels = [lab for _, lab in drives]
     for lab in labels:
@@ -223,8 +236,17 @@ def calibrate(
             raise ValueError(f"calibration label must be 'high' or 'low', got {lab!r}")
     if "high" not in labels or "low" not in labels:
         raise ValueError("calibration needs at least one 'high' and one 'low' drive")
+    if model not in ("saturation", "stiffness"):
+        raise ValueError(f"calibration model must be 'saturation' or 'stiffness', got {model!r}")
     base = base or default_config()
     kins = [(drive, lab, estimate_kinematics(drive, kinematic)) for drive, lab in drives]
+    veh = kins[0][0].vehicle.name
+    prov = tuple({"source": d[0].meta.source, "label": d[1], "samples": int(d[0].n)} for d in kins)
+    known = friction is not None or all(d.has("mu_true") for d, _, _ in kins)
+    friction = _friction(kins, friction)
+    if model == "saturation":
+        cfg, sm, diag = saturation_calibration(kins, friction, kinematic, estimate_friction=not known)
+        return Calibration(cfg, sm, {}, veh, prov, diag, friction_refs(diag["friction"], "calibrate"))
     scored: list[tuple[float, BRLSConfig, float, int, float]] = []
     off = {name: replace(getattr(base, name), enabled=False) for name in ("long", "lat")}
     for lateral, theoretical in itertools.product(lateral_regressors, theoretical_slips):
@@ -285,13 +307,16 @@ def calibrate(
         "lateral_acceleration": cfg.lateral_acceleration,
     }
     sm, sm_fit = calibrate_section(kins, kinematic=kinematic)
-    veh = kins[0][0].vehicle.name
-    prov = tuple({"source": d[0].meta.source, "label": d[1], "samples": int(d[0].n)} for d in kins)
+    return Calibration(cfg, sm, sm_fit, veh, prov, diag, friction)
+
+
+def _friction(kins: list, friction: dict[str, float] | None) -> dict[str, float]:
+    """The given class friction, else the median true friction of each class's simulated
+    drives, else :data:`~roadgrip.estimators.classify.common.DEFAULT_FRICTION` (checked)."""
     if friction is None:
         friction = dict(DEFAULT_FRICTION)
         for lab in ("high", "low"):
             mus = [d.col("mu_true") for d, la, _ in kins if la == lab and d.has("mu_true")]
             if mus:
                 friction[lab] = float(np.median(np.concatenate(mus)))
-    friction = friction_refs(friction, "calibrate")
-    return Calibration(cfg, sm, sm_fit, veh, prov, diag, friction)
+    return friction_refs(friction, "calibrate")

@@ -76,7 +76,11 @@ from roadgrip.estimators.classify.frontend import (
     front_step,
     prepare_classifier,
 )
-from roadgrip.estimators.classify.slipmap_config import SlipMapConfig, default_config
+from roadgrip.estimators.classify.slipmap_config import (
+    SlipMapConfig,
+    default_config,
+    saturation_config,
+)
 from roadgrip.estimators.classify.slipmap_evidence import (
     PREFILTER_SIZE,
     SlipMapEvidence,
@@ -113,8 +117,9 @@ class SlipMapEstimatorConfig(ClassifierConfig):
 
     @property
     def settings(self) -> SlipMapConfig:
-        """The slip-map settings: the calibration's, else :func:`default_config`."""
-        return self.calibration.slipmap if self.calibration is not None else default_config()
+        """The slip-map settings: the calibration's, else the uncalibrated saturation model
+        (:func:`~roadgrip.estimators.classify.slipmap_config.saturation_config`)."""
+        return self.calibration.slipmap if self.calibration is not None else saturation_config()
 
 
 class SlipMapRunState(NamedTuple):
@@ -145,9 +150,9 @@ def _filtered_evidence(
 ) -> SlipMapEvidence:
     """Evidence of a whole drive after the prefilter (equals stepping); ``kin`` from ``kin_cfg``."""
     ay = drive_lateral_acceleration(drive, kin, config.lateral_acceleration, kin_cfg)
-    kin_f, ax_f, ay_f, _ = prefilter(kin, drive.col("ax"), ay, drive.t, config.prefilter_tau_s,
-                                     FIRST_STEP_S, np.zeros(PREFILTER_SIZE))
-    return evidence_from_kinematics(kin_f, ax_f, ay_f, drive.col("steer"), drive.vehicle, config)
+    kin_f, ax_f, ay_f, braking, _ = prefilter(kin, drive.col("ax"), ay, drive.t, config.prefilter_tau_s,
+                                              FIRST_STEP_S, np.zeros(PREFILTER_SIZE))
+    return evidence_from_kinematics(kin_f, ax_f, ay_f, drive.col("steer"), drive.vehicle, config, braking)
 
 
 def slipmap_table(drive: Drive, config: SlipMapConfig, kin_cfg: KinematicConfig = KINEMATIC) -> pd.DataFrame:
@@ -207,9 +212,9 @@ def step(state: SlipMapRunState, sample: KinematicInput) -> tuple[SlipMapRunStat
     """One sample: kinematic stage, prefilter, evidence (eq. 9-15), recursion (eq. 16)."""
     cfg, front = state.settings, state.front
     fst, kin, dt, ay = front_step(state.kin, sample, front)
-    kin_f, ax_f, ay_f, filtered = prefilter(kin, sample.ax, ay, np.array([float(sample.t)]),
-                                            cfg.prefilter_tau_s, dt, np.array(state.filtered))
-    ev = evidence_from_kinematics(kin_f, ax_f, ay_f, sample.steer, front.params, cfg)
+    kin_f, ax_f, ay_f, braking, filtered = prefilter(kin, sample.ax, ay, np.array([float(sample.t)]),
+                                                     cfg.prefilter_tau_s, dt, np.array(state.filtered))
+    ev = evidence_from_kinematics(kin_f, ax_f, ay_f, sample.steer, front.params, cfg, braking)
     core, out = slipmap_step(state.core, dt, ev, cfg)
     row = {
         "t": float(sample.t), "grip_class": out.grip_class, "grip_index": out.grip_index,

@@ -11,10 +11,15 @@ from typing import Any
 
 import numpy as np
 
+from roadgrip.estimators.classify.grip_model import GripModel
 from roadgrip.inference.kinematic import LATERAL_ACCELERATION_SOURCES
 from roadgrip.tire import SURFACES, MagicFormula
 
-__all__ = ["SlipMapConfig", "default_config"]
+__all__ = ["SLIPMAP_MODELS", "SlipMapConfig", "default_config", "saturation_config"]
+
+SLIPMAP_MODELS = ("curves", "saturation")
+"""Reference of the maps: the paper's mid-friction Magic Formula curves, or the
+saturation model's two class predictions (:mod:`roadgrip.estimators.classify.grip_model`)."""
 
 
 @dataclass(frozen=True)
@@ -50,6 +55,27 @@ class SlipMapConfig:
         the kinematic ``r vx + dvy/dt``; ``'auto'`` takes the kinematic one when
         the velocity comes from a pose
         (:func:`roadgrip.inference.kinematic.select_lateral_acceleration`).
+    model : {'curves', 'saturation'}
+        ``'curves'``: the paper's mid-friction curves and eq. 9 weights.
+        ``'saturation'``: the reference is halfway between the saturation
+        model's two class predictions and a sample's weight is eq. 9's times the
+        separation of the predictions, ``1 - exp(-(a_high - a_low)^2 / (4 sigma^2))``
+        (no weight where the classes predict the same acceleration;
+        :func:`roadgrip.estimators.classify.slipmap_evidence.saturation_evidence`).
+    grip : GripModel or None
+        The saturation model (``None``: from the vehicle's parameters).
+    lateral, longitudinal : bool
+        Whether the lateral / longitudinal map counts in the saturation model (see
+        :func:`roadgrip.estimators.classify.brls_config.saturation_config`).
+    hold_high_s, hold_low_s : float
+        A class is claimed only while the evidence has supported it within this
+        time [s] (the low-passed evidence rate at least ``support_min`` with the
+        index on the class's side); then 'unknown', the index restarts at 1/2
+        and a class is claimed again when it leaves the hysteresis band. ``inf``:
+        the paper's recursion, which holds its state.
+    support_min : float
+        Evidence rate (low-passed ``p_high + p_low``, time constant 0.3 s) at
+        which the evidence supports the class.
     """
 
     long_curve: MagicFormula
@@ -66,8 +92,20 @@ class SlipMapConfig:
     min_speed: float = 0.5
     prefilter_tau_s: float = 0.0
     lateral_acceleration: str = "auto"
+    model: str = "curves"
+    grip: GripModel | None = None
+    lateral: bool = True
+    longitudinal: bool = True
+    hold_high_s: float = math.inf
+    hold_low_s: float = math.inf
+    support_min: float = 0.02
 
     def __post_init__(self) -> None:
+        if self.model not in SLIPMAP_MODELS:
+            raise ValueError(f"model must be one of {SLIPMAP_MODELS}, got {self.model!r}")
+        for name in ("hold_high_s", "hold_low_s", "support_min"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
         if self.lateral_acceleration not in LATERAL_ACCELERATION_SOURCES:
             raise ValueError(
                 f"lateral_acceleration must be one of {LATERAL_ACCELERATION_SOURCES}, "
@@ -91,6 +129,7 @@ class SlipMapConfig:
         d = asdict(self)
         d["long_curve"] = {k: float(self.long_curve.to_dict()[k]) for k in "BCDE"}
         d["lat_curve"] = {k: float(self.lat_curve.to_dict()[k]) for k in "BCDE"}
+        d["grip"] = None if self.grip is None else self.grip.to_dict()
         for k, v in d.items():
             if isinstance(v, np.generic):
                 d[k] = v.item()
@@ -106,6 +145,8 @@ class SlipMapConfig:
             if k not in d:
                 raise ValueError(f"slipmap calibration lacks {k!r}")
             d[k] = MagicFormula(**{c: float(d[k][c]) for c in "BCDE"})
+        if d.get("grip") is not None:
+            d["grip"] = GripModel.from_dict(dict(d["grip"]))
         return cls(**d)
 
 
@@ -120,3 +161,21 @@ def default_config(mu_mid: float = 0.8) -> SlipMapConfig:
         long_curve=replace(dry.longitudinal, D=mu_mid),
         lat_curve=replace(dry.lateral, D=mu_mid),
     )
+
+
+def saturation_config(
+    grip: GripModel | None = None, hold_high_s: float = 2.0, hold_low_s: float = 2.0,
+    lateral: bool = False,
+) -> SlipMapConfig:
+    """The slip maps on the saturation model (the uncalibrated default with ``grip=None``).
+
+    The paper's curves stay in the settings but are not used. Direction scales of
+    half a noise unit (the evidence is whitened and the inputs prefiltered over
+    0.05 s), no exclusion boxes (the separation weight replaces them), an output
+    low-pass of 0.25 s and the claim times of
+    :func:`roadgrip.estimators.classify.brls_config.saturation_config`.
+    """
+    return replace(default_config(), model="saturation", grip=grip, lateral=lateral,
+                   sigma_x=0.5, sigma_y=0.5, slip_min_long=0.0, slip_min_lat=0.0, accel_min=0.0,
+                   info_min=1.0, prefilter_tau_s=0.05, lowpass_tau_s=0.25, support_min=0.1,
+                   hold_high_s=hold_high_s, hold_low_s=hold_low_s)

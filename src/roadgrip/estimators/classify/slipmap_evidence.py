@@ -12,20 +12,39 @@ from typing import NamedTuple
 import numba
 import numpy as np
 from numpy.typing import NDArray
+from scipy.special import erf
 
 from roadgrip.constants import GRAVITY
+from roadgrip.estimators.classify.brls_config import SATURATION_PHI_HALF
+from roadgrip.estimators.classify.common import DEFAULT_FRICTION
+from roadgrip.estimators.classify.grip_model import GripModel, channels, default_grip_model
 from roadgrip.estimators.classify.slipmap_config import SlipMapConfig
 from roadgrip.inference.kinematic import KinematicOutput
 from roadgrip.signals import driven_wheels
 from roadgrip.vehicle.params import VehicleParams
 
-__all__ = ["PREFILTER_SIZE", "SlipMapEvidence", "evidence", "evidence_from_kinematics", "prefilter"]
+__all__ = [
+    "BRAKING_MEMORY_MAX",
+    "PREFILTER_SIZE",
+    "SlipMapEvidence",
+    "evidence",
+    "evidence_from_kinematics",
+    "grip_of",
+    "prefilter",
+    "saturation_evidence",
+]
 
 # columns of the prefiltered signals
 PF_KAPPA = slice(0, 4)
-PF_ALPHA_F, PF_ALPHA_R, PF_AX, PF_AY = 4, 5, 6, 7
-PREFILTER_SIZE = 8
-"""Prefiltered signals: ``kappa_fl..rr, alpha_f, alpha_r, ax, ay``."""
+PF_ALPHA_F, PF_ALPHA_R, PF_AX, PF_AY, PF_BRAKING = 4, 5, 6, 7, 8
+PREFILTER_SIZE = 9
+"""Prefiltered signals: ``kappa_fl..rr, alpha_f, alpha_r, ax, ay`` and the braking
+indicator ``ax < 0`` (its low-passed value says how recently the car braked)."""
+
+BRAKING_MEMORY_MAX = 0.05
+"""The longitudinal saturation channel waits after braking until the low-passed braking
+indicator falls below this (about three prefilter time constants): the slips and the
+accelerometer (pitch rebound) settle for about a second after a stop."""
 
 
 class SlipMapEvidence(NamedTuple):
@@ -130,22 +149,80 @@ def _prefilter_kernel(x, t, tau, dt0, state):  # pragma: no cover - compiled
 
 
 def _pack(kin: KinematicOutput, ax, ay) -> NDArray[np.float64]:
-    """Prefilter inputs as columns ``kappa_fl..rr, alpha_f, alpha_r, ax, ay``, shape (T, 8)."""
+    """Prefilter inputs as columns ``kappa_fl..rr, alpha_f, alpha_r, ax, ay, ax < 0``, shape (T, 9)."""
+    ax = np.atleast_1d(np.asarray(ax, float))
     return np.ascontiguousarray(np.column_stack([
         np.atleast_2d(kin.kappa), np.atleast_1d(kin.alpha_f), np.atleast_1d(kin.alpha_r),
-        np.atleast_1d(ax), np.atleast_1d(ay),
+        ax, np.atleast_1d(ay), (ax < 0.0).astype(float),
     ]), dtype=float)
 
 
-def _unpack(kin: KinematicOutput, y: NDArray) -> tuple[KinematicOutput, NDArray, NDArray]:
+def _unpack(kin: KinematicOutput, y: NDArray) -> tuple[KinematicOutput, NDArray, NDArray, NDArray]:
     kin_f = kin._replace(kappa=y[:, PF_KAPPA], alpha_f=y[:, PF_ALPHA_F], alpha_r=y[:, PF_ALPHA_R])
-    return kin_f, y[:, PF_AX], y[:, PF_AY]
+    return kin_f, y[:, PF_AX], y[:, PF_AY], y[:, PF_BRAKING]
+
+
+def saturation_evidence(
+    kin: KinematicOutput, ax, ay, steer, params: VehicleParams, config: SlipMapConfig,
+    grip: GripModel, braking=None,
+) -> SlipMapEvidence:
+    """Eq. 9-15 on the saturation model (``config.model == 'saturation'``), vectorised.
+
+    Per channel, in noise units (:func:`roadgrip.estimators.classify.grip_model.channels`:
+    ``phi`` the separation of the class predictions, ``y`` the measurement's
+    distance from the low class's): the reference is halfway, ``d = (y - phi / 2) sign(phi)``
+    the measurement's distance above it. The weight measures what the sample
+    can tell, not how far it falls from the reference (eq. 9 would weigh
+    noise and model error where the classes predict the same):
+    ``W = 1 - 2^-(phi / phi_half)^2`` with ``phi_half`` =
+    :data:`~roadgrip.estimators.classify.brls_config.SATURATION_PHI_HALF`. The
+    direction is soft, ``p^H = W Phi(d / sigma)``, ``p^L = W - p^H`` (``Phi`` the
+    normal distribution function, ``sigma`` = ``sigma_x`` / ``sigma_y`` in noise
+    units; the paper's hard split is the limit ``sigma -> 0``). The lateral
+    channel counts only with ``config.lateral`` (the longitudinal one with
+    ``config.longitudinal``); the longitudinal one only where
+    the low-passed braking indicator ``braking`` (from :func:`prefilter`) is below
+    :data:`BRAKING_MEMORY_MAX`.
+    """
+    ch, cp = channels(kin, ax, ay, steer, params, grip, config.min_speed)
+    if braking is not None:
+        settled = np.atleast_1d(np.asarray(braking, float)) < BRAKING_MEMORY_MAX
+        ch = ch._replace(phi_long=np.where(settled, ch.phi_long, 0.0),
+                         y_long=np.where(settled, ch.y_long, 0.0))
+    out = []
+    for phi, y, sigma in ((ch.phi_long, ch.y_long, config.sigma_x), (ch.phi_lat, ch.y_lat, config.sigma_y)):
+        d = (y - 0.5 * phi) * np.sign(phi)
+        w = 1.0 - np.exp(-np.log(2.0) * (phi / SATURATION_PHI_HALF) ** 2)
+        out.append((w, 0.5 * (1.0 + erf(d / (np.sqrt(2.0) * sigma)))))
+    (wx, px), (wy, py) = out
+    if not config.lateral:
+        wy = np.zeros_like(wy)
+    if not config.longitudinal:
+        wx = np.zeros_like(wx)
+    p_high = 0.5 * (wx * px + wy * py)
+    p_low = 0.5 * (wx * (1.0 - px) + wy * (1.0 - py))
+    p_old = 0.5 * ((1.0 - wx) + (1.0 - wy))
+    kf = np.atleast_1d(np.asarray(kin.kappa, float).reshape(-1, 4).mean(-1))
+    return SlipMapEvidence(0.5 * (cp.ax_high + cp.ax_low), 0.5 * (cp.ay_high + cp.ay_low),
+                           wx, wy, p_high, p_low, p_old, kf)
+
+
+def grip_of(config: SlipMapConfig, params: VehicleParams, friction: dict[str, float]) -> GripModel:
+    """The saturation model of ``config``, or the vehicle's default one at the class ``friction``."""
+    if config.grip is not None:
+        return config.grip
+    return default_grip_model(params, friction["high"], friction["low"])
 
 
 def evidence_from_kinematics(
-    kin: KinematicOutput, ax, ay, steer, params: VehicleParams, config: SlipMapConfig
+    kin: KinematicOutput, ax, ay, steer, params: VehicleParams, config: SlipMapConfig,
+    braking=None,
 ) -> SlipMapEvidence:
-    """:func:`evidence` of the kinematic stage's output (one sample or arrays)."""
+    """:func:`evidence` (or :func:`saturation_evidence`, with the prefilter's ``braking``)
+    of the kinematic stage's output (one sample or arrays)."""
+    if config.model == "saturation":
+        return saturation_evidence(kin, ax, ay, steer, params, config,
+                                   grip_of(config, params, DEFAULT_FRICTION), braking)
     return evidence(np.atleast_2d(kin.kappa), np.atleast_1d(kin.alpha_f), np.atleast_1d(kin.alpha_r),
                     np.atleast_1d(ax), np.atleast_1d(ay), np.atleast_1d(steer),
                     np.atleast_2d(kin.wheels_valid), params, config, np.atleast_1d(kin.vx))
@@ -153,7 +230,7 @@ def evidence_from_kinematics(
 
 def prefilter(
     kin: KinematicOutput, ax, ay, t: NDArray, tau: float, dt0: float, state: NDArray[np.float64]
-) -> tuple[KinematicOutput, NDArray, NDArray, NDArray[np.float64]]:
+) -> tuple[KinematicOutput, NDArray, NDArray, NDArray, NDArray[np.float64]]:
     """First-order low-pass of the slips and accelerations (``tau`` [s], 0 = none).
 
     Parameters
@@ -175,11 +252,13 @@ def prefilter(
     -------
     kin, ax, ay
         Filtered, arrays with leading axis time.
+    braking : ndarray, shape (T,)
+        The low-passed braking indicator ``ax < 0`` (in [0, 1]).
     state : ndarray, shape (PREFILTER_SIZE,)
         Filter state after the last sample.
     """
     st = np.array(state, dtype=float)
     y = _prefilter_kernel(_pack(kin, ax, ay), np.ascontiguousarray(t, dtype=float), float(tau),
                           float(dt0), st)
-    kin_f, ax_f, ay_f = _unpack(kin, y)
-    return kin_f, ax_f, ay_f, st
+    kin_f, ax_f, ay_f, braking = _unpack(kin, y)
+    return kin_f, ax_f, ay_f, braking, st

@@ -20,18 +20,26 @@ from roadgrip.estimators.classify.slipmap_evidence import SlipMapEvidence
 
 __all__ = ["SlipMapOutput", "SlipMapState", "slipmap_batch", "slipmap_init", "slipmap_step"]
 
-# state vector layout
-F, F_LP, INFO, HIGH = range(4)
-STATE_SIZE = 4
+# state vector layout: eq. 16's F, its low-passed value, accumulated weight, class,
+# low-passed evidence rate, time since the class was last supported [s], class claimed
+F, F_LP, INFO, HIGH, RATE, SINCE, KNOWN = range(7)
+STATE_SIZE = 7
+RATE_TAU_S = 0.3
+"""Time constant of the evidence rate [s]."""
 
 
 class SlipMapState(NamedTuple):
-    """Recursion state: ``F`` (eq. 16), its low-passed value, accumulated weight, class."""
+    """Recursion state: ``F`` (eq. 16), its low-passed value, accumulated weight, class,
+    low-passed evidence rate, time since the class was last supported [s] and whether a
+    class is claimed (an expired claim waits for the index to leave the hysteresis band)."""
 
     f: float
     f_lp: float
     info: float
     high: bool
+    rate: float = 0.0
+    since: float = math.inf
+    known: bool = True
 
 
 class SlipMapOutput(NamedTuple):
@@ -46,41 +54,81 @@ class SlipMapOutput(NamedTuple):
 
 def slipmap_init() -> SlipMapState:
     """Agnostic start: ``F = 1/2``, no information."""
-    return SlipMapState(0.5, 0.5, 0.0, True)
+    return SlipMapState(0.5, 0.5, 0.0, True, 0.0, math.inf, True)
 
 
 def _state_vector(s: SlipMapState) -> NDArray[np.float64]:
     v = np.empty(STATE_SIZE)
     v[F], v[F_LP], v[INFO], v[HIGH] = s.f, s.f_lp, s.info, float(s.high)
+    v[RATE], v[SINCE], v[KNOWN] = s.rate, s.since, float(s.known)
     return v
 
 
 def _state_from_vector(v: NDArray[np.float64]) -> SlipMapState:
-    return SlipMapState(float(v[F]), float(v[F_LP]), float(v[INFO]), bool(v[HIGH] > 0.5))
+    return SlipMapState(float(v[F]), float(v[F_LP]), float(v[INFO]), bool(v[HIGH] > 0.5),
+                        float(v[RATE]), float(v[SINCE]), bool(v[KNOWN] > 0.5))
+
+
+class Holds(NamedTuple):
+    """Claim settings of the recursion: hysteresis, claim times [s], support rate."""
+
+    hyst: float
+    hold_high_s: float
+    hold_low_s: float
+    support_min: float
+
+
+def _holds(config: SlipMapConfig) -> Holds:
+    return Holds(float(config.hysteresis), float(config.hold_high_s), float(config.hold_low_s),
+                 float(config.support_min))
 
 
 @numba.njit(cache=True)
-def _recur(st, dt, p_high, p_low, p_old, w_sum, tau, hyst):  # pragma: no cover - compiled
-    """Eq. 16, low-pass, information and hysteresis class, in place on ``st``."""
+def _recur(st, dt, p_high, p_low, p_old, w_sum, tau, h):  # pragma: no cover - compiled
+    """Eq. 16, low-pass, information, hysteresis class and claim age, in place on ``st``."""
+    high = st[HIGH] > 0.5
+    stale = st[SINCE] > (h.hold_high_s if high else h.hold_low_s)
+    if stale and st[KNOWN] > 0.5:
+        # an expired claim: the index forgets the old class, one must be claimed afresh
+        st[KNOWN] = 0.0
+        st[F] = 0.5
+        st[F_LP] = 0.5
     st[F] = p_old * st[F] + p_high
     k = 1.0 - np.exp(-dt / tau)
     st[F_LP] = st[F_LP] + k * (st[F] - st[F_LP])
     st[INFO] = st[INFO] + w_sum
-    if st[F_LP] > 0.5 + hyst:
+    st[RATE] = st[RATE] + (1.0 - np.exp(-dt / RATE_TAU_S)) * (p_high + p_low - st[RATE])
+    fresh = False
+    if st[F_LP] > 0.5 + h.hyst:
+        fresh = st[KNOWN] < 0.5 or not high
         st[HIGH] = 1.0
-    elif st[F_LP] < 0.5 - hyst:
+        st[KNOWN] = 1.0
+    elif st[F_LP] < 0.5 - h.hyst:
+        fresh = st[KNOWN] < 0.5 or high
         st[HIGH] = 0.0
+        st[KNOWN] = 1.0
+    high = st[HIGH] > 0.5
+    side = st[F_LP] > 0.5 if high else st[F_LP] < 0.5
+    if fresh or (st[RATE] >= h.support_min and side):
+        st[SINCE] = 0.0
+    else:
+        st[SINCE] = st[SINCE] + dt
 
 
 @numba.njit(cache=True)
-def _recur_batch(st, t, p_high, p_low, p_old, w_sum, tau, hyst, dt0):  # pragma: no cover
+def _recur_batch(st, t, p_high, p_low, p_old, w_sum, tau, h, dt0):  # pragma: no cover
     n = t.shape[0]
     out = np.empty((n, STATE_SIZE))
     for i in range(n):
         dt = dt0 if i == 0 else t[i] - t[i - 1]
-        _recur(st, dt, p_high[i], p_low[i], p_old[i], w_sum[i], tau, hyst)
+        _recur(st, dt, p_high[i], p_low[i], p_old[i], w_sum[i], tau, h)
         out[i] = st
     return out
+
+
+def _claimed(known, high, since, config: SlipMapConfig):
+    """Whether a class is claimed: set and supported within its claim time (elementwise)."""
+    return np.logical_and(known, since <= np.where(high, config.hold_high_s, config.hold_low_s))
 
 
 def slipmap_step(
@@ -92,9 +140,10 @@ def slipmap_step(
     st = _state_vector(state)
     wx, wy = float(np.ravel(ev.w_x)[0]), float(np.ravel(ev.w_y)[0])
     _recur(st, dt, float(np.ravel(ev.p_high)[0]), float(np.ravel(ev.p_low)[0]),
-           float(np.ravel(ev.p_old)[0]), wx + wy, config.lowpass_tau_s, config.hysteresis)
+           float(np.ravel(ev.p_old)[0]), wx + wy, config.lowpass_tau_s, _holds(config))
     new = _state_from_vector(st)
-    cls = str(classes(np.array(new.high), np.array(new.info >= config.info_min)))
+    known = new.info >= config.info_min and _claimed(new.known, new.high, new.since, config)
+    cls = str(classes(np.array(new.high), np.array(known)))
     excited = max(wx, wy) >= config.w_excited
     return new, SlipMapOutput(cls, float(np.clip(new.f_lp, 0, 1)), bool(excited), wx, wy)
 
@@ -129,8 +178,10 @@ def slipmap_batch(
         dt0 = float(t[1] - t[0]) if n > 1 else 0.01
     st = _state_vector(state or slipmap_init())
     out = _recur_batch(st, t, ev.p_high, ev.p_low, ev.p_old, ev.w_x + ev.w_y,
-                       config.lowpass_tau_s, config.hysteresis, float(dt0))
-    cls = classes(out[:, HIGH] > 0.5, out[:, INFO] >= config.info_min)
+                       config.lowpass_tau_s, _holds(config), float(dt0))
+    high = out[:, HIGH] > 0.5
+    known = (out[:, INFO] >= config.info_min) & _claimed(out[:, KNOWN] > 0.5, high, out[:, SINCE], config)
+    cls = classes(high, known)
     excited = np.maximum(ev.w_x, ev.w_y) >= config.w_excited
     res = SlipMapOutput(cls, np.clip(out[:, F_LP], 0.0, 1.0), excited, ev.w_x, ev.w_y)
     return _state_from_vector(st), res

@@ -1,0 +1,288 @@
+"""Calibration of the saturation model from drives labelled 'high' / 'low'.
+
+A handful of physical parameters, each fitted where the data determine it, so that a
+calibration transfers to other drives of the same car (no grid search over classifier
+settings scored on the labelled drives themselves):
+
+1. per channel the normalised stiffness and the accelerometer gain (and longitudinally the
+   road load ``r0 + r2 vx^2``, linear least squares inside), by least squares of the
+   measured acceleration against the model at each drive's class friction, over the
+   samples the channel uses (:func:`roadgrip.estimators.classify.grip_model.channels`),
+   with a prior on the stiffness (the vehicle's parameters, 20 % in log) that holds it
+   where the drives do not saturate;
+2. per channel the relative model error from the fit's residuals averaged over about a
+   second (their systematic part; bounded to 5-25 %);
+3. each channel's switch: on when, over the informed samples of each class's drives
+   (pooled), the median class position (bRLS ``theta``) lies on the class's side of
+   the threshold, and both classes are informed (on the multi-body drives the lateral channel fails this: the
+   kinematic stage's slip angles drift with the accelerometer's roll leak).
+
+The claim times of a calibrated classifier are :data:`CALIBRATED_HOLD_HIGH_S` for 'high'
+and held for 'low' (see :mod:`roadgrip.estimators.classify.brls_config`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.ndimage import uniform_filter1d
+
+from roadgrip.constants import GRAVITY
+from roadgrip.drive import Drive
+from roadgrip.estimators.classify.brls import model_regressors
+from roadgrip.estimators.classify.brls_config import (
+    CALIBRATED_HOLD_HIGH_S,
+    BRLSConfig,
+    saturation_config,
+)
+from roadgrip.estimators.classify.brls_kernel import brls_batch
+from roadgrip.estimators.classify.frontend import FIRST_STEP_S
+from roadgrip.estimators.classify.grip_model import (
+    LONG_LATERAL_GATE,
+    UNCALIBRATED_MODEL_ERROR,
+    GripModel,
+    default_grip_model,
+    predict_accelerations,
+    traction_slips,
+)
+from roadgrip.estimators.classify.slipmap_config import SlipMapConfig
+from roadgrip.estimators.classify.slipmap_config import saturation_config as slipmap_saturation
+from roadgrip.estimators.classify.slipmap_evidence import (
+    BRAKING_MEMORY_MAX,
+    PREFILTER_SIZE,
+    prefilter,
+)
+from roadgrip.inference.kinematic import (
+    KinematicConfig,
+    KinematicOutput,
+    drive_lateral_acceleration,
+)
+
+__all__ = ["fit_class_friction", "fit_grip_model", "saturation_calibration"]
+
+STIFFNESS_PRIOR = 0.2
+"""Standard deviation of the log stiffness around the vehicle's parameters."""
+
+MODEL_ERROR_MIN = 0.05
+"""Smallest relative model error a calibration assigns [-]."""
+
+EFFECTIVE_SAMPLES = 0.1
+"""Fraction of the samples counted as independent in the fit (neighbouring samples at
+100 Hz share their errors)."""
+
+_SCALES = np.geomspace(0.6, 1.6, 25)
+_GAINS = np.linspace(0.85, 1.3, 19)
+
+
+def _channel_data(drive: Drive, kin: KinematicOutput, ay: NDArray, axis: str, min_speed: float,
+                  tau: float):
+    """Slips, measured acceleration and the samples a channel uses (arrays), the slips and
+    accelerations low-passed over ``tau`` [s] as the classifiers do."""
+    kin, ax, ay, braking, _ = prefilter(kin, drive.col("ax"), ay, drive.t, tau, FIRST_STEP_S,
+                                        np.zeros(PREFILTER_SIZE))
+    kf, kr, on_x = traction_slips(kin.kappa, kin.wheels_valid, ax, drive.vehicle)
+    moving = np.abs(kin.vx) >= min_speed
+    if axis == "x":
+        settled = braking < BRAKING_MEMORY_MAX
+        use = moving & on_x & settled & (np.abs(ay) < LONG_LATERAL_GATE * GRAVITY) & (ax > 0.3)
+        zero = np.zeros(drive.n)
+        return (kf, kr, zero, zero, drive.col("steer"), ax), ax, use, kin.vx
+    use = moving & (np.abs(ay) > 1.0)
+    return (kf, kr, kin.alpha_f, kin.alpha_r, drive.col("steer"), ax), ay, use, kin.vx
+
+
+def _with_road_load(model: GripModel, rows, params, axis: str) -> tuple[GripModel, float]:
+    """The road load ``r0 + r2 vx^2`` by least squares of the residuals (longitudinal
+    channel; bounded to be non-negative), and the remaining sum of squares."""
+    res, pred_v = [], []
+    for (args, meas, use, vx), mu in rows:
+        if use.any():
+            sel = tuple(a[use] for a in args)
+            m0 = replace(model, resistance_0=0.0, resistance_2=0.0)
+            pred = predict_accelerations(*sel, params, m0, mu, vx[use])[0 if axis == "x" else 1]
+            res.append(meas[use] - pred)
+            pred_v.append(vx[use] ** 2)
+    if not res:
+        return model, 0.0
+    r, v2 = np.concatenate(res), np.concatenate(pred_v)
+    if axis != "x":
+        return model, float(np.sum(r**2))
+    a = np.column_stack([-np.ones_like(v2), -v2])
+    coef, *_ = np.linalg.lstsq(a, r, rcond=None)
+    coef = np.maximum(coef, 0.0)
+    fitted = replace(model, resistance_0=float(coef[0]), resistance_2=float(coef[1]))
+    return fitted, float(np.sum((r - a @ coef) ** 2))
+
+
+def fit_grip_model(
+    data: Sequence[tuple[Drive, str, KinematicOutput, NDArray]], friction: dict[str, float],
+    min_speed: float = 0.5, tau: float = 0.3,
+) -> tuple[GripModel, dict[str, Any]]:
+    """Stiffnesses, gains and model error of the saturation model (steps 1-2 of the module).
+
+    Parameters
+    ----------
+    data : sequence of (drive, label, kinematics, lateral acceleration used)
+    friction : dict
+        Peak friction of each class (the model's ``mu_high``, ``mu_low``).
+    min_speed, tau : float
+        Slowest speed used [m/s]; the input filter's time constant [s].
+
+    Returns
+    -------
+    model : GripModel
+    fit : dict
+        Per channel the fitted stiffness, gain, residual and sample count.
+    """
+    params = data[0][0].vehicle
+    base = default_grip_model(params, friction["high"], friction["low"])
+    fitted: dict[str, Any] = {}
+    for axis, c_name, g_name in (("x", "c_long", "gain_x"), ("y", "c_lat", "gain_y")):
+        rows = [(_channel_data(d, kin, ay, axis, min_speed, tau), friction[lab])
+                for d, lab, kin, ay in data]
+        base = replace(base, resistance_0=0.0, resistance_2=0.0) if axis == "x" else base
+        n = sum(int(r[0][2].sum()) for r in rows)
+        c0 = getattr(base, c_name)
+        if n < 50:
+            fitted[axis] = {"samples": n, "fitted": False}
+            continue
+        best = (np.inf, c0, 1.0)
+        for sc in _SCALES:
+            for g in _GAINS:
+                model = replace(base, **{c_name: c0 * sc, g_name: float(g)})
+                model, sse = _with_road_load(model, rows, params, axis)
+                cost = EFFECTIVE_SAMPLES * sse / base.accel_noise**2 + (np.log(sc) / STIFFNESS_PRIOR) ** 2
+                if cost < best[0]:
+                    best = (cost, c0 * sc, float(g))
+        _, c, g = best
+        model, _ = _with_road_load(replace(base, **{c_name: float(c), g_name: g}), rows, params, axis)
+        res, mag = [], []
+        for ((args, meas, use, vx), mu), (drive, *_rest) in zip(rows, data, strict=True):
+            if use.any():
+                sel = tuple(a[use] for a in args)
+                pred = predict_accelerations(*sel, params, model, mu, vx[use])[0 if axis == "x" else 1]
+                # the systematic part: residuals averaged over about a second of used samples
+                per_s = 1.0 / (float(np.median(np.diff(drive.t))) if drive.n > 1 else 0.01)
+                k = max(1, round(per_s))
+                r_lp = uniform_filter1d(meas[use] - pred, size=k, mode="nearest")
+                big = np.abs(pred) > 1.0
+                res.append(r_lp[big])
+                mag.append(np.abs(pred[big]))
+        r, m = np.concatenate(res), np.concatenate(mag)
+        rel = float(np.sqrt(np.mean(r**2)) / np.mean(m)) if m.size else np.nan
+        err = float(np.clip(rel, MODEL_ERROR_MIN, UNCALIBRATED_MODEL_ERROR)) if np.isfinite(rel) \
+            else UNCALIBRATED_MODEL_ERROR
+        base = replace(model, **{f"model_error_{axis}": err})
+        fitted[axis] = {"samples": n, "fitted": True, "stiffness": float(c), "gain": g,
+                        "road_load": [base.resistance_0, base.resistance_2],
+                        "stiffness_over_parameters": float(c / c0), "relative_residual": rel,
+                        "model_error": err}
+    return base, fitted
+
+
+FRICTION_GRID = np.round(np.arange(0.1, 1.51, 0.025), 3)
+"""Peak frictions tried when a class's friction is estimated from its drives."""
+
+
+def fit_class_friction(
+    data: Sequence[tuple[Drive, str, KinematicOutput, NDArray]], model: GripModel,
+    min_speed: float = 0.5, tau: float = 0.3,
+) -> dict[str, float]:
+    """Each class's peak friction by least squares of both channels over its drives.
+
+    For drives without a known friction (real data): the model with the fitted stiffness
+    and gains is run at each friction of :data:`FRICTION_GRID`; a class whose drives
+    never approach saturation leaves the sum of squares flat above the friction they
+    used, and the smallest friction within 1 % of the best is taken (the friction the
+    drives demonstrably used, not more).
+    """
+    params = data[0][0].vehicle
+    out = {}
+    for lab in ("high", "low"):
+        rows = [(*_channel_data(d, kin, ay, axis, min_speed, tau), axis)
+                for d, la, kin, ay in data if la == lab for axis in ("x", "y")]
+        sse = np.zeros(FRICTION_GRID.size)
+        for k, mu in enumerate(FRICTION_GRID):
+            for args, meas, use, vx, axis in rows:
+                if use.any():
+                    sel = tuple(a[use] for a in args)
+                    pred = predict_accelerations(*sel, params, model, float(mu), vx[use])[0 if axis == "x" else 1]
+                    sse[k] += float(np.sum((meas[use] - pred) ** 2))
+        ok = sse <= sse.min() * 1.01 + 1e-12
+        out[lab] = float(FRICTION_GRID[np.argmax(ok)])
+    return out
+
+
+def _median_positions(cfg: BRLSConfig, data) -> tuple[list[dict[str, Any]], dict[str, dict[str, Any]]]:
+    """Per drive and channel the median bRLS class position over its informed samples,
+    and per channel and class the median over all of the class's informed samples."""
+    out = []
+    pooled: dict[str, dict[str, list]] = {"long": {"high": [], "low": []}, "lat": {"high": [], "low": []}}
+    for drive, lab, kin, ay in data:
+        (pl, yl, pa, ya), _ = model_regressors(kin, drive.col("ax"), ay, drive.col("steer"),
+                                               drive.vehicle, cfg, drive.t)
+        c = replace(cfg, hold_high_s=np.inf, hold_low_s=np.inf,
+                    initial_state="low" if lab == "high" else "high")
+        _, o = brls_batch(drive.t, pl, yl, pa, ya, c)
+        row: dict[str, Any] = {"label": lab, "source": drive.meta.source}
+        for name, w, th in (("long", o.w_long, o.theta_long), ("lat", o.w_lat, o.theta_lat)):
+            inf = w >= 0.5
+            row[name] = float(np.median(th[inf])) if inf.sum() >= 20 else None
+            pooled[name][lab].append(th[inf])
+        out.append(row)
+    medians = {name: {lab: (float(np.median(np.concatenate(v))) if sum(a.size for a in v) >= 20 else None)
+                      for lab, v in by.items()} for name, by in pooled.items()}
+    return out, medians
+
+
+def saturation_calibration(
+    drives: Sequence[tuple[Drive, str, KinematicOutput]], friction: dict[str, float],
+    kinematic: KinematicConfig = KinematicConfig(), estimate_friction: bool = False,
+) -> tuple[BRLSConfig, SlipMapConfig, dict[str, Any]]:
+    """Both classifiers' settings on the fitted saturation model (module docstring).
+
+    With ``estimate_friction`` the classes' peak friction comes from the drives
+    (:func:`fit_class_friction`, then the stiffness and gains are fitted again);
+    ``friction`` is the start. The diagnostics give the friction used.
+
+    Raises
+    ------
+    ValueError
+        When no channel is informed on the labelled drives, or none places them
+        on their labelled sides.
+    """
+    base = saturation_config(lateral=True)
+    data = [(d, lab, kin, drive_lateral_acceleration(d, kin, base.lateral_acceleration, kinematic))
+            for d, lab, kin in drives]
+    model, fitted = fit_grip_model(data, friction, base.min_speed, base.slip_filter_tau_s)
+    if estimate_friction:
+        friction = fit_class_friction(data, model, base.min_speed, base.slip_filter_tau_s)
+        if not friction["high"] > friction["low"]:
+            raise ValueError(f"calibration failed: the 'high' drives show no more friction than the "
+                             f"'low' ones ({friction}); give the friction as DRIVE:LABEL=MU")
+        model, fitted = fit_grip_model(data, friction, base.min_speed, base.slip_filter_tau_s)
+    cfg = replace(base, grip=model)
+    positions, pooled = _median_positions(cfg, data)
+    on = {}
+    for name in ("long", "lat"):
+        hi, lo = pooled[name]["high"], pooled[name]["low"]
+        on[name] = hi is not None and lo is not None and hi > 0.5 > lo
+    if not (on["long"] or on["lat"]):
+        raise ValueError(
+            "calibration failed: no channel of the saturation model places the labelled drives "
+            f"on their sides (median class positions {pooled}); are the drives excited and "
+            "correctly labelled?"
+        )
+    cfg = replace(cfg, long=replace(cfg.long, enabled=on["long"]), lat=replace(cfg.lat, enabled=on["lat"]),
+                  hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf)
+    sm = replace(slipmap_saturation(model, hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf,
+                                    lateral=on["lat"]), longitudinal=on["long"])
+    diag = {"model": "saturation", "grip_fit": fitted, "friction": dict(friction),
+            "friction_estimated": bool(estimate_friction), "median_positions": positions,
+            "class_median_positions": pooled,
+            "long_channel": "on" if on["long"] else "off", "lat_channel": "on" if on["lat"] else "off"}
+    return cfg, sm, diag

@@ -1,0 +1,335 @@
+r"""Saturation model of the classifiers: the accelerations each friction class predicts.
+
+A tire's force at small slip does not tell one surface from another: the
+cornering and slip stiffness barely change with the friction (not at all in the
+multi-body engine, little on real tires), so the paper's equivalent-stiffness
+regressors (eq. 4) and mid-friction curves with a scaled stiffness separate
+surfaces only by what the stiffness happens to differ. What does separate them
+is **saturation**: at a slip where a high-grip tire is still nearly linear, a
+low-grip tire has fallen well behind its linear force. This module predicts the
+CG accelerations from the measured slips for a given peak friction ``mu``:
+
+* dynamic axle loads with longitudinal load transfer
+  ``Fz_f = m (g lr - h ax) / L``, ``Fz_r = m (g lf + h ax) / L``;
+* per axle the isotropic combined slip ``s = (c_x kappa, c_y tan(alpha))``
+  (normalised stiffnesses ``c_x``, ``c_y`` [1/unit slip]; ``kappa`` the mean of
+  the axle's measured wheels, 0 where none is measured) and the resultant friction
+  ``mu f(|s| / mu)`` along ``s`` with the Magic-Formula shape
+  ``f(x) = sin(C atan(x / C))`` (slope 1 at 0, peak 1), so the stiffness does
+  not depend on ``mu``;
+* ``ax = (Fxf cos(delta) - Fyf sin(delta) + Fxr) / m``,
+  ``ay = (Fxf sin(delta) + Fyf cos(delta) + Fyr) / m``, scaled by the
+  accelerometer gains ``gain_x``, ``gain_y`` (the body's pitch and roll leak
+  gravity into the specific force: 6 % and 15 % on the multi-body sedan).
+
+:func:`class_predictions` gives each channel's prediction for the high and the
+low class and the noise ``sigma = sqrt(sigma_a^2 + (eps a_mid)^2)`` with a
+relative model error ``eps``. Where the two predictions coincide (linear
+range) a sample carries no class information, whatever the acceleration.
+
+Without a calibration the stiffness comes from the vehicle's parameters
+(cornering stiffness over the static axle load; the same value longitudinally,
+as the isotropic brush model has it), the gains are 1 and the model error is
+large (:data:`UNCALIBRATED_MODEL_ERROR`), so that only clear saturation or its
+clear absence counts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from roadgrip.constants import GRAVITY
+from roadgrip.vehicle.params import VehicleParams
+
+__all__ = [
+    "LONG_LATERAL_GATE",
+    "UNCALIBRATED_MODEL_ERROR",
+    "Channels",
+    "ClassPredictions",
+    "GripModel",
+    "axle_slips",
+    "channels",
+    "class_predictions",
+    "default_grip_model",
+    "predict_accelerations",
+    "shape",
+    "traction_slips",
+]
+
+UNCALIBRATED_MODEL_ERROR = 0.25
+"""Relative model error of the uncalibrated model (stiffness from the vehicle's
+parameters, unknown accelerometer gains from pitch and roll) [-]."""
+
+
+@dataclass(frozen=True)
+class GripModel:
+    """Parameters of the saturation model.
+
+    Attributes
+    ----------
+    c_long, c_lat : float
+        Normalised slip and cornering stiffness ``C / Fz`` [1/unit slip, 1/rad].
+    shape_c : float
+        Magic-Formula shape factor of ``f`` (> 1).
+    mu_high, mu_low : float
+        Peak friction of the two classes [-].
+    gain_x, gain_y : float
+        Measured over modelled acceleration (accelerometer tilt) [-].
+    accel_noise : float
+        Acceleration noise [m/s²].
+    slip_noise, slip_angle_noise : float
+        Errors of the estimated slip [-] and slip angles [rad] (the multi-body
+        drives' kinematic stage: 0.0006 in traction; 0.011 rad in cornering,
+        where the accelerometer's roll leak drifts the sideslip).
+    resistance_0, resistance_2 : float
+        Road load as a deceleration ``r0 + r2 vx^2`` [m/s², 1/m] (rolling
+        resistance and drag, which the driven tires overcome before they
+        accelerate the car; 0 without a calibration).
+    lateral_speed_noise : float
+        Error of the estimated lateral velocity [m/s]: it adds
+        ``lateral_speed_noise / |vx|`` to the slip-angle error, which grows as
+        the car slows.
+    model_error_x, model_error_y : float
+        Relative model error ``eps`` of the longitudinal / lateral channel [-].
+    """
+
+    c_long: float
+    c_lat: float
+    mu_high: float
+    mu_low: float
+    shape_c: float = 1.4
+    gain_x: float = 1.0
+    gain_y: float = 1.0
+    accel_noise: float = 0.3
+    model_error_x: float = UNCALIBRATED_MODEL_ERROR
+    model_error_y: float = UNCALIBRATED_MODEL_ERROR
+    slip_noise: float = 0.002
+    slip_angle_noise: float = 0.01
+    resistance_0: float = 0.0
+    resistance_2: float = 0.0
+    lateral_speed_noise: float = 0.02
+
+    def __post_init__(self) -> None:
+        for name in ("c_long", "c_lat", "gain_x", "gain_y", "accel_noise"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"grip model {name} must be positive, got {v!r}")
+        if not 1.0 < self.shape_c < 2.0:
+            raise ValueError(f"grip model shape_c must lie in (1, 2), got {self.shape_c!r}")
+        if not 0.0 < self.mu_low < self.mu_high:
+            raise ValueError(f"grip model needs 0 < mu_low < mu_high, got {self.mu_low}, {self.mu_high}")
+        for name in ("slip_noise", "slip_angle_noise", "lateral_speed_noise"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
+                raise ValueError(f"grip model {name} must be >= 0, got {getattr(self, name)!r}")
+        for name in ("model_error_x", "model_error_y"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
+                raise ValueError(f"grip model {name} must be >= 0, got {getattr(self, name)!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: float(v) for k, v in asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> GripModel:
+        unknown = set(d) - set(cls.__dataclass_fields__)
+        if unknown:
+            raise ValueError(f"unknown grip model setting(s) {sorted(unknown)}")
+        return cls(**{k: float(v) for k, v in d.items()})
+
+
+def default_grip_model(params: VehicleParams, mu_high: float, mu_low: float) -> GripModel:
+    """The uncalibrated model of a vehicle: stiffness from its parameters, unit gains.
+
+    ``c_lat`` is the mean over the axles of the cornering stiffness over the
+    static axle load; ``c_long = c_lat``.
+    """
+    L = params.lf + params.lr
+    fz_f = params.mass * GRAVITY * params.lr / L
+    fz_r = params.mass * GRAVITY * params.lf / L
+    c = 0.5 * (params.cornering_stiffness_front / fz_f + params.cornering_stiffness_rear / fz_r)
+    return GripModel(c_long=c, c_lat=c, mu_high=mu_high, mu_low=mu_low)
+
+
+def shape(x: NDArray, c: float) -> NDArray:
+    """Normalised saturation ``f(x) = sin(c atan(x / c))`` for ``x >= 0`` (slope 1 at 0, peak 1)."""
+    return np.sin(c * np.arctan(np.asarray(x, float) / c))
+
+
+def axle_slips(kappa: NDArray, wheels_valid: NDArray) -> tuple[NDArray, NDArray]:
+    """Mean slip of the measured wheels of each axle (0 where none), shapes (T,).
+
+    Parameters
+    ----------
+    kappa : ndarray, shape (T, 4)
+        Wheel slips ``fl, fr, rl, rr`` [-].
+    wheels_valid : ndarray of bool, shape (T, 4)
+    """
+    k = np.asarray(kappa, float)
+    v = np.asarray(wheels_valid, bool)
+    out = []
+    for sl in (slice(0, 2), slice(2, 4)):
+        n = v[:, sl].sum(-1)
+        out.append(np.where(n > 0, (k[:, sl] * v[:, sl]).sum(-1) / np.maximum(n, 1), 0.0))
+    return out[0], out[1]
+
+
+def predict_accelerations(
+    kappa_f: NDArray, kappa_r: NDArray, alpha_f: NDArray, alpha_r: NDArray, steer: NDArray,
+    ax_meas: NDArray, params: VehicleParams, model: GripModel, mu: float, vx: NDArray | float = 0.0,
+) -> tuple[NDArray, NDArray]:
+    """Measured-frame CG accelerations ``(ax, ay)`` [m/s²] the slips give at peak friction ``mu``.
+
+    All inputs have shape (T,): axle slips [-], slip angles and road-wheel angle
+    [rad], the measured ``ax`` [m/s²] for the load transfer and the speed ``vx``
+    [m/s] for the road load.
+    """
+    L = params.lf + params.lr
+    m = params.mass
+    h_ax = params.cg_height * np.asarray(ax_meas, float) / model.gain_x
+    fz = (np.maximum(m * (GRAVITY * params.lr - h_ax) / L, 0.05 * m * GRAVITY),
+          np.maximum(m * (GRAVITY * params.lf + h_ax) / L, 0.05 * m * GRAVITY))
+    forces = []
+    for k, a, z in ((kappa_f, alpha_f, fz[0]), (kappa_r, alpha_r, fz[1])):
+        sx = model.c_long * np.asarray(k, float)
+        sy = model.c_lat * np.tan(np.clip(np.asarray(a, float), -1.4, 1.4))
+        s = np.hypot(sx, sy)
+        ratio = np.where(s > 1e-12, mu * shape(s / mu, model.shape_c) / np.maximum(s, 1e-12), 1.0)
+        forces.append((z * ratio * sx, z * ratio * sy))
+    (fxf, fyf), (fxr, fyr) = forces
+    c, sn = np.cos(steer), np.sin(steer)
+    ax = (fxf * c - fyf * sn + fxr) / m - model.resistance_0 - model.resistance_2 * np.square(vx)
+    ay = (fxf * sn + fyf * c + fyr) / m
+    return model.gain_x * ax, model.gain_y * ay
+
+
+class ClassPredictions(NamedTuple):
+    """Each channel's acceleration under the two classes and its noise (arrays, shape (T,)) [m/s²]."""
+
+    ax_high: NDArray[np.float64]
+    ax_low: NDArray[np.float64]
+    ay_high: NDArray[np.float64]
+    ay_low: NDArray[np.float64]
+    sigma_x: NDArray[np.float64]
+    sigma_y: NDArray[np.float64]
+
+
+def class_predictions(
+    kappa_f: NDArray, kappa_r: NDArray, alpha_f: NDArray, alpha_r: NDArray, steer: NDArray,
+    ax_meas: NDArray, params: VehicleParams, model: GripModel, vx: NDArray | float = 0.0,
+) -> ClassPredictions:
+    """:func:`predict_accelerations` for ``mu_high`` and ``mu_low`` with the channel noise.
+
+    All inputs have shape (T,). The noise adds to ``accel_noise`` the model error
+    (``model_error_x`` / ``model_error_y`` times the mean prediction) and the slip errors
+    (``slip_noise``, ``slip_angle_noise``) through the linear tire,
+    ``c g sigma_slip``.
+    """
+    args = (np.atleast_1d(kappa_f), np.atleast_1d(kappa_r), np.atleast_1d(alpha_f),
+            np.atleast_1d(alpha_r), np.atleast_1d(steer), np.atleast_1d(ax_meas), params, model)
+    axh, ayh = predict_accelerations(*args, model.mu_high, vx)
+    axl, ayl = predict_accelerations(*args, model.mu_low, vx)
+    slip_x = model.c_long * GRAVITY * model.slip_noise
+    v = np.maximum(np.abs(np.atleast_1d(np.asarray(vx, float))), 0.1)
+    slip_y = model.c_lat * GRAVITY * (model.slip_angle_noise + model.lateral_speed_noise / v)
+    sx = np.sqrt(model.accel_noise**2 + slip_x**2
+                 + (model.model_error_x * 0.5 * (np.abs(axh) + np.abs(axl))) ** 2)
+    sy = np.sqrt(model.accel_noise**2 + slip_y**2
+                 + (model.model_error_y * 0.5 * (np.abs(ayh) + np.abs(ayl))) ** 2)
+    return ClassPredictions(axh, axl, ayh, ayl, sx, sy)
+
+
+LONG_LATERAL_GATE = 0.15
+"""The longitudinal channel counts only while ``|ay| < LONG_LATERAL_GATE g``: in a bend
+the driven tires' combined slip depends on the slip angles, which the kinematic stage
+knows far less well than the wheel slip."""
+
+
+class Channels(NamedTuple):
+    """Whitened class-position regression of each channel (arrays, shape (T,)).
+
+    ``y = theta phi`` with ``phi = (a_high - a_low) / sigma`` and
+    ``y = (a - a_low) / sigma``: ``theta = 1`` on the high class's curve, 0 on the
+    low class's, and ``|phi|`` (in noise units) says how much a sample can tell.
+    """
+
+    phi_long: NDArray[np.float64]
+    y_long: NDArray[np.float64]
+    phi_lat: NDArray[np.float64]
+    y_lat: NDArray[np.float64]
+
+
+def _rolling_over_speed(k: NDArray) -> NDArray:
+    """``R omega / vx`` of a wheel from its slip (eq. 2: ``1 / (1 - kappa)`` driving, ``1 + kappa`` braking)."""
+    k = np.clip(k, -0.9, 0.9)
+    return np.where(k >= 0.0, 1.0 / (1.0 - k), 1.0 + k)
+
+
+def traction_slips(
+    kappa: NDArray, wheels_valid: NDArray, ax: NDArray, params: VehicleParams,
+) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
+    """Axle slips for the model and the samples where the driven axle's slip is known.
+
+    In traction (``ax > 0``) the undriven axle rolls freely: where both axles'
+    wheel speeds are measured, the driven axle's slip is taken against the
+    undriven wheels, ``1 - omega_undriven / omega_driven`` (the undriven axle's
+    slip set to 0), which no error of the speed estimate can bias; elsewhere
+    the kinematic stage's slips are kept. While braking every wheel slips and
+    the speed coasts on the accelerometer, whose pitch error makes the braking
+    slip unreliable (errors of the order of the slip itself on the multi-body
+    drives, lasting seconds after the stop), and an all-wheel-drive car has no
+    free-rolling wheel: those samples carry no longitudinal class information.
+
+    Returns
+    -------
+    kappa_f, kappa_r : ndarray, shape (T,)
+    traction : ndarray of bool, shape (T,)
+    """
+    kappa = np.atleast_2d(kappa)
+    valid = np.atleast_2d(wheels_valid)
+    kf, kr = axle_slips(kappa, valid)
+    ax = np.atleast_1d(np.asarray(ax, float))
+    if params.drive == "awd":
+        return kf, kr, np.zeros(ax.shape, bool)
+    front_driven = params.drive == "fwd"
+    k_dr, k_un = (kf, kr) if front_driven else (kr, kf)
+    v_dr = valid[:, 0:2].any(-1) if front_driven else valid[:, 2:4].any(-1)
+    v_un = valid[:, 2:4].any(-1) if front_driven else valid[:, 0:2].any(-1)
+    both = v_dr & v_un
+    rel = 1.0 - _rolling_over_speed(k_un) / _rolling_over_speed(k_dr)
+    k_dr = np.where(both, rel, k_dr)
+    k_un = np.where(both, 0.0, k_un)
+    on = v_dr & (ax > 0.0) & (k_dr >= 0.0)
+    return (k_dr, k_un, on) if front_driven else (k_un, k_dr, on)
+
+
+def channels(
+    kin, ax: NDArray, ay: NDArray, steer: NDArray, params: VehicleParams, model: GripModel,
+    min_speed: float = 0.5,
+) -> tuple[Channels, ClassPredictions]:
+    """The whitened regressions of both channels from the kinematic stage's output.
+
+    Samples slower than ``min_speed`` [m/s], and longitudinal samples outside
+    :func:`traction_slips`' traction or with ``|ay| >=`` :data:`LONG_LATERAL_GATE` g,
+    get ``phi = y = 0`` (no information). The longitudinal predictions leave the
+    slip angles out (straight-line traction).
+    """
+    ax = np.atleast_1d(np.asarray(ax, float))
+    ay = np.atleast_1d(np.asarray(ay, float))
+    kf, kr, on_x = traction_slips(kin.kappa, kin.wheels_valid, ax, params)
+    vx = np.atleast_1d(np.asarray(kin.vx, float))
+    cp = class_predictions(kf, kr, kin.alpha_f, kin.alpha_r, steer, ax, params, model, vx)
+    # the longitudinal channel in straight-line traction only, without the slip angles
+    zero = np.zeros_like(np.atleast_1d(kf))
+    cpx = class_predictions(kf, kr, zero, zero, np.atleast_1d(steer), ax, params, model, vx)
+    cp = cp._replace(ax_high=cpx.ax_high, ax_low=cpx.ax_low, sigma_x=cpx.sigma_x)
+    moving = np.abs(np.atleast_1d(kin.vx)) >= min_speed
+    on_x = moving & on_x & (np.abs(ay) < LONG_LATERAL_GATE * GRAVITY)
+    phi_x = np.where(on_x, (cp.ax_high - cp.ax_low) / cp.sigma_x, 0.0)
+    y_x = np.where(on_x, (ax - cp.ax_low) / cp.sigma_x, 0.0)
+    phi_y = np.where(moving, (cp.ay_high - cp.ay_low) / cp.sigma_y, 0.0)
+    y_y = np.where(moving, (ay - cp.ay_low) / cp.sigma_y, 0.0)
+    return Channels(phi_x, y_x, phi_y, y_y), cp
