@@ -19,7 +19,7 @@ from roadgrip.cli._common import FormatOpt, VehicleOpt, app, console
 if TYPE_CHECKING:
     from roadgrip.estimators.classify import Calibration
 
-__all__ = ["calibrate", "parse_labelled", "read_calibration", "write_calibration"]
+__all__ = ["calibrate", "parse_labelled", "read_calibration", "split_window", "write_calibration"]
 
 
 def write_calibration(cal: Calibration, path: str | Path) -> None:
@@ -53,12 +53,38 @@ def read_calibration(path: str | Path) -> Calibration:
     return Calibration.from_dict(doc, str(p))
 
 
+def split_window(path: str) -> tuple[str, tuple[float, float] | None]:
+    """``DRIVE@T0-T1`` -> (``DRIVE``, (t0, t1)) [s]; a path without ``@`` has no window.
+
+    ``T1`` may be left out (to the end): ``dgd.parquet@120-``.
+
+    Raises
+    ------
+    ValueError
+        When the window is not two numbers with ``t0 < t1``.
+    """
+    base, at, window = path.rpartition("@")
+    if not at:
+        return path, None
+    lo, dash, hi = window.partition("-")
+    try:
+        t0 = float(lo)
+        t1 = float(hi) if hi.strip() else float("inf")
+    except ValueError:
+        raise ValueError(f"time window must be T0-T1 in seconds, got {window!r} in {path!r}") from None
+    if not dash or not t0 < t1:
+        raise ValueError(f"time window must be T0-T1 with T0 < T1, got {window!r} in {path!r}")
+    return base, (t0, t1)
+
+
 def parse_labelled(args: Sequence[str]) -> tuple[list[tuple[str, str]], dict[str, float] | None]:
     """``DRIVE:LABEL`` / ``DRIVE:LABEL=MU`` arguments: (path, label) pairs and the friction references.
 
     The label is 'high' or 'low' (split at the last colon); ``MU`` is the known
     peak friction of that surface, the class's friction reference (given for
-    both classes or for neither; several values of a class are averaged).
+    both classes or for neither; several values of a class are averaged). The
+    path may end in a time window, ``DRIVE@T0-T1`` (:func:`split_window`), to
+    label one stretch of a drive.
     """
     if not args:
         raise ValueError("give at least two labelled drives, e.g. dry.parquet:high gravel.parquet:low")
@@ -86,13 +112,24 @@ def parse_labelled(args: Sequence[str]) -> tuple[list[tuple[str, str]], dict[str
 
 def _print_calibration(cal: Calibration, output: Path) -> None:
     b = cal.brls
+    if b.grip is not None:
+        g = b.grip
+        console.print(
+            f"saturation model: stiffness long {g.c_long:.3g}, lat {g.c_lat:.3g} /unit slip; gains "
+            f"{g.gain_x:.3g}, {g.gain_y:.3g}; class friction high {g.mu_high:.3g}, low {g.mu_low:.3g}; "
+            f"model error {g.model_error_x:.2g}, {g.model_error_y:.2g}"
+        )
     for name, ch in (("longitudinal", b.long), ("lateral", b.lat)):
         state = "on" if ch.enabled else "off"
         console.print(
             f"bRLS {name}: {state}; reference high {ch.ref_high:.4g}, low {ch.ref_low:.4g}, "
             f"threshold {ch.threshold:.4g}, gamma {ch.gamma:.3g}"
         )
-    if cal.slipmap is not None:
+    if cal.slipmap is not None and cal.slipmap.model == "saturation":
+        sm = cal.slipmap
+        console.print(f"slipmap: saturation model; longitudinal map {'on' if sm.longitudinal else 'off'}, "
+                      f"lateral map {'on' if sm.lateral else 'off'}; low-pass {sm.lowpass_tau_s:.3g} s")
+    elif cal.slipmap is not None:
         sm = cal.slipmap
         console.print(
             f"slipmap: mid-friction peaks long {sm.long_curve.D:.3g}, "
@@ -105,7 +142,7 @@ def _print_calibration(cal: Calibration, output: Path) -> None:
 
 @app.command()
 def calibrate(
-    drives: Annotated[list[str], typer.Argument(metavar="DRIVE:LABEL...", help="Labelled drives (label high or low, optionally =MU).")],
+    drives: Annotated[list[str], typer.Argument(metavar="DRIVE:LABEL...", help="Labelled drives (label high or low, optionally =MU; DRIVE@T0-T1 labels a time window).")],
     output: Annotated[Path, typer.Option("-o", "--output", help="calibration.yaml")],
     vehicle: VehicleOpt = None,
     fmt: FormatOpt = None,
@@ -115,7 +152,15 @@ def calibrate(
     from roadgrip.io import read_drive
 
     pairs, friction = parse_labelled(drives)
-    labelled = [(read_drive(path, format=fmt, vehicle=vehicle), label) for path, label in pairs]
+    labelled = []
+    for arg, label in pairs:
+        path, window = split_window(arg)
+        drive = read_drive(path, format=fmt, vehicle=vehicle)
+        if window is not None:
+            drive = drive.slice_time(*window)
+            if drive.n < 2:
+                raise ValueError(f"time window of {arg!r} holds fewer than two samples")
+        labelled.append((drive, label))
     cal = learn(labelled, friction=friction)
     write_calibration(cal, output)
     _print_calibration(cal, output)

@@ -1,0 +1,174 @@
+"""Acceptance of the friction-state classifiers on drives that are not their own model.
+
+* Multi-body ``dry-gravel-dry`` (dry 1.0 -> gravel 0.5 -> dry at 60 s and 120 s) of the
+  ``ford-escort`` and the ``vw-vanagon``, seeds 0-4, each classifier calibrated with
+  ``roadgrip calibrate`` on other drives of the same car (``dry-gravel-dry`` seed 10 cut
+  into its surfaces by time windows, and a ``snow-slalom``), and uncalibrated. Scored
+  against the simulator's truth by :func:`roadgrip.evaluate.classification.surface_change_scores`.
+* DART: every shared recording, calibrated without it (leave-one-out on the high-grip
+  floor, which has three recordings; first half / second half on the low-grip floor,
+  which has one), on at least 90 % of its excited samples after 10 s.
+
+Each drive is simulated, calibrated on and classified once per module.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from roadgrip.estimators import run_estimator
+from roadgrip.evaluate.classification import surface_change_scores
+from roadgrip.sim.scenarios import simulate_scenario
+
+VEHICLES = ("ford-escort", "vw-vanagon")
+SEEDS = (0, 1, 2, 3, 4)
+METHODS = ("brls", "slipmap")
+DART = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dart"
+
+
+def _mb(name, vehicle, seed):
+    return simulate_scenario(name, seed=seed, engine="multibody", vehicle=vehicle)
+
+
+@pytest.fixture(scope="module", params=VEHICLES)
+def runs(request, tmp_path_factory):
+    """(vehicle, scores by (seed, method, 'calibrated' | 'uncalibrated'), snow classes)."""
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+    from roadgrip.cli.calibrate import read_calibration
+
+    vehicle = request.param
+    tmp = tmp_path_factory.mktemp(vehicle)
+    dgd, snow = tmp / "dgd10.parquet", tmp / "snow10.parquet"
+    _mb("dry-gravel-dry", vehicle, 10).save(dgd)
+    _mb("snow-slalom", vehicle, 10).save(snow)
+    out = tmp / "cal.yaml"
+    r = CliRunner().invoke(app, ["calibrate", f"{dgd}@0-60:high", f"{dgd}@60-120:low",
+                                 f"{dgd}@120-:high", f"{snow}:low", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    cal = read_calibration(out)
+    scores = {}
+    for seed in SEEDS:
+        drive = _mb("dry-gravel-dry", vehicle, seed)
+        for method in METHODS:
+            for label, options in (("calibrated", {"calibration": cal}), ("uncalibrated", {})):
+                cls = run_estimator(method, drive, options).table["grip_class"].to_numpy()
+                scores[(seed, method, label)] = surface_change_scores(drive, cls)
+    snow_drive = _mb("snow-slalom", vehicle, 0)
+    snow_cls = {m: run_estimator(m, snow_drive).table["grip_class"].to_numpy() for m in METHODS}
+    return vehicle, scores, snow_cls
+
+
+def _report(vehicle, scores, label):
+    for (seed, method, lab), s in sorted(scores.items()):
+        if lab == label:
+            print(f"{vehicle} seed {seed} {method:7s} {lab}: delays {s.delays}, false switches "
+                  f"{s.false_switches}, correct at util >= 0.6 {s.accuracy_util:.3f}, high on "
+                  f"gravel {s.high_on_low}, low on dry {s.low_on_high}")
+
+
+@pytest.mark.slow
+def test_calibrated_detects_within_a_second_without_false_switches(runs):
+    vehicle, scores, _ = runs
+    _report(vehicle, scores, "calibrated")
+    for (seed, method, label), s in scores.items():
+        if label != "calibrated":
+            continue
+        # the change to gravel is informative in every drive: detected within 1 s of the
+        # first sample whose axle utilisation exceeds 0.6
+        assert s.delays[0] <= 1.0, (seed, method, s)
+        # back on dry asphalt: where a sample reaches that utilisation, within 1 s too
+        assert np.isnan(s.delays[1]) or s.delays[1] <= 1.0, (seed, method, s)
+        assert s.false_switches == 0, (seed, method, s)
+        assert s.high_on_low == 0, (seed, method, s)
+
+
+@pytest.mark.slow
+def test_calibrated_accuracy_at_high_utilisation(runs, request):
+    vehicle, scores, _ = runs
+    if vehicle == "vw-vanagon":
+        request.applymarker(pytest.mark.xfail(strict=True, reason=(
+            "measured 94.4-97.8 % (bRLS) and 94.9-98.2 % (slip map) over seeds 0-4: the "
+            "van's braking on dry asphalt reaches utilisation 0.6 (11-27 samples per drive) "
+            "where braking carries no class evidence and the 'high' claim has expired")))
+    accs = {(seed, method): s.accuracy_util for (seed, method, label), s in scores.items()
+            if label == "calibrated"}
+    print(vehicle, {k: round(v, 3) for k, v in accs.items()})
+    assert min(accs.values()) >= 0.95, accs
+
+
+@pytest.mark.slow
+def test_uncalibrated_never_claims_what_its_defaults_cannot_support(runs):
+    vehicle, scores, snow_cls = runs
+    _report(vehicle, scores, "uncalibrated")
+    for (seed, method, label), s in scores.items():
+        if label == "uncalibrated":
+            assert s.low_on_high == 0, (seed, method, s)
+            assert s.high_on_low == 0, (seed, method, s)
+            # and it still says something: gravel is called 'low' within a second
+            assert s.delays[0] <= 1.0, (seed, method, s)
+    for method, cls in snow_cls.items():
+        assert not (cls == "high").any(), method
+
+
+# --------------------------------------------------------------------------- DART
+
+
+def _dart_cases():
+    from roadgrip.io import read_drive
+
+    high = [read_drive(p, format="dart") for p in sorted((DART / "high_grip_rubbery_floor").glob("*.csv"))]
+    low = [read_drive(p, format="dart") for p in sorted((DART / "low_grip_tape_and_tiles").glob("*.csv"))]
+    cases = {}
+    for i, d in enumerate(high):
+        others = [(h, "high") for j, h in enumerate(high) if j != i]
+        cases[Path(d.meta.source).name] = (others + [(lo, "low") for lo in low], d, "high")
+    for d in low:  # the floor's only recording: calibrate on its first half, test the second
+        mid = d.t[0] + 0.5 * d.duration
+        cal = [(h, "high") for h in high] + [(d.slice_time(d.t[0], mid), "low")]
+        cases[Path(d.meta.source).name] = (cal, d.slice_time(mid, np.inf), "low")
+    return cases
+
+
+@pytest.fixture(scope="module")
+def dart_accuracy():
+    """Fraction of each recording's excited samples after 10 s in its class, per method."""
+    if not DART.is_dir():
+        pytest.skip(f"DART data not found at {DART} (../shared/data beside the checkout)")
+    from roadgrip.estimators.classify import calibrate
+
+    out = {}
+    for name, (cal_set, test, label) in _dart_cases().items():
+        cal = calibrate(cal_set)  # class friction estimated from the drives (no truth)
+        for method in METHODS:
+            table = run_estimator(method, test, {"calibration": cal}).table
+            t = table["t"].to_numpy() - table["t"].iloc[0]
+            m = table["excited"].to_numpy() & (t > 10.0)
+            out[(method, name)] = float((table["grip_class"].to_numpy()[m] == label).mean())
+            print(f"DART {method:7s} {name}: {out[(method, name)]:.3f} of {int(m.sum())} excited samples")
+    return out
+
+
+DART_NAMES = (
+    "car_1_Datarecording_09_04_2024_12_11_23.csv",
+    "car_1_Datarecording_09_09_2024_14_12_45.csv",
+    "car_1_Datarecording_09_09_2024_16_53_03steering_neg03_ramp.csv",
+    "car_1_Datarecording_09_09_2024_17_58_23steer_neg03_ramp.csv",
+)
+
+
+@pytest.mark.slow
+@pytest.mark.realdata
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("name", DART_NAMES)
+def test_dart_leave_one_out(dart_accuracy, method, name, request):
+    if method == "slipmap" and name.startswith("car_1_Datarecording_09_09_2024_16_53_03"):
+        request.applymarker(pytest.mark.xfail(strict=True, reason=(
+            "measured 84 %: on this negative-steer run the lateral acceleration at the "
+            "start of the ramp (1-1.6 m/s) stays below what the calibrated tire gives at "
+            "the estimated slip angles, and the slip map calls it low")))
+    assert dart_accuracy[(method, name)] >= 0.9
