@@ -1,0 +1,129 @@
+"""The classifiers' saturation model, claim expiry and the calibration's time windows."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from roadgrip.cli.calibrate import split_window
+from roadgrip.constants import GRAVITY
+from roadgrip.estimators.classify.brls_config import saturation_config
+from roadgrip.estimators.classify.brls_kernel import brls_batch
+from roadgrip.estimators.classify.grip_model import (
+    GripModel,
+    class_predictions,
+    default_grip_model,
+    predict_accelerations,
+    shape,
+    traction_slips,
+)
+from roadgrip.estimators.classify.slipmap_config import saturation_config as slipmap_saturation
+from roadgrip.estimators.classify.slipmap_evidence import SlipMapEvidence
+from roadgrip.estimators.classify.slipmap_kernel import slipmap_batch
+from roadgrip.vehicle import PRESETS
+
+SEDAN = PRESETS["sedan"]  # front-wheel drive
+
+
+def test_shape_slope_one_and_peak_one():
+    x = np.array([1e-6])
+    assert shape(x, 1.4)[0] / 1e-6 == pytest.approx(1.0, rel=1e-6)
+    grid = np.linspace(0, 20, 20001)
+    assert shape(grid, 1.4).max() == pytest.approx(1.0, abs=1e-6)
+    # peak where 1.4 atan(x / 1.4) = pi / 2
+    assert grid[np.argmax(shape(grid, 1.4))] == pytest.approx(1.4 * math.tan(math.pi / 2.8), abs=1e-2)
+
+
+def _one(v):
+    return np.array([float(v)])
+
+
+def test_linear_limit_and_saturation_of_the_predictions():
+    m = default_grip_model(SEDAN, 1.0, 0.5)
+    L = SEDAN.lf + SEDAN.lr
+    k = 1e-4
+    ax_meas = 0.0
+    ax, ay = predict_accelerations(_one(k), _one(0.0), _one(0.0), _one(0.0), _one(0.0), _one(ax_meas),
+                                   SEDAN, m, 1.0)
+    # linear: front axle force c k Fz_f (static load with ax = 0)
+    assert ax[0] == pytest.approx(m.c_long * k * GRAVITY * SEDAN.lr / L, rel=1e-3)
+    assert ay[0] == 0.0
+    # the stiffness does not depend on the friction
+    ax_low, _ = predict_accelerations(_one(k), _one(0.0), _one(0.0), _one(0.0), _one(0.0),
+                                      _one(ax_meas), SEDAN, m, 0.3)
+    assert ax_low[0] == pytest.approx(ax[0], rel=1e-2)
+    # saturation: at the shape's peak slip the axle transfers mu Fz
+    x_peak = 1.4 * math.tan(math.pi / 2.8)
+    for mu in (1.0, 0.4):
+        ax_p, _ = predict_accelerations(_one(mu * x_peak / m.c_long), _one(0.0), _one(0.0), _one(0.0),
+                                        _one(0.0), _one(0.0), SEDAN, m, mu)
+        assert ax_p[0] == pytest.approx(mu * GRAVITY * SEDAN.lr / L, rel=1e-6)
+    # the two classes predict the same in the linear range, differently at the low class's peak
+    cp = class_predictions(_one(k), _one(0.0), _one(0.0), _one(0.0), _one(0.0), _one(0.0), SEDAN, m)
+    assert abs(cp.ax_high[0] - cp.ax_low[0]) < 1e-3 * cp.sigma_x[0]
+    cp = class_predictions(_one(0.5 * x_peak / m.c_long), _one(0.0), _one(0.0), _one(0.0), _one(0.0),
+                           _one(0.0), SEDAN, m)
+    assert cp.ax_high[0] - cp.ax_low[0] > 1.0
+
+
+def test_driven_slip_against_the_free_rolling_wheels_ignores_the_speed_error():
+    # true speed 20 m/s, driven (front) wheels at 20.4 m/s, rear free rolling
+    true_slip = 1.0 - 20.0 / 20.4
+    def slip(w, v):
+        return (w - v) / max(w, v)  # eq. 2
+
+    for v_est in (19.0, 20.0, 21.0):  # the kinematic stage's speed, wrong by -1..+1 m/s
+        kappa = np.array([[slip(20.4, v_est), slip(20.4, v_est), slip(20.0, v_est), slip(20.0, v_est)]])
+        kf, kr, on = traction_slips(kappa, np.ones((1, 4), bool), _one(1.0), SEDAN)
+        assert kf[0] == pytest.approx(true_slip, rel=1e-9) and kr[0] == 0.0 and on[0]
+    # braking: no longitudinal information
+    _, _, on = traction_slips(np.zeros((1, 4)), np.ones((1, 4), bool), _one(-1.0), SEDAN)
+    assert not on[0]
+
+
+def test_grip_model_roundtrip_and_validation():
+    m = default_grip_model(SEDAN, 1.0, 0.5)
+    assert GripModel.from_dict(m.to_dict()) == m
+    with pytest.raises(ValueError, match="mu_low < mu_high"):
+        GripModel(20.0, 20.0, mu_high=0.5, mu_low=0.6)
+    with pytest.raises(ValueError, match="unknown grip model"):
+        GripModel.from_dict({**m.to_dict(), "stiffnes": 1.0})
+
+
+def test_brls_claim_expires_and_is_made_afresh():
+    cfg = saturation_config(hold_high_s=2.0, hold_low_s=2.0)
+    t = np.arange(0.0, 12.0, 0.01)
+    phi = np.where(t < 2.0, 3.0, np.where(t >= 8.0, 3.0, 0.0))
+    y = np.where(t < 2.0, 3.0, np.where(t >= 8.0, 0.0, 0.0))  # high-grip data, nothing, low-grip data
+    z = np.zeros_like(t)
+    _, out = brls_batch(t, phi, y, z, z, cfg)
+    cls = out.grip_class
+    assert (cls[(t > 1.0) & (t < 2.0)] == "high").all()
+    assert (cls[(t > 4.5) & (t < 8.0)] == "unknown").all()  # 2 s after the last support
+    assert (cls[t > 9.0] == "low").all()
+    # with the paper's state machine (held state) the class would stay known
+    _, held = brls_batch(t, phi, y, z, z, replace(cfg, hold_high_s=math.inf, hold_low_s=math.inf))
+    assert (held.grip_class[(t > 4.5) & (t < 8.0)] == "high").all()
+
+
+def test_slipmap_claim_expires():
+    cfg = slipmap_saturation(hold_high_s=2.0, hold_low_s=2.0)
+    t = np.arange(0.0, 10.0, 0.01)
+    w = np.where(t < 2.0, 0.9, 0.0)
+    z = np.zeros_like(t)
+    ev = SlipMapEvidence(z, z, w, z, 0.5 * w, z, 1.0 - 0.5 * w, z)
+    _, out = slipmap_batch(t, ev, cfg)
+    assert (out.grip_class[(t > 1.0) & (t < 2.0)] == "high").all()
+    assert (out.grip_class[t > 4.5] == "unknown").all()
+
+
+def test_calibrate_time_windows():
+    assert split_window("a.parquet@10-20") == ("a.parquet", (10.0, 20.0))
+    assert split_window("dir/a.parquet@120-") == ("dir/a.parquet", (120.0, math.inf))
+    assert split_window("a.parquet") == ("a.parquet", None)
+    for bad in ("a.parquet@20-10", "a.parquet@x-1", "a.parquet@5"):
+        with pytest.raises(ValueError, match="time window"):
+            split_window(bad)
