@@ -180,7 +180,7 @@ def multibody(seeds=(0, 1, 2, 3, 4), vehicles=MB_VEHICLES, options=None) -> None
                 print(f"    {axle:5s} MAE {f['mae']:.4f} coverage {f['coverage']:.2f} ({f['bins']} bins); "
                       f"peak {'obs' if f['observed'] else 'n/o'} {f['mu']:.3f} [{f['lower']:.3f}, {f['upper']:.3f}] "
                       f"true {f['true_peak']:.3f} sat {f['saturated']}; max lower-true {f['lower_excess']:+.3f}; "
-                      f"floor violations {f['floor_violations']}")
+                      f"upper < floor {f['upper_below_floor']}, observed < floor {f['observed_below_floor']}")
         for axle in ("front", "rear"):
             print(f"  {veh} {axle}: final peak bands of seeds {list(seeds)} overlap pairwise: "
                   f"{bands_overlap(bands[axle])}")

@@ -82,7 +82,10 @@ def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measu
     # lateral velocity and a slip limit that the slip angles pass included
     d = snow20.slice_time(0.0, 8.0)
     limit = None if limit_deg is None else math.radians(limit_deg)
-    cfg = _cfg(d, basis, n=24, proposal=proposal, max_sideslip=math.radians(3.0), slip_limit=limit)
+    # (no re-initialisation on divergence here: it restarts the particles, which turns
+    # the implementations' rounding differences into different paths)
+    cfg = _cfg(d, basis, n=24, proposal=proposal, max_sideslip=math.radians(3.0), slip_limit=limit,
+               diverge_time=1e3)
     if limit is not None:
         assert np.abs(d.col("alpha_f_true")).max() > 2.0 * limit
     rows = drive_inputs(d)
@@ -502,15 +505,23 @@ def test_slip_past_the_basis_domain_does_not_run_away():
     # the prior's, about 0.04, with nothing left to sample)
     d = simulate_scenario("snow-slalom", seed=2).slice_time(0.0, 30.0)
     assert np.abs(d.col("alpha_f_true")).max() > math.radians(31.0)
-    rms = {}
+    rms, flagged = {}, {}
     for name, limit in (("default", None), ("at L", math.radians(30.0))):
-        cfg = GPSSMConfig(basis="tensor-odd:10x10", particles=200, slip_limit=limit)
+        # the paper's model (fixed accelerometer gain): with the learned gain this basis
+        # loses the lateral velocity here for another reason (0.60 / 0.70 m/s, docs/gpssm.md)
+        cfg = GPSSMConfig(basis="tensor-odd:10x10", particles=200, slip_limit=limit, ay_gain_sigma=0.0)
         table, _ = run_filter(d, cfg, seed=2)
         err = table["vy"].to_numpy() - d.col("vy_true")
         t = table["t"].to_numpy()
         rms[name] = [float(np.sqrt(np.mean(err[t >= t0] ** 2))) for t0 in (20.0, 27.0)]
+        flagged[name] = table["diverged"].to_numpy()
     assert rms["default"][0] < 0.5 and rms["default"][1] < 0.1, rms
-    assert rms["at L"][1] > 1.0, rms  # the failure the limit removes
+    assert not flagged["default"].any()
+    # with the limit at L the lateral velocity runs away (it reached 5 m/s); the guard
+    # notices (the yaw rate no particle explains), flags it and re-initialises the
+    # particles, after which the filter is back on the truth
+    assert flagged["at L"].any() and rms["at L"][0] > 0.4, rms
+    assert rms["at L"][1] < 0.1, rms
 
 
 def test_unobserved_peak_is_bounded_from_below_only():

@@ -125,8 +125,8 @@ def honesty_figures(
         when ``curve`` is given), ``true_peak``, ``saturated`` (the true utilisation above
         0.95 for at least 50 samples), ``observed`` / ``mu`` / ``lower`` / ``upper`` at the
         end, ``lower_excess`` (largest ``mu_lower - true_peak`` over the drive),
-        ``floor_violations`` (samples whose upper bound, or observed peak, lies below the
-        sustained ``|a_y|/g``); and ``vy_runaway`` (samples with ``|vy| > 0.5 vx`` not
+        ``upper_below_floor``, ``observed_below_floor`` (samples whose upper bound, or
+        observed peak, lies below the sustained ``|a_y|/g`` as measured); and ``vy_runaway`` (samples with ``|vy| > 0.5 vx`` not
         flagged ``diverged``), ``vy_coverage`` (share of samples with ``|vy - vy_ref| <=
         Z95 vy_std``), ``floor`` (final sustained ``|a_y|/g``).
     """
@@ -151,7 +151,8 @@ def honesty_figures(
         obs = table[f"peak_observed_{axle}"].to_numpy(bool)
         up = table[f"mu_{axle}_upper"].to_numpy()
         mu = table[f"mu_{axle}"].to_numpy()
-        f["floor_violations"] = int(np.sum((up < floor - 1e-9) | (obs & (mu < floor - 1e-9))))
+        f["upper_below_floor"] = int(np.sum(up < floor - 1e-9))
+        f["observed_below_floor"] = int(np.sum(obs & (mu < floor - 1e-9)))
         out[axle] = f
     vx = drive_vx(drive)
     vy = table["vy"].to_numpy()

@@ -80,6 +80,14 @@ class GPSSMConfig(EstimatorConfig):
         Width of the slip-angle histogram bins [rad].
     peak_visits : int
         Samples per bin for a bin to count as visited (peak observability).
+    peak_margin : float
+        A peak is *observed* when the visited slip range passes the argmax of the learned
+        curve by at least this [rad] and its 95 % band half-width is at most
+        ``peak_narrow`` [-]. (It was one kernel length scale, 2 deg: on the multi-body
+        snow slaloms the rear axle, whose peak lies near 1.5 deg on snow, saturated but
+        its estimated slip passed its learned peak by one bin only, and the peak was
+        never reported observed.)
+    peak_narrow : float
     excitation_slip : float
         ``excited`` when an estimated axle slip angle exceeds this [rad].
     proposal : {'conditional', 'prior'}
@@ -146,6 +154,17 @@ class GPSSMConfig(EstimatorConfig):
     ay_gain_walk : float
         Random-walk std of the gain [1/sqrt(s)] (artificial dynamics of a static
         parameter in a particle filter, so that resampling does not exhaust it).
+    max_sideslip_ratio : float
+        ``|vy| / vx`` [-] past which a step is flagged ``diverged`` and the particles'
+        lateral state is re-initialised (:mod:`roadgrip.estimators.gpssm.guard`); 0.5 is
+        about 27 deg of body sideslip.
+    diverge_time : float
+        Seconds [s] of a yaw rate no particle explains, or of collapsed weights, before a
+        step is flagged ``diverged``; and how long the output stays flagged after the
+        re-initialisation.
+    floor_margin : float
+        An observed peak more than this [-] below the sustained ``|a_y| / g`` (over the
+        learned accelerometer gain) is reported as not observed.
     peak_max : float
         Largest peak friction admitted [-] (as the cascade's ``mu_bounds``): the upper band
         of a peak that was not observed. Past the visited slip range the learned curve is
@@ -173,6 +192,8 @@ class GPSSMConfig(EstimatorConfig):
     peak_range: float = math.radians(20.0)
     bin_width: float = math.radians(0.5)
     peak_visits: int = 10
+    peak_margin: float = math.radians(0.5)
+    peak_narrow: float = 0.05
     excitation_slip: float = math.radians(1.0)
     proposal: str = "conditional"
     max_dt: float = 0.04
@@ -181,11 +202,14 @@ class GPSSMConfig(EstimatorConfig):
     vy_source: str = "none"
     ay_source: str = "imu"
     slip_sigma: float = math.radians(0.25)
-    curve_sigma_floor: float = 0.005
+    curve_sigma_floor: float = 0.01
     max_sideslip: float | None = None
     slip_limit: float | None = None
     ay_gain_sigma: float = 0.1
     ay_gain_walk: float = 0.003
+    max_sideslip_ratio: float = 0.5
+    diverge_time: float = 1.0
+    floor_margin: float = 0.01
     peak_max: float = 2.0
 
     def __post_init__(self) -> None:
@@ -210,7 +234,9 @@ class GPSSMConfig(EstimatorConfig):
         if self.max_sideslip is not None and not 0.0 < self.max_sideslip < math.pi / 2:
             raise ValueError(f"max_sideslip must be in (0, pi/2) rad or None, got {self.max_sideslip!r}")
         for name in ("sigma_w0", "sigma_ay", "sigma_yaw_rate", "sigma_vy0", "peak_range",
-                     "bin_width", "slip_sigma", "curve_sigma_floor", "max_dt", "min_speed", "peak_max"):
+                     "bin_width", "slip_sigma", "curve_sigma_floor", "max_dt", "min_speed", "peak_max",
+                     "max_sideslip_ratio", "diverge_time", "floor_margin", "peak_margin",
+                     "peak_narrow"):
             v = getattr(self, name)
             if not np.isfinite(v) or v <= 0:
                 raise ValueError(f"{name} must be positive and finite, got {v!r}")

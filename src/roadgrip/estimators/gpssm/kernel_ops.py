@@ -61,10 +61,11 @@ class PeakParams(NamedTuple):
     """Scalars of :func:`peak_summary`."""
 
     qdof: float
-    ell: float
+    margin: float
     z95: float
     floor2: float
     peak_max: float
+    narrow: float
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
@@ -288,7 +289,9 @@ def peak_summary(post, pg, a_vis, prm, out):  # pragma: no cover - compiled
         variances).
     a_vis : (2,) visited slip range [rad]
     prm : PeakParams
-        ``qdof = max(nu - d - 1, 1)``; ``ell`` the length scale [rad]; ``z95``;
+        ``qdof = max(nu - d - 1, 1)``; ``margin`` how far [rad] the visited range
+        must pass the argmax for the peak to be observed; ``narrow`` the largest 95 %
+        half-width [-] of an observed peak; ``z95``;
         ``floor2`` the variance [-] added to every particle's (``curve_sigma_floor²``:
         the basis truncation error, which moves the peak of a represented curve too);
         ``peak_max`` the upper band of a peak that was not observed.
@@ -296,7 +299,7 @@ def peak_summary(post, pg, a_vis, prm, out):  # pragma: no cover - compiled
     """
     M, Lam, logw, vpk = post.M, post.Lam, post.logw, post.vpk
     feats, prior, grid, where, col = pg.feats, pg.prior, pg.grid, pg.where, pg.col
-    qdof, ell, z95, floor2, peak_max = prm.qdof, prm.ell, prm.z95, prm.floor2, prm.peak_max
+    qdof, margin, z95, floor2, peak_max = prm.qdof, prm.margin, prm.z95, prm.floor2, prm.peak_max
     N = M.shape[0]
     m = M.shape[3]
     ng = grid.shape[0]
@@ -337,20 +340,26 @@ def peak_summary(post, pg, a_vis, prm, out):  # pragma: no cover - compiled
                     best_in = acc
             peaks[n] = best
             vis[n] = best_in
+        # the learned maximum where the data are (past the visited range the mean curve
+        # is the prior's and can swing anywhere); over the whole grid before any data
         jmax = 0
         for k in range(1, ng):
-            if mean[k] > mean[jmax]:
+            if mean[k] > mean[jmax] and (n_in <= 1 or grid[k] < a_vis[ax]):
                 jmax = k
         a_pk = grid[jmax]
+        # the data passed the learned maximum: each particle's peak is its maximum inside
+        # the visited range (past it the curves are the prior's), and observed when the
+        # band there is narrow
+        candidate = a_vis[ax] >= a_pk + margin - 1e-12 and a_pk > 0.0 and jmax < ng - 1 and n_in > 1
         pm = 0.0
         for n in range(N):
-            pm += w[n] * peaks[n]
+            pm += w[n] * (vis[n] if candidate else peaks[n])
         pv = 0.0
         for n in range(N):
             var_in = max(vpk[n, g, col[ax, 0]], 0.0) * Lam[n, g, r, r] / qdof + floor2
-            pv += w[n] * ((peaks[n] - pm) ** 2 + var_in)
+            pv += w[n] * (((vis[n] if candidate else peaks[n]) - pm) ** 2 + var_in)
         hi = pm + z95 * math.sqrt(max(pv, 0.0))
-        observed = a_vis[ax] >= a_pk + ell and a_pk > 0.0 and jmax < ng - 1
+        observed = candidate and z95 * math.sqrt(max(pv, 0.0)) <= prm.narrow
         a_band = a_pk
         if observed:
             mu_hat = pm

@@ -164,7 +164,10 @@ def peak_estimates(
         g, r = where[ax]
         curves = MT[:, g, :, r] @ feats[ax].T + prior  # (N, n)
         mean = w @ curves
-        j = int(np.argmax(mean))
+        a_vis = visited_range(config, visits[ax])
+        inside = grid < a_vis  # strictly inside: the top bin's upper edge was not reached
+        # the learned maximum where the data are (kernel_ops.peak_summary)
+        j = int(np.argmax(np.where(inside, mean, -np.inf))) if inside.sum() > 1 else int(np.argmax(mean))
         a_pk = float(grid[j])
         # within-particle variances at the previous step's two peak slip angles
         var_in = np.maximum(vpk[:, g, cols[ax, 0]], 0.0) * Lam[:, g, r, r] / qdof + config.curve_sigma_floor**2
@@ -173,12 +176,15 @@ def peak_estimates(
         # velocity (non-odd bases) that its own variance does not show
         var_band = np.maximum(np.maximum(vpk[:, g, cols[ax, 1]], 0.0) * Lam[:, g, r, r] / qdof
                               + config.curve_sigma_floor**2, var_in)
-        peaks = curves.max(axis=1)
+        # the data passed the learned maximum: each particle's peak is its maximum inside
+        # the visited range, and observed when the band there is narrow (kernel_ops.peak_summary)
+        candidate = bool(a_vis >= a_pk + config.peak_margin - 1e-12 and a_pk > 0.0 and j < len(grid) - 1
+                         and inside.sum() > 1)
+        peaks = curves[:, inside].max(axis=1) if candidate else curves.max(axis=1)
         pm = float(w @ peaks)
         pv = float(w @ ((peaks - pm) ** 2 + var_in))
         hi = pm + Z95 * math.sqrt(max(pv, 0.0))
-        a_vis = visited_range(config, visits[ax])
-        observed = bool(a_vis >= a_pk + config.basis.ell and a_pk > 0.0 and j < len(grid) - 1)
+        observed = bool(candidate and Z95 * math.sqrt(max(pv, 0.0)) <= config.peak_narrow)
         a_band = a_pk
         if observed:
             mu_hat, lo = pm, pm - Z95 * math.sqrt(max(pv, 0.0))
@@ -186,7 +192,6 @@ def peak_estimates(
             # past the visited range the curve is the prior's: the data bound the peak
             # only from below (GPSSMConfig.peak_max)
             hi = config.peak_max
-            inside = grid < a_vis  # strictly inside: the top bin's upper edge was not reached
             if inside.sum() <= 1:
                 mu_hat, lo = 0.0, 0.0
             else:

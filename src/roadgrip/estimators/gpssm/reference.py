@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from roadgrip.estimators.gpssm import linalg as la
 from roadgrip.estimators.gpssm.config import GPSSMConfig
+from roadgrip.estimators.gpssm.guard import guard_step
 from roadgrip.estimators.gpssm.inputs import Sample
 from roadgrip.estimators.gpssm.model import (
     Input,
@@ -55,6 +56,7 @@ def step_reference(
     b = config.basis
     lam = config.forgetting
     N, d = config.particles, b.outputs
+    dt_step = 0.0 if state is None else float(sample.t - state.t)
     if state is None:
         state = init_state(ctx, sample, seed)
         x, lin, Psi, Phi, nu = state.x, state.lin, state.Psi, state.Phi, state.nu
@@ -170,7 +172,7 @@ def step_reference(
         Psi=Psi, Phi=Phi, nu=float(nu), visits=visits, slip_moments=moments,
         peak_alpha=np.array([peak["alpha"], peak["alpha_band"]]),
         rng=rng, M=None if state.M is None else np.ascontiguousarray(np.swapaxes(MT, -1, -2)),
-        Lam=None if state.M is None else Lam_post,
+        Lam=None if state.M is None else Lam_post, guard=state.guard,
     )
     if idx is not None:
         new = resample(new, idx)
@@ -188,7 +190,7 @@ def step_reference(
         peak_observed_front=peak["obs"][0], peak_observed_rear=peak["obs"][1],
         excited=excited, ess=ess, resampled=bool(resampled),
     )
-    return new, est
+    return new, guard_step(ctx, new, est, sample, dt_step)
 
 
 

@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from roadgrip.estimators.gpssm import linalg as la
 from roadgrip.estimators.gpssm.config import GPSSMConfig
+from roadgrip.estimators.gpssm.guard import Guard
 from roadgrip.estimators.gpssm.inputs import Sample
 from roadgrip.estimators.gpssm.model import State, VehicleConstants, vehicle_constants
 from roadgrip.vehicle.params import VehicleParams
@@ -115,6 +116,8 @@ class GPSSMState(NamedTuple):
         + Phi - M Psi^T`` (eq. 28 with ``Sigma + c I`` for ``Sigma + I``,
         :mod:`roadgrip.estimators.gpssm.linalg`), carried by the compiled step instead of
         solved for; None in the other modes.
+    guard : Guard
+        Bookkeeping of the honesty checks (:mod:`roadgrip.estimators.gpssm.guard`).
     """
 
     k: int
@@ -133,6 +136,7 @@ class GPSSMState(NamedTuple):
     rng: np.random.Generator
     M: NDArray | None = None
     Lam: NDArray | None = None
+    guard: Guard | None = None
 
 
 class GPSSMEstimate(NamedTuple):
@@ -161,6 +165,8 @@ class GPSSMEstimate(NamedTuple):
     excited: bool
     ess: float
     resampled: bool
+    diverged: bool = False
+    floor: float = 0.0
 
 
 
@@ -230,6 +236,7 @@ def init_state(ctx: Context, sample: Sample, seed: int = 0) -> GPSSMState:
         rng=rng,
         M=np.zeros((N, G, d, m)) if config.linalg == "fast" else None,
         Lam=np.broadcast_to(config.Lambda0, (N, G, d, d)).copy() if config.linalg == "fast" else None,
+        guard=Guard(),
     )
 
 
@@ -295,4 +302,5 @@ def copy_state(state: GPSSMState) -> GPSSMState:
         visits=state.visits.copy(), slip_moments=state.slip_moments.copy(),
         peak_alpha=state.peak_alpha.copy(), rng=copy.deepcopy(state.rng),
         M=None if state.M is None else state.M.copy(), Lam=None if state.Lam is None else state.Lam.copy(),
+        guard=None if state.guard is None else state.guard.copy(),
     )

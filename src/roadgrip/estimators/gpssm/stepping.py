@@ -22,6 +22,7 @@ from roadgrip.blas_threads import one_blas_thread
 from roadgrip.constants import Z95
 from roadgrip.estimators.gpssm import kernel as gk
 from roadgrip.estimators.gpssm import linalg as la
+from roadgrip.estimators.gpssm.guard import guard_step
 from roadgrip.estimators.gpssm.inputs import Sample
 from roadgrip.estimators.gpssm.kernel_ops import (
     PEAK,
@@ -190,14 +191,15 @@ def _step_compiled(
     a_vis = np.array([visited_range(config, visits[ax]) for ax in range(2)])
     pk = np.empty((2, PEAK.SIZE))
     peak_summary(PeakPosterior(M, Lam, logw, vpk), PeakGrid(feats, prior, grid, kc["where"], kc["col"]), a_vis,
-                 PeakParams(max(nu - d - 1.0, 1.0), b.ell, Z95, config.curve_sigma_floor**2, config.peak_max), pk)
+                 PeakParams(max(nu - d - 1.0, 1.0), config.peak_margin, Z95, config.curve_sigma_floor**2,
+                            config.peak_max, config.peak_narrow), pk)
     ess = float(e[gk.EST.ESS])
     resampled = ess <= config.ess_threshold * N
     new = GPSSMState(
         k=state.k + 1, t=float(sample.t), u=np.array([sample.steer, sample.vx], dtype=float),
         x=state.x, mu=state.mu, logw=logw, lin=lin, Psi=state.Psi, Phi=state.Phi, nu=float(nu),
         visits=visits, slip_moments=moments, peak_alpha=pk[:, [PEAK.ALPHA, PEAK.ALPHA_BAND]].T.copy(), rng=rng,
-        M=state.M, Lam=state.Lam,
+        M=state.M, Lam=state.Lam, guard=state.guard,
     )
     if resampled:
         new = resample(new, systematic(rng, np.exp(logw)))
@@ -215,7 +217,7 @@ def _step_compiled(
         peak_observed_front=bool(pk[0, PEAK.OBSERVED]), peak_observed_rear=bool(pk[1, PEAK.OBSERVED]),
         excited=excited, ess=ess, resampled=bool(resampled),
     )
-    return new, est
+    return new, guard_step(ctx, new, est, sample, dt)
 
 
 def _refactored_posterior(state: GPSSMState, lam: float, lin: la.LinAlgState, eps: float) -> None:

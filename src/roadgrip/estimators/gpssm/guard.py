@@ -1,0 +1,169 @@
+"""Honesty checks on every step of the GP-SSM filter: divergence, the physics floor, the
+lateral-velocity band.
+
+Applied after the filter's step by both implementations
+(:mod:`roadgrip.estimators.gpssm.stepping` and
+:mod:`roadgrip.estimators.gpssm.reference`), on the estimate and the particle state:
+
+Divergence
+    The step is flagged ``diverged`` when the estimated lateral velocity leaves what any
+    car not spinning out allows (``|vy| > max_sideslip_ratio vx``, 0.5 vx is about
+    27 deg of body sideslip), or when no particle explains the yaw rate
+    (``|r_meas - r_est|`` above ``5 sqrt(sigma_r² + yaw_rate_std²)``) or the weights
+    have collapsed (effective sample size below 1.5) for ``diverge_time`` seconds in a
+    row. A flagged step reports the prior band ``[0, peak_max]`` for both peaks, not
+    observed, and the particles' lateral velocity and yaw rate are re-initialised as at
+    the start (``vy ~ N(0, sigma_vy0²)``, the yaw rate from the gyro); the learned
+    statistics are kept. The output stays flagged for ``diverge_time`` after the
+    re-initialisation while the state settles.
+Physics floor
+    ``floor`` is the largest ``|mean a_y| / g`` over a full trailing second up to the
+    step: the friction the car demonstrably used. No upper bound is reported below it
+    (the accelerometer as read); an observed peak below it (the accelerometer divided
+    by the learned gain, :attr:`GPSSMConfig.ay_gain_sigma`, less ``floor_margin``) is
+    reported as not observed.
+Lateral-velocity band
+    Without a measured lateral velocity the particle spread after resampling
+    under-represents the error of ``vy``: ``vy_std`` includes ``slip_sigma |vx|`` in
+    quadrature (the slip-angle error the curve band assumes too).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from roadgrip.constants import GRAVITY
+from roadgrip.estimators.gpssm.inputs import Sample
+from roadgrip.estimators.gpssm.model import State
+
+__all__ = ["FLOOR_WINDOW", "Guard", "guard_step"]
+
+FLOOR_WINDOW = 1.0
+"""Window [s] of the sustained lateral acceleration of the physics floor."""
+
+_ESS_COLLAPSED = 1.5
+_YAW_SIGMAS = 5.0
+
+
+class Guard:
+    """Per-run bookkeeping of :func:`guard_step` (mutable, copied by ``copy_state``).
+
+    Attributes
+    ----------
+    times, ay : list of float
+        The last ``FLOOR_WINDOW`` seconds of samples: time [s] and measured ``a_y``
+        [m/s²].
+    floor_raw : float
+        Running maximum of ``|mean a_y| / g`` over full windows, as read.
+    bad_since : float
+        Time [s] since which the yaw-rate or weight check has failed (NaN: passing).
+    flagged_until : float
+        Time [s] until which the output stays flagged after a re-initialisation.
+    resets : int
+        Re-initialisations so far.
+    """
+
+    __slots__ = ("ay", "bad_since", "flagged_until", "floor_raw", "resets", "times")
+
+    def __init__(self) -> None:
+        self.times: list[float] = []
+        self.ay: list[float] = []
+        self.floor_raw = 0.0
+        self.bad_since = math.nan
+        self.flagged_until = -math.inf
+        self.resets = 0
+
+    def copy(self) -> Guard:
+        g = Guard()
+        g.times, g.ay = list(self.times), list(self.ay)
+        g.floor_raw, g.bad_since = self.floor_raw, self.bad_since
+        g.flagged_until, g.resets = self.flagged_until, self.resets
+        return g
+
+    def add(self, t: float, ay: float, dt_hint: float) -> None:
+        """Add a sample and update the floors (a window counts once it spans
+        ``FLOOR_WINDOW`` less one and a half sample intervals)."""
+        self.times.append(t)
+        self.ay.append(ay)
+        while self.times and self.times[0] <= t - FLOOR_WINDOW + 1e-9:
+            self.times.pop(0)
+            self.ay.pop(0)
+        if self.times and t - self.times[0] >= FLOOR_WINDOW - 1.5 * dt_hint:
+            self.floor_raw = max(self.floor_raw, abs(sum(self.ay) / len(self.ay)) / GRAVITY)
+
+
+def guard_step(ctx, state, est, sample: Sample, dt: float):
+    """The checks of the module docstring after one step.
+
+    Parameters
+    ----------
+    ctx : Context
+    state : GPSSMState
+        The state after the step; its particles are re-initialised in place on
+        divergence (random numbers from ``state.rng``).
+    est : GPSSMEstimate
+    sample : Sample
+    dt : float
+        The step's interval [s] (0 at the first sample).
+
+    Returns
+    -------
+    GPSSMEstimate
+        With ``diverged``, ``floor``, the widened ``vy_std`` and the bands.
+    """
+    config = ctx.config
+    g = state.guard
+    t = float(sample.t)
+    g.add(t, float(sample.ay), dt if dt > 0 else 0.04)
+    # the floor over the accelerometer gain as learned now (a constant of the car)
+    floor_gain = g.floor_raw / max(est.ay_gain, 1e-6)
+    vx = float(sample.vx)
+    moving = vx >= config.min_speed
+    measured_vy = not math.isnan(sample.vy)
+    vy_std = est.vy_std
+    if not measured_vy:
+        vy_std = math.sqrt(vy_std**2 + (config.slip_sigma * vx) ** 2)
+    # divergence
+    runaway = moving and not measured_vy and abs(est.vy) > config.max_sideslip_ratio * vx
+    yaw_gap = abs(sample.yaw_rate - est.yaw_rate) > _YAW_SIGMAS * math.hypot(ctx.sigma_yaw_rate, est.yaw_rate_std)
+    if moving and (yaw_gap or est.ess < _ESS_COLLAPSED):
+        if math.isnan(g.bad_since):
+            g.bad_since = t
+    else:
+        g.bad_since = math.nan
+    lost = not math.isnan(g.bad_since) and t - g.bad_since >= config.diverge_time
+    if runaway or lost:
+        _reinitialise(ctx, state, sample)
+        g.resets += 1
+        g.bad_since = math.nan
+        g.flagged_until = t + config.diverge_time
+    diverged = bool(runaway or lost or t < g.flagged_until)
+    rep = {"vy_std": vy_std, "diverged": diverged, "floor": g.floor_raw}
+    for axle in ("front", "rear"):
+        obs = getattr(est, f"peak_observed_{axle}")
+        mu = getattr(est, f"mu_{axle}")
+        lo, hi = getattr(est, f"mu_{axle}_lower"), getattr(est, f"mu_{axle}_upper")
+        if obs and mu < floor_gain - config.floor_margin:
+            obs, hi = False, config.peak_max  # an observed peak below what the car used
+        if diverged:
+            obs, lo, hi = False, 0.0, config.peak_max
+        rep[f"peak_observed_{axle}"] = bool(obs)
+        rep[f"mu_{axle}_lower"] = float(min(lo, mu))
+        rep[f"mu_{axle}_upper"] = float(max(hi, g.floor_raw, mu))
+    return est._replace(**rep)
+
+
+def _reinitialise(ctx, state, sample: Sample) -> None:
+    """The particles' lateral velocity and yaw rate as at the start, in place."""
+    N = state.x.shape[0]
+    rng = state.rng
+    config = ctx.config
+    vy = config.sigma_vy0 * rng.standard_normal(N)
+    if config.max_sideslip is not None:
+        lim = math.tan(config.max_sideslip) * max(float(sample.vx), 0.0)
+        vy = np.clip(vy, -lim, lim)
+    state.x[:, State.VY] = vy
+    state.x[:, State.YAW_RATE] = sample.yaw_rate + ctx.sigma_yaw_rate * rng.standard_normal(N)
+    state.logw[:] = -math.log(N)
