@@ -12,8 +12,13 @@ delays after the first sample on the new surface with true axle utilisation
 with utilisation >= 0.6, samples called 'high' on gravel and 'low' on dry,
 and the fraction 'unknown'.
 
+With ``--dart``: every shared DART recording classified after a calibration without it
+(leave-one-out on the high-grip floor; first half / second half on the low-grip floor,
+which has one recording), the fraction of its excited samples after 10 s in its class.
+
 Run: ``.venv/bin/python benchmarks/classification_accuracy.py [--seeds 0 1 2 3 4]
-[--vehicles ford-escort vw-vanagon] [--calibration-seed 10]``.
+[--vehicles ford-escort vw-vanagon] [--calibration-seed 10] [--model saturation|stiffness]
+[--dart]``.
 """
 
 from __future__ import annotations
@@ -50,15 +55,48 @@ def fmt(s) -> str:
             f"unknown {100 * s.unknown_fraction:.0f} %")
 
 
+def dart(model: str) -> None:
+    from pathlib import Path
+
+    import numpy as np
+
+    from roadgrip.io import read_drive
+
+    root = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "dart"
+    high = [read_drive(p, format="dart") for p in sorted((root / "high_grip_rubbery_floor").glob("*.csv"))]
+    low = [read_drive(p, format="dart") for p in sorted((root / "low_grip_tape_and_tiles").glob("*.csv"))]
+    cases = []
+    for i, d in enumerate(high):
+        cal = [(h, "high") for j, h in enumerate(high) if j != i] + [(lo, "low") for lo in low]
+        cases.append((Path(d.meta.source).name, cal, d, "high"))
+    for d in low:
+        mid = d.t[0] + 0.5 * d.duration
+        cal = [(h, "high") for h in high] + [(d.slice_time(d.t[0], mid), "low")]
+        cases.append((Path(d.meta.source).name + " (second half)", cal, d.slice_time(mid, np.inf), "low"))
+    for name, cal_set, test, label in cases:
+        cal = calibrate(cal_set, model=model)
+        for method in ("brls", "slipmap"):
+            table = run_estimator(method, test, {"calibration": cal}).table
+            t = table["t"].to_numpy() - table["t"].iloc[0]
+            m = table["excited"].to_numpy() & (t > 10.0)
+            acc = float((table["grip_class"].to_numpy()[m] == label).mean())
+            print(f"DART {method:7s} {label:4s} {name}: {100 * acc:.1f} % of {int(m.sum())} excited samples")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     ap.add_argument("--vehicles", nargs="+", default=["ford-escort", "vw-vanagon"])
     ap.add_argument("--calibration-seed", type=int, default=10)
+    ap.add_argument("--model", default="saturation", choices=("saturation", "stiffness"))
+    ap.add_argument("--dart", action="store_true", help="DART leave-one-out instead")
     args = ap.parse_args()
+    if args.dart:
+        dart(args.model)
+        return
     for veh in args.vehicles:
         t0 = time.perf_counter()
-        cal = calibrate(calibration_drives(veh, args.calibration_seed))
+        cal = calibrate(calibration_drives(veh, args.calibration_seed), model=args.model)
         print(f"{veh}: calibrated in {time.perf_counter() - t0:.1f} s: {cal.diagnostics}")
         for seed in args.seeds:
             drive = mb("dry-gravel-dry", veh, seed)
