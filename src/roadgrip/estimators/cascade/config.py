@@ -94,6 +94,12 @@ class CascadeConfig(EstimatorConfig):
         of the brush model's sliding slip angle ``atan(3 mu / k)``: far past its
         peak a real tire's force falls below the peak, so the force there is
         only a lower bound of the friction.
+    peak_model_error : float
+        Relative error of the friction the brush model reads from a tire of
+        another shape [-] (the multi-body engine's Pacejka tires read 5-8 % high
+        on gravel): the systematic part of each single-sample observation
+        (``mu_<axle>_obs_sys``), together with the slip-angle bias's effect; it
+        does not shrink when a map cell fuses many observations.
     slip_noise_z : float
         A sample counts as excited only if the brush inversion also moves by at
         most ``max_slip_bias_effect`` when the slip angle moves by ``slip_noise_z``
@@ -155,6 +161,7 @@ class CascadeConfig(EstimatorConfig):
     vy_bias_std: float = 0.03
     max_slip_bias_effect: float = 0.1
     max_slip_ratio: float = 2.0
+    peak_model_error: float = 0.05
     slip_noise_z: float = 2.0
     ay_straight: float = 1.0
     pose_velocity_std: float = 0.1

@@ -133,6 +133,7 @@ def make_params(vehicle: VehicleParams, config: CascadeConfig, derived: dict[str
         speed_slip_brake=f(derived["speed_slip"][0]),
         speed_slip_drive=f(derived["speed_slip"][1]),
         max_slip_ratio=f(config.max_slip_ratio),
+        peak_model_error=f(config.peak_model_error),
     )
 
 

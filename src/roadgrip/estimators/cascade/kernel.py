@@ -150,6 +150,7 @@ class Params(NamedTuple):
     speed_slip_brake: float  # wheel slip of the measured wheels per braking deceleration [s²/m]
     speed_slip_drive: float  # the same per driving acceleration (0 for undriven wheels) [s²/m]
     max_slip_ratio: float  # observations only up to this multiple of the sliding slip angle [-]
+    peak_model_error: float  # relative error of the brush model's friction on another tire [-]
 
 
 class Weights(NamedTuple):
@@ -529,8 +530,9 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
     out[Out.OBS_VAR_R] = obs_vr
     out[Out.R3_F] = r3f
     out[Out.R3_R] = r3r
-    out[Out.SYS_F] = bias_f if exc_f > 0.5 else np.nan
-    out[Out.SYS_R] = bias_r if exc_r > 0.5 else np.nan
+    # systematic part: the slip-angle bias's effect and the brush model's error on the peak
+    out[Out.SYS_F] = np.hypot(bias_f, p.peak_model_error * obs_f) if exc_f > 0.5 else np.nan
+    out[Out.SYS_R] = np.hypot(bias_r, p.peak_model_error * obs_r) if exc_r > 0.5 else np.nan
     return repairs
 
 
