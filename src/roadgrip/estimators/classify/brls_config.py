@@ -127,7 +127,8 @@ class BRLSConfig:
     hold_high_s, hold_low_s : float
         A class is claimed only while some informed channel has supported it
         within this time [s]; then 'unknown', the estimates relax to the
-        thresholds and only an estimate clearly past its threshold claims a
+        thresholds and only an estimate past its threshold by a fifth of the
+        reference gap claims a
         class again (the road may have changed). ``inf``: the paper's state
         machine, which holds its state.
     slip_filter_tau_s : float

@@ -223,13 +223,13 @@ def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - 
                 says_high = True
     switch = (high and says_low and not says_high) or ((not high) and says_high and not says_low)
     if stale:
-        # a fresh decision: only an estimate clearly past its threshold (by a tenth
+        # a fresh decision: only an estimate clearly past its threshold (by a fifth
         # of the reference gap) claims a class again
         says_low = False
         says_high = False
         for c in range(2):
             if p.enabled[c] and st[E[c]] >= e_min:
-                margin = 0.1 * (p.ref_high[c] - p.ref_low[c])
+                margin = 0.2 * (p.ref_high[c] - p.ref_low[c])
                 if st[THETA[c]] < p.threshold[c] - margin:
                     says_low = True
                 elif st[THETA[c]] > p.threshold[c] + margin:
@@ -245,7 +245,7 @@ def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - 
     support = False
     for c in range(2):
         if p.enabled[c] and st[E[c]] >= e_min:
-            margin = 0.1 * (p.ref_high[c] - p.ref_low[c]) if stale else 0.0
+            margin = 0.2 * (p.ref_high[c] - p.ref_low[c]) if stale else 0.0
             if (high and st[THETA[c]] > p.threshold[c] + margin) or (
                 (not high) and st[THETA[c]] < p.threshold[c] - margin
             ):
