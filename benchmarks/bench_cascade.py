@@ -1,6 +1,10 @@
 """Cascade throughput, and the cascade's UKF against filterpy's UKF on the same model.
 
 Run: ``.venv/bin/python benchmarks/bench_cascade.py`` (one core: ``NUMBA_NUM_THREADS=1``).
+``--accuracy`` prints instead the map and per-sample figures on the multi-body
+figure-eight drives (both vehicles, seeds 0-4, 5 m cells) and on ``f1tenth-patches``
+(seeds 0-4, 0.5 m cells), each cell scored against the friction under the tires at
+the positions inside it (:mod:`roadgrip.evaluate.map_truth`).
 
 Prints samples/s of the whole three-stage cascade on the simulated
 ``f1tenth-patches`` drive, and, for the stage-2 force model (6 states, 5
@@ -123,6 +127,42 @@ def bench_ukf(n: int = 3000) -> None:
           f"max |x - filterpy| = {np.abs(co - fp).max():.2e}")
 
 
+def bench_accuracy(seeds=(0, 1, 2, 3, 4)) -> None:
+    import pandas as pd
+
+    from roadgrip.constants import Z95
+    from roadgrip.estimators import run_estimator
+    from roadgrip.evaluate.map_truth import sample_score, score_map
+    from roadgrip.mapping import grid_from_estimates
+
+    rows = [("figure-eight", v, 5.0) for v in ("ford-escort", "vw-vanagon")] + [("f1tenth-patches", None, 0.5)]
+    for scenario, vehicle, cell in rows:
+        pooled = []
+        print(f"{scenario} {vehicle or ''} ({cell:g} m cells)")
+        for seed in seeds:
+            kw = {"engine": "multibody", "vehicle": vehicle} if vehicle else {}
+            drive = simulate_scenario(scenario, seed, **kw)
+            tab = run_estimator("cascade", drive, {}).table
+            score = score_map(drive, grid_from_estimates(tab, cell=cell))
+            s = sample_score(drive, tab)
+            vy = np.sqrt(np.mean((tab["vy"] - drive.col("vy_true")) ** 2))
+            print(f"  seed {seed}: excited {100 * tab['excited_front'].mean():4.1f} / {100 * tab['excited_rear'].mean():4.1f} %"
+                  f"  vy rms {vy:.3f} m/s  {score.line()}  samples confidently wrong "
+                  f"{100 * s['confidently_wrong']:.2f} %  below the grip floor "
+                  f"{100 * max(s['below_floor_front'], s['below_floor_rear']):.2f} %")
+            pooled.append(score.cells[(score.cells["n_obs"] >= 10) & score.cells["mu_true"].notna()])
+        c = pd.concat(pooled)
+        err = (c["mu_mean"] - c["mu_true"]).abs()
+        if len(c):
+            print(f"  pooled: {len(c)} cells with >= 10 observations, MAE {err.mean():.3f}, within 0.1 "
+                  f"{100 * np.mean(err <= 0.1):.0f} %, truth in mean +- 1.96 std {100 * np.mean(err <= Z95 * c['mu_std']):.0f} %")
+
+
 if __name__ == "__main__":
-    bench_cascade()
-    bench_ukf()
+    import sys
+
+    if "--accuracy" in sys.argv:
+        bench_accuracy()
+    else:
+        bench_cascade()
+        bench_ukf()

@@ -221,3 +221,21 @@ def test_bench_and_demo_commands_print_the_table_and_write_files(tmp_path, monke
     assert r.exit_code == 0, r.output
     assert "roadgrip demo benchmark (seed 0)" in r.output and "report written to" in r.output
     assert (tmp_path / "demo" / "index.html").is_file()
+
+
+def test_run_summary_calls_a_band_a_lower_bound_only_for_methods_that_flag_the_peak():
+    from rich.console import Console
+
+    from roadgrip.cli.summary import summary_table
+    from roadgrip.estimators.base import EstimateResult
+
+    tab = pd.DataFrame({"t": [0.0, 1.0], "mu_front": [0.8, 0.84], "mu_front_lower": [0.6, 0.8],
+                        "mu_front_upper": [1.0, 0.88], "peak_observed_front": [False, False]})
+
+    def text(method):
+        console = Console(record=True, width=200)
+        console.print(summary_table(EstimateResult(method, tab, {})))
+        return console.export_text()
+
+    assert "lower bound" not in text("cascade")  # its band is the friction itself
+    assert "peak not observed: lower bound" in text("gpssm")

@@ -265,6 +265,7 @@ def test_frictionmaps_ds3_to_ds5_maps():
         pytest.skip(f"frictionmaps data set not found at {FRICTIONMAPS}")
     from roadgrip.estimators import run_estimator
     from roadgrip.io.frictionmaps import read_frictionmaps
+    from roadgrip.signals import sustained_grip
 
     tabs, grids, checks = {}, {}, {}
     for ds in ("DS3", "DS4", "DS5"):
@@ -272,6 +273,10 @@ def test_frictionmaps_ds3_to_ds5_maps():
         checks[ds] = drive.meta.extra["kinematic_checks"]
         tabs[ds] = run_estimator("cascade", drive).table
         grids[ds] = M.grid_from_estimates(tabs[ds], 0.5)
+        # never an upper bound below the |a_y| / g the car held for a second (no roll gradient: as read)
+        floor = sustained_grip(drive.t, drive.col("ay"))
+        for axle in ("front", "rear"):
+            assert np.all(tabs[ds][f"mu_{axle}_upper"] >= floor), (ds, axle)
     # DS4: ay is 0.5 of vx * yaw_rate and the odometry 1.3 times the pose speed; DS3, DS5 consistent
     assert checks["DS4"]["ay_over_vx_yaw_rate"] < 0.7 and checks["DS4"]["pose_speed_over_vx"] < 0.85
     for ds in ("DS3", "DS5"):

@@ -5,6 +5,7 @@ from __future__ import annotations
 from rich.table import Table
 
 from roadgrip.estimators.base import EstimateResult
+from roadgrip.evaluate.cases import PEAK_FLAG_METHODS
 
 
 def summary_table(result: EstimateResult) -> Table:
@@ -19,7 +20,9 @@ def summary_table(result: EstimateResult) -> Table:
             m = last.get(f"mu_{axle}")
             if m is not None and m == m:
                 lo, hi = last.get(f"mu_{axle}_lower"), last.get(f"mu_{axle}_upper")
-                obs = last.get(f"peak_observed_{axle}")
+                # only a method that writes the flag reports a lower bound when it is False; the
+                # others' band is the friction itself
+                obs = last.get(f"peak_observed_{axle}") if result.method in PEAK_FLAG_METHODS else None
                 note = "" if obs in (None, True) else "  (peak not observed: lower bound)"
                 table.add_row(f"peak friction {axle}", f"{m:.3f}  [{lo:.3f}, {hi:.3f}]{note}")
         gc = last.get("grip_class")
