@@ -128,9 +128,8 @@ class BRLSConfig:
         A class is claimed only while some informed channel has supported it
         within this time [s]; then 'unknown', the estimates relax to the
         thresholds and only an estimate past its threshold by a fifth of the
-        reference gap claims a
-        class again (the road may have changed). ``inf``: the paper's state
-        machine, which holds its state.
+        reference gap claims a class again (the road may have changed).
+        ``inf``: the paper's state machine, which holds its state.
     slip_filter_tau_s : float
         Saturation model: time constant [s] of the first-order low-pass of the
         slips and accelerations before the model (0 = none).
