@@ -13,6 +13,8 @@ module                                      contents
 :mod:`.calibration`                         :class:`Calibration` and the estimator configuration
 :mod:`.learn`                               :func:`calibrate` from labelled drives
 :mod:`.common`                              friction references, summary, settling rule
+:mod:`.grip_model`                          saturation model: each class's accelerations from the slips
+:mod:`.fit`                                 calibration of the saturation model
 :mod:`.frontend`                            kinematic front end (slips, speed, lateral acceleration)
 ==========================================  ==================================================
 

@@ -52,6 +52,14 @@ placed between its low (0) and high (1) references, weighted by the channels'
 information ``e``; the state itself when no channel is informed), ``excited``,
 ``theta_long``, ``theta_lat``.
 
+The default regressions (``BRLSConfig.model == 'saturation'``, also the
+uncalibrated default) replace eq. 4 by the class position between the two
+classes' predicted accelerations of the saturation model
+(:mod:`roadgrip.estimators.classify.grip_model`, :func:`model_regressors`):
+the equivalent stiffness does not separate surfaces whose tires share a
+stiffness, their saturation does. Claims then expire (``hold_high_s``,
+``hold_low_s`` in :mod:`roadgrip.estimators.classify.brls_config`).
+
 Calibration (:func:`roadgrip.estimators.classify.calibrate`) learns per-channel
 references, thresholds, gamma, the on/off switch of each channel and the
 options above from drives labelled 'high' / 'low'.

@@ -218,7 +218,8 @@ def gamma_from_noise(ref_high: float, ref_low: float, accel_noise: float) -> flo
 
 
 def default_config(accel_noise: float = 0.3) -> BRLSConfig:
-    """Uncalibrated defaults from the tire presets: high = dry asphalt, low = gravel.
+    """The paper's stiffness model with references from the tire presets: high = dry
+    asphalt, low = gravel (the uncalibrated estimator runs :func:`saturation_config`).
 
     Lateral: ``theta_lat = g B C D / 2`` (axle loads in the static split, the
     normalised cornering stiffness of the surface's lateral Magic Formula);

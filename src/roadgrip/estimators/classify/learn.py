@@ -1,6 +1,8 @@
 """Calibration of both classifiers from drives labelled 'high' / 'low' (:func:`calibrate`).
 
-The bRLS references, thresholds, excitation scales, memory and options are
+By default the saturation model's physical parameters are fitted
+(:mod:`roadgrip.estimators.classify.fit`). With ``model='stiffness'`` (the paper's
+regressors): the bRLS references, thresholds, excitation scales, memory and options are
 chosen by a grid search scored on the full classifier (:func:`calibrate`);
 the slip-map curves and dynamics by
 :func:`roadgrip.estimators.classify.slipmap.calibrate_section`.
@@ -155,7 +157,10 @@ def calibrate(
     friction: dict[str, float] | None = None,
     model: str = "saturation",
 ) -> Calibration:
-    """Learn the bRLS references, thresholds, gammas and memory, and the slip-map curves.
+    """Learn both classifiers: the saturation model (default) or the paper's stiffness settings.
+
+    With ``model='stiffness'``, the bRLS references, thresholds, gammas and memory, and
+    the slip-map curves, as follows.
 
     On the samples where the vehicle moves, per channel and candidate:
 

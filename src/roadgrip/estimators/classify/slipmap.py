@@ -38,6 +38,13 @@ accumulated weight ``sum W`` (both channels) reaches ``info_min``, then
 around 1/2. A sample is ``excited`` when some channel is outside its
 exclusions with ``W >= w_excited``.
 
+The default (``SlipMapConfig.model == 'saturation'``, also the uncalibrated
+default) takes the references from the saturation model
+(:mod:`roadgrip.estimators.classify.grip_model`): halfway between the two
+classes' predicted accelerations, with weights from their separation
+(:func:`roadgrip.estimators.classify.slipmap_evidence.saturation_evidence`),
+and claims that expire.
+
 Modules: settings :mod:`~roadgrip.estimators.classify.slipmap_config`,
 evidence :mod:`~roadgrip.estimators.classify.slipmap_evidence`, compiled
 recursion :mod:`~roadgrip.estimators.classify.slipmap_kernel`; this module

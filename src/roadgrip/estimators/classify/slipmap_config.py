@@ -151,7 +151,8 @@ class SlipMapConfig:
 
 
 def default_config(mu_mid: float = 0.8) -> SlipMapConfig:
-    """Mid-friction curves: the dry-asphalt shapes scaled to peak ``mu_mid``.
+    """The paper's mid-friction curves: the dry-asphalt shapes scaled to peak ``mu_mid``
+    (the uncalibrated estimator runs :func:`saturation_config`).
 
     The default 0.8 lies halfway between dry asphalt (1.0) and gravel (0.6),
     the two surfaces of the paper's test; the slopes are scaled alike.
