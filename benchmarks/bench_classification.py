@@ -11,6 +11,9 @@ Prints samples per second of
   the per-step latency.
 
 Run: ``.venv/bin/python benchmarks/bench_classification.py [--samples N]``.
+The paper's presets are timed in the kernels; the pipelines also with the saturation
+model (the estimators' uncalibrated default). Accuracy on multi-body surface changes and
+on DART: ``benchmarks/classification_accuracy.py`` (figures in ``docs/classification.md``).
 """
 
 from __future__ import annotations
@@ -23,10 +26,11 @@ import numpy as np
 
 from roadgrip.estimators.classify import BRLS, SLIPMAP
 from roadgrip.estimators.classify.brls import brls_table
-from roadgrip.estimators.classify.brls_config import default_config
+from roadgrip.estimators.classify.brls_config import default_config, saturation_config
 from roadgrip.estimators.classify.brls_kernel import brls_batch, brls_init, brls_step
 from roadgrip.estimators.classify.slipmap import slipmap_table
 from roadgrip.estimators.classify.slipmap_config import default_config as slipmap_default
+from roadgrip.estimators.classify.slipmap_config import saturation_config as slipmap_saturation
 from roadgrip.estimators.classify.slipmap_evidence import SlipMapEvidence, evidence
 from roadgrip.estimators.classify.slipmap_kernel import slipmap_batch
 from roadgrip.inference.kinematic import estimate_kinematics
@@ -85,6 +89,8 @@ def main() -> None:
     for name, fn in (
         ("bRLS pipeline (kinematics + regressors + bRLS)", lambda: brls_table(drive, cfg)),
         ("slipmap pipeline (kinematics + evidence + recursion)", lambda: slipmap_table(drive, scfg)),
+        ("bRLS pipeline, saturation model", lambda: brls_table(drive, saturation_config())),
+        ("slipmap pipeline, saturation model", lambda: slipmap_table(drive, slipmap_saturation())),
     ):
         w = _best(fn)
         print(f"{name}, batch over dry-gravel-dry: {drive.n / w:,.0f} samples/s, "
