@@ -123,7 +123,7 @@ def compile_kernels(methods: list[str] | None = None, multibody: bool = True) ->
                     half = d.t[0] + 0.5 * d.duration
                     _try("calibrate on dry-gravel-dry", lambda d=d, half=half: calibrate(
                         [(d.slice_time(d.t[0], half), "high"), (d.slice_time(half, d.t[-1]), "low")],
-                        friction={"high": 1.0, "low": 0.6}), failures)
+                        friction={"high": 1.0, "low": 0.6}, model="stiffness"), failures)
                 if method == "cascade" and res is not None:
                     from roadgrip.mapping import grid_from_estimates
 
