@@ -157,7 +157,8 @@ Modules
 ==========  ==========================================================
 config      :class:`CascadeConfig`, :func:`prior_band`
 model       state layouts, stage-2 force models, brush tire (compiled)
-kernel      the compiled step and loop, named parameter structures
+layout      state, output and constant layouts of the compiled step
+kernel      the compiled step and loop
 inputs      measured speed, sensor noise, per-sample records
 result      estimates table, summary, diagnostics
 estimator   ``prepare`` / ``init`` / ``step`` / ``run``, :data:`ESTIMATOR`
