@@ -1,7 +1,9 @@
 """Shared pieces of the command line: the typer app, consoles, common options.
 
-Every command that takes a drive accepts a canonical CSV/Parquet file or a
-shared data set (``--format dart|frictionmaps``, detected where unambiguous).
+Every command that takes a drive accepts a canonical CSV/Parquet file, a ROS bag
+(``--topics`` topic map), an ASAM MDF4 file (``--channels`` channel map) or a
+shared data set (``--format dart|frictionmaps``); the format is detected where
+unambiguous.
 Errors are printed as one line, ``error: ...``, with exit status 2.
 """
 
@@ -27,15 +29,24 @@ VehicleOpt = Annotated[
     str | None, typer.Option("--vehicle", help="Preset name (suv, sedan, f1tenth, jetracer) or YAML file.")
 ]
 FormatOpt = Annotated[
-    str | None, typer.Option("--format", help="Input format: canonical, dart or frictionmaps.")
+    str | None,
+    typer.Option("--format", help="Input format: canonical, dart, frictionmaps, rosbag or mdf."),
+]
+TopicsOpt = Annotated[
+    str | None,
+    typer.Option("--topics", help="ROS bags: topic map YAML, or a shipped map's name (default f1tenth)."),
+]
+ChannelsOpt = Annotated[
+    str | None, typer.Option("--channels", help="MDF4 files: channel map YAML.")
 ]
 
 
-def load_drive(path: str, fmt: str | None, vehicle: str | None):
+def load_drive(path: str, fmt: str | None, vehicle: str | None,
+               topics: str | None = None, channels: str | None = None):
     """Read a drive file or data set (:func:`roadgrip.io.read_drive`)."""
     from roadgrip.io import read_drive
 
-    return read_drive(path, format=fmt, vehicle=vehicle)
+    return read_drive(path, format=fmt, vehicle=vehicle, topics=topics, channels=channels)
 
 
 @contextmanager

@@ -8,7 +8,16 @@ from typing import Annotated, Any
 
 import typer
 
-from roadgrip.cli._common import FormatOpt, VehicleOpt, app, console, load_drive, progress_bar
+from roadgrip.cli._common import (
+    ChannelsOpt,
+    FormatOpt,
+    TopicsOpt,
+    VehicleOpt,
+    app,
+    console,
+    load_drive,
+    progress_bar,
+)
 
 PLOT_CURVE_TIMES = (4.0, 20.0, 40.0, 50.0)
 """Curve times [s from the drive start] of ``--plot`` when no ``--curve-times`` are given."""
@@ -21,6 +30,8 @@ def estimate(
     output: Annotated[Path, typer.Option("-o", "--output", help="estimates.parquet")],
     vehicle: VehicleOpt = None,
     fmt: FormatOpt = None,
+    topics: TopicsOpt = None,
+    channels: ChannelsOpt = None,
     particles: Annotated[int | None, typer.Option(help="gpssm: number of particles.")] = None,
     basis: Annotated[str | None, typer.Option(help="gpssm: tensor:10x10 (paper), separable:20, or their -odd variants (default separable-odd:20).")] = None,
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
@@ -47,7 +58,7 @@ def estimate(
     if plot is not None and takes_curves and "curve_times" not in options:
         options["curve_times"] = PLOT_CURVE_TIMES
     est.Config.from_options(options)  # rejects options of other methods before reading the drive
-    drive = load_drive(drive_path, fmt, vehicle)
+    drive = load_drive(drive_path, fmt, vehicle, topics, channels)
     from roadgrip.io.presets import preset_options
 
     config = est.Config.from_options({**preset_options(method, drive), **options})

@@ -8,11 +8,15 @@ from roadgrip.drive import Drive
 from roadgrip.io.canonical import read_canonical_csv, read_canonical_parquet
 from roadgrip.io.dart import is_dart_csv, read_dart
 from roadgrip.io.frictionmaps import is_frictionmaps_dir, read_frictionmaps
+from roadgrip.io.rosbag import BAG_SUFFIXES, is_rosbag
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
 __all__ = ["FORMATS", "detect_format", "read_drive"]
 
-FORMATS = ("canonical", "dart", "frictionmaps")
+MDF_SUFFIXES = (".mf4", ".mdf")
+"""File suffixes read as ASAM MDF (:mod:`roadgrip.io.mdf`)."""
+
+FORMATS = ("canonical", "dart", "frictionmaps", "rosbag", "mdf")
 """Accepted values of ``format``."""
 
 
@@ -20,7 +24,8 @@ def detect_format(path: str | Path) -> str:
     """Tell the format of ``path``.
 
     A folder containing ``imuData.csv`` (or a file inside one) is
-    ``'frictionmaps'``; a CSV whose header names ``elapsed time sensors`` is
+    ``'frictionmaps'``; a ``.bag`` / ``.mcap`` / ``.db3`` file or a folder holding
+    ``metadata.yaml`` is ``'rosbag'``; an ``.mf4`` / ``.mdf`` file is ``'mdf'``; a CSV whose header names ``elapsed time sensors`` is
     ``'dart'``; any other ``.csv`` / ``.parquet`` / ``.pq`` file is ``'canonical'``.
 
     Raises
@@ -34,9 +39,11 @@ def detect_format(path: str | Path) -> str:
     if p.is_dir():
         if is_frictionmaps_dir(p):
             return "frictionmaps"
+        if is_rosbag(p):
+            return "rosbag"
         raise ValueError(
             f"cannot tell the format of folder {p}: a frictionmaps run folder contains "
-            "imuData.csv; otherwise give a .csv or .parquet file"
+            "imuData.csv, a ROS 2 bag folder metadata.yaml; otherwise give a file"
         )
     if p.stat().st_size == 0:
         raise ValueError(f"{p} is empty")
@@ -45,12 +52,17 @@ def detect_format(path: str | Path) -> str:
     ):
         return "frictionmaps"
     suffix = p.suffix.lower()
+    if suffix in BAG_SUFFIXES:
+        return "rosbag"
+    if suffix in MDF_SUFFIXES:
+        return "mdf"
     if suffix in (".parquet", ".pq"):
         return "canonical"
     if suffix == ".csv":
         return "dart" if is_dart_csv(p) else "canonical"
     raise ValueError(
-        f"cannot tell the format of {p.name!r}: expected .csv or .parquet, or pass "
+        f"cannot tell the format of {p.name!r}: expected .csv, .parquet, "
+        f"{', '.join(BAG_SUFFIXES + MDF_SUFFIXES)}, or pass "
         f"--format ({'|'.join(FORMATS)})"
     )
 
@@ -59,20 +71,30 @@ def read_drive(
     path: str | Path,
     format: str | None = None,
     vehicle: str | Path | VehicleParams | None = None,
+    *,
+    topics: str | Path | dict | None = None,
+    channels: str | Path | dict | None = None,
 ) -> Drive:
-    """Read a drive: canonical CSV/Parquet, or a shared real data set.
+    """Read a drive: canonical CSV/Parquet, a ROS bag, an MDF4 file, or a shared data set.
 
     Parameters
     ----------
     path : str or Path
-        Canonical ``.csv`` / ``.parquet`` file, a DART run CSV, or a frictionmaps
-        ``DSn`` folder.
-    format : {None, 'canonical', 'dart', 'frictionmaps'}
+        Canonical ``.csv`` / ``.parquet`` file, a ROS bag (``.bag``, ``.mcap``,
+        ``.db3`` or a ROS 2 bag folder), an ASAM MDF4 file (``.mf4``), a DART run
+        CSV, or a frictionmaps ``DSn`` folder.
+    format : {None, 'canonical', 'dart', 'frictionmaps', 'rosbag', 'mdf'}
         ``None`` detects it (:func:`detect_format`).
     vehicle : preset name, YAML path or VehicleParams, optional
         Overrides the file's vehicle. Required for a plain CSV without roadgrip
         metadata; the data-set readers default to ``'jetracer'`` (dart) and
-        ``'f1tenth'`` (frictionmaps).
+        ``'f1tenth'`` (frictionmaps); the bag and MDF readers to their map's
+        ``vehicle``.
+    topics : YAML path, shipped map name or dict, optional
+        ROS bags: the topic map (:mod:`roadgrip.io.rosbag`); default the shipped
+        ``'f1tenth'`` map.
+    channels : YAML path or dict
+        MDF4 files: the channel map (:mod:`roadgrip.io.mdf`); required.
 
     Returns
     -------
@@ -90,7 +112,21 @@ def read_drive(
     if not p.exists():
         raise ValueError(f"no such file or folder: {p}")
     fmt = format or detect_format(p)
+    if topics is not None and fmt != "rosbag":
+        raise ValueError(f"a topic map applies to ROS bags only, not to format {fmt!r}")
+    if channels is not None and fmt != "mdf":
+        raise ValueError(f"a channel map applies to MDF4 files only, not to format {fmt!r}")
     veh = load_vehicle(vehicle) if vehicle is not None else None
+    if fmt == "rosbag":
+        from roadgrip.io.rosbag import read_rosbag
+
+        return read_rosbag(p, topics if topics is not None else "f1tenth", veh)
+    if fmt == "mdf":
+        from roadgrip.io.mdf import read_mdf
+
+        if channels is None:
+            raise ValueError("an MDF4 file needs a channel map (--channels channels.yaml)")
+        return read_mdf(p, channels, veh)
     if fmt == "dart":
         return read_dart(p, veh)
     if fmt == "frictionmaps":
