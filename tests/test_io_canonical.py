@@ -127,8 +127,8 @@ def test_header_only_file_message(tmp_path):
 def test_unknown_format_message(tmp_path):
     p = tmp_path / "d.csv"
     _synthetic_drive(n=20).save(p)
-    with pytest.raises(ValueError, match="unknown format 'rosbag'"):
-        read_drive(p, format="rosbag")
+    with pytest.raises(ValueError, match="unknown format 'hdf5'"):
+        read_drive(p, format="hdf5")
     q = tmp_path / "d.txt"
     q.write_text("t\n0\n")
     with pytest.raises(ValueError, match="cannot tell the format"):
@@ -154,3 +154,120 @@ def test_bad_parquet_message(tmp_path):
     p.write_bytes(b"not parquet at all")
     with pytest.raises(ValueError, match="not a readable Parquet file"):
         read_drive(p)
+
+
+# -- what real loggers write --------------------------------------------------------------
+
+def _plain(n: int = 60) -> str:
+    t = np.arange(n) * 0.01
+    return "t,ax,ay,vx\n" + "".join(f"{a:.2f},0.1,{0.01 * i:.2f},10\n" for i, a in enumerate(t))
+
+
+def _expected(text: str) -> pd.DataFrame:
+    import io
+
+    return pd.read_csv(io.StringIO(text)).astype(float)
+
+
+@pytest.mark.parametrize("encode", ["bom", "utf-16", "utf-16-le", "gzip", "bz2", "xz", "comments",
+                                    "crlf"])
+def test_logger_dialects_read_to_the_same_drive(tmp_path, encode):
+    import bz2
+    import gzip
+    import lzma
+
+    text = _plain()
+    raw = {
+        "bom": b"\xef\xbb\xbf" + text.encode(),
+        "utf-16": text.encode("utf-16"),
+        "utf-16-le": text.encode("utf-16-le"),
+        "gzip": gzip.compress(text.encode()),
+        "bz2": bz2.compress(text.encode()),
+        "xz": lzma.compress(text.encode()),
+        "comments": ("# logger v2\n" + text.replace("\n0.30,", "\n# logger restarted here\n0.30,")).encode(),
+        "crlf": text.replace("\n", "\r\n").encode(),
+    }[encode]
+    p = tmp_path / "drive.csv"  # the name says nothing of the compression
+    p.write_bytes(raw)
+    d = read_drive(p, vehicle="sedan")
+    pd.testing.assert_frame_equal(d.data, _expected(text), check_exact=True)
+
+
+def _refusal(tmp_path, raw: bytes, **kw) -> str:
+    from roadgrip.io.canonical import read_canonical_csv
+
+    p = tmp_path / "bad.csv"
+    p.write_bytes(raw)
+    with pytest.raises(ValueError) as exc:
+        read_canonical_csv(p, PRESETS["sedan"], **kw)
+    msg = str(exc.value)
+    assert "\n" not in msg.strip()
+    return msg
+
+
+def test_refusals_name_file_line_and_problem(tmp_path):
+    import gzip
+
+    text = _plain()
+    msg = _refusal(tmp_path, text.replace("t,ax,ay,vx", "t,ax,ay,ay").encode())
+    assert "bad.csv:1" in msg and "duplicated column name 'ay'" in msg
+    msg = _refusal(tmp_path, text.replace("\n0.20,0.1", "\n0.20,abc").encode())
+    assert "bad.csv:22" in msg and "'ax'" in msg and "'abc'" in msg
+    msg = _refusal(tmp_path, text.replace("0.20,0.1,0.20,10", "0.20,0.1,0.20,10,5").encode())
+    assert "bad.csv:22" in msg and "more fields" in msg
+    msg = _refusal(tmp_path, gzip.compress(text.encode())[:40])
+    assert "bad.csv" in msg and "gzip" in msg and "truncated" in msg
+    msg = _refusal(tmp_path, bytes(range(256)) * 4)
+    assert "bad.csv:" in msg and "not utf-8 text" in msg
+    thousands = text.replace(",10\n", ',"1,000.5"\n')
+    msg = _refusal(tmp_path, thousands.encode())
+    assert "bad.csv:2" in msg and "'vx'" in msg and "thousands=" in msg
+
+
+def test_separators_read_only_where_stated(tmp_path):
+    from roadgrip.io.canonical import read_canonical_csv
+
+    comma = _plain().replace(",", ";").replace(".", ",")
+    msg = _refusal(tmp_path, comma.encode())
+    assert "bad.csv:2" in msg and "decimal=','" in msg
+    d = read_canonical_csv(tmp_path / "bad.csv", PRESETS["sedan"], decimal=",")
+    pd.testing.assert_frame_equal(d.data, _expected(_plain()), check_exact=True)
+    (tmp_path / "k.csv").write_text("t,odometer\n" + "".join(f'{0.01 * i:.2f},"1,000.5"\n'
+                                                                for i in range(30)))
+    d = read_canonical_csv(tmp_path / "k.csv", PRESETS["sedan"], thousands=",")
+    assert np.all(d.col("odometer") == 1000.5)
+
+
+def test_empty_time_rows_dropped_with_warning(tmp_path):
+    text = _plain().replace("\n0.10,0.1", "\n,0.1")
+    p = tmp_path / "d.csv"
+    p.write_text(text)
+    with pytest.warns(UserWarning, match=r"d.csv:12: 1 row\(s\) with an empty time"):
+        d = read_drive(p, vehicle="sedan")
+    assert d.n == 59 and 0.1 not in d.t
+
+
+def test_duplicated_timestamps_merged_with_warning(tmp_path):
+    from roadgrip.drive import DriveWarning
+
+    text = _plain().replace("\n0.10,0.1,0.10,10\n", "\n0.10,0.1,0.10,10\n0.10,0.3,0.10,12\n")
+    p = tmp_path / "d.csv"
+    p.write_text(text)
+    with pytest.warns(DriveWarning, match=r"1 row\(s\) with a duplicated timestamp.*t = 0.1 s"):
+        d = read_drive(p, vehicle="sedan")
+    assert d.n == 60
+    row = d.data[d.data["t"] == 0.1].iloc[0]
+    assert row["ax"] == pytest.approx(0.2) and row["vx"] == pytest.approx(11.0)
+
+
+def test_time_in_milliseconds_refused_with_evidence(tmp_path):
+    n = 60
+    text = "t,ax\n" + "".join(f"{10 * i},0.1\n" for i in range(n))
+    p = tmp_path / "d.csv"
+    p.write_text(text)
+    with pytest.raises(DriveValidationError, match=r"'t' has a median step of 10 .* in ms: divide 't' by 1000"):
+        read_drive(p, vehicle="sedan")
+    text = "t,ax\n" + "".join(f"{1_700_000_000_000_000_000 + 10_000_000 * i},0.1\n" for i in range(n))
+    p.write_text(text)
+    with pytest.raises(DriveValidationError, match=r"'t' .* physical range .* in ns: divide 't' by 1e\+09"):
+        read_drive(p, vehicle="sedan")

@@ -25,6 +25,7 @@ Extra columns are kept, ignored by the estimators and listed by ``roadgrip info`
 from __future__ import annotations
 
 import json
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,11 +38,14 @@ from roadgrip.vehicle.params import VehicleParams
 
 __all__ = [
     "SIGNAL_COLUMNS",
+    "SIGNAL_RANGES",
     "TRUTH_COLUMNS",
     "WHEEL_COLUMNS",
     "Drive",
     "DriveMeta",
     "DriveValidationError",
+    "DriveWarning",
+    "merge_duplicate_times",
     "validate_frame",
 ]
 
@@ -76,8 +80,77 @@ _MAX_YAW_RATE = 10.0  # rad/s, about 570 deg/s
 _MAX_STEER = 1.2  # rad, about 69 deg road-wheel angle
 
 
+AUX_COLUMNS = ("vx_pose", "vy_pose", "motor_rpm")
+"""Optional numeric columns some estimators read (pose velocity, motor speed); NaN marks a
+sample without a value."""
+
+SIGNAL_RANGES: dict[str, tuple[float, float, str]] = {
+    "t": (-1e10, 1e10, "s"),
+    "ax": (-500.0, 500.0, "m/s²"),
+    "ay": (-500.0, 500.0, "m/s²"),
+    "yaw_rate": (-100.0, 100.0, "rad/s"),
+    "steer": (-1.5707963, 1.5707963, "rad"),
+    "vx": (-200.0, 200.0, "m/s"),
+    **{c: (-1e4, 1e4, "rad/s") for c in WHEEL_COLUMNS},
+    "x": (-1e8, 1e8, "m"),
+    "y": (-1e8, 1e8, "m"),
+    "psi": (-1e7, 1e7, "rad"),
+    "vx_pose": (-200.0, 200.0, "m/s"),
+    "vy_pose": (-200.0, 200.0, "m/s"),
+    "motor_rpm": (-1e6, 1e6, "rpm"),
+}
+"""Physical range of each numeric signal: ``(low, high, unit)``; values outside are refused.
+
+Wide enough for a 1:10 model car up to a heavy truck and for every recording
+convention (unwrapped heading, Unix time in seconds); narrow enough that what
+passes keeps every estimator's arithmetic finite. Truth columns must lie
+within +-1e9.
+"""
+
+_TRUTH_RANGE = 1e9
+# Median sample steps [s] that vehicle data can have: 10 kHz to 1 Hz (time in ms at
+# 100 Hz has a step of 10).
+_MIN_STEP, _MAX_STEP = 1e-4, 1.0
+
+
 class DriveValidationError(ValueError):
     """A drive fails validation; the message names the column and the problem."""
+
+
+class DriveWarning(UserWarning):
+    """Something in a drive was repaired (duplicated timestamps merged, ...)."""
+
+
+def merge_duplicate_times(df: pd.DataFrame) -> tuple[pd.DataFrame, int]:
+    """Merge consecutive rows that share a timestamp, as loggers write them.
+
+    Rows with the same ``t`` (consecutive) become one: numeric columns are
+    averaged, other columns keep the last value. Time that goes backwards is
+    left for :func:`validate_frame` to refuse.
+
+    Parameters
+    ----------
+    df : DataFrame
+
+    Returns
+    -------
+    merged : DataFrame
+        ``df`` itself when nothing was merged.
+    n_merged : int
+        Number of rows removed.
+    """
+    if "t" not in df.columns or len(df) < 2 or df.columns.duplicated().any():
+        return df, 0
+    if df["t"].dtype.kind not in "fiu":
+        return df, 0
+    t = df["t"].to_numpy(float)
+    dup = np.diff(t) == 0
+    if not dup.any():
+        return df, 0
+    key = np.concatenate([[0], np.cumsum(~dup)])
+    agg = {c: ("mean" if df[c].dtype.kind in "fiub" else "last") for c in df.columns}
+    out = df.groupby(key, sort=False).agg(agg).reset_index(drop=True)[list(df.columns)]
+    return out, int(dup.sum())
 
 
 @dataclass(frozen=True)
@@ -154,11 +227,14 @@ def validate_frame(
 ) -> None:
     """Check a frame of canonical signals; raise :class:`DriveValidationError`.
 
-    Checks, in order: empty frame; missing ``required`` columns; non-numeric
-    signal columns; NaN or inf in any numeric canonical column; time not
-    strictly increasing (duplicates and reversals reported separately); and,
-    with ``check_units``, units that look wrong (accelerations in g, rates in
-    deg/s, steering in degrees).
+    Checks, in order: empty frame; duplicated column names; missing ``required``
+    columns; non-numeric (text, complex) signal columns; NaN or inf in any
+    numeric canonical column; values outside :data:`SIGNAL_RANGES` (column,
+    value, row and range named); a time base whose step is implausible for
+    vehicle data (milliseconds, microseconds or nanoseconds, with the evidence);
+    time not strictly increasing (duplicates and reversals reported separately;
+    :meth:`Drive.from_frame` merges duplicates first); and, with ``check_units``,
+    units that look wrong (accelerations in g, rates in deg/s, steering in degrees).
 
     Parameters
     ----------
@@ -171,23 +247,38 @@ def validate_frame(
     """
     if len(df) == 0:
         raise DriveValidationError("drive is empty: no samples")
+    dup_cols = df.columns[df.columns.duplicated()]
+    if len(dup_cols):
+        raise DriveValidationError(f"duplicated column name {dup_cols[0]!r}: each column must "
+                                   "appear once")
     missing = [c for c in required if c not in df.columns]
     if missing:
         raise DriveValidationError(
             f"missing required column(s) {missing}; present: {list(df.columns)}"
         )
-    t = df["t"].to_numpy(dtype=float) if "t" in df.columns else None
-    for col in (*SIGNAL_COLUMNS, *TRUTH_COLUMNS):
+    t = None
+    for col in (*SIGNAL_COLUMNS, *AUX_COLUMNS, *TRUTH_COLUMNS):
         if col not in df.columns or col == "surface":
             continue
-        if not pd.api.types.is_numeric_dtype(df[col]):
-            raise DriveValidationError(f"column {col!r} is not numeric (dtype {df[col].dtype})")
+        kind = df[col].dtype.kind
+        if not pd.api.types.is_numeric_dtype(df[col]) or kind == "c":
+            what = "complex" if kind == "c" else "not numeric"
+            raise DriveValidationError(f"column {col!r} is {what} (dtype {df[col].dtype}): "
+                                       f"expected real numbers{_first_text(df[col])}")
         v = df[col].to_numpy(dtype=float)
-        bad = ~np.isfinite(v)
+        if col == "t":
+            t = v
+        # the auxiliary columns mark samples without a value by NaN
+        bad = np.isinf(v) if col in AUX_COLUMNS else ~np.isfinite(v)
         if bad.any():
             raise DriveValidationError(
                 f"column {col!r} has {int(bad.sum())} NaN/inf value(s), first at {_first_bad(t, bad)}"
             )
+    if check_units:
+        _check_magnitudes(df)
+    _check_ranges(df, t)
+    if t is not None and len(t) > 2:
+        _check_time_step(t)
     if t is not None and len(t) > 1:
         d = np.diff(t)
         if (d == 0).any():
@@ -200,6 +291,69 @@ def validate_frame(
             )
     if check_units:
         _check_units(df)
+
+
+def _check_ranges(df: pd.DataFrame, t: np.ndarray | None) -> None:
+    """Refuse values outside :data:`SIGNAL_RANGES`, naming column, value, row and range."""
+    for col in (*SIGNAL_COLUMNS, *AUX_COLUMNS, *TRUTH_COLUMNS):
+        if col not in df.columns or col == "surface":
+            continue
+        v = df[col].to_numpy(dtype=float)
+        lo, hi, unit = SIGNAL_RANGES.get(col, (-_TRUTH_RANGE, _TRUTH_RANGE, "SI"))
+        out = (v < lo) | (v > hi)
+        if out.any():
+            i = int(np.flatnonzero(out)[0])
+            hint = _time_unit_hint(v) if col == "t" else ""
+            raise DriveValidationError(
+                f"column {col!r} has {int(out.sum())} value(s) outside its physical range "
+                f"[{lo:g}, {hi:g}] {unit}, first {v[i]:.6g} at {_first_bad(t, out)}{hint}"
+            )
+
+
+def _first_text(col: pd.Series) -> str:
+    """``', e.g. 'abc' at row 3'``: the first value that is not a real number, or ''."""
+    if col.dtype.kind == "c":
+        return ""
+    num = pd.to_numeric(col, errors="coerce")
+    bad = (num.isna() & col.notna()).to_numpy()
+    if not bad.any():
+        return ""
+    i = int(np.flatnonzero(bad)[0])
+    return f", e.g. {str(col.iloc[i])[:40]!r} at row {i}"
+
+
+def _time_unit_hint(t: np.ndarray) -> str:
+    with np.errstate(over="ignore", invalid="ignore"):
+        d = np.diff(t)
+    d = d[d > 0]
+    if d.size == 0:
+        return ""
+    step = float(np.median(d))
+    for unit, f in (("ms", 1e3), ("µs", 1e6), ("ns", 1e9)):
+        if _MIN_STEP <= step / f <= 1.0:
+            return (f"; the median step {step:.6g} would be {step / f:.6g} s in {unit}: divide "
+                    f"'t' by {f:g} (time must be in seconds)")
+    return f"; the median step is {step:.6g} (time must be in seconds)"
+
+
+def _check_time_step(t: np.ndarray) -> None:
+    """Refuse a time base whose median step no vehicle logger has (ms, µs, ns, ...)."""
+    d = np.diff(t)
+    d = d[d > 0]
+    if d.size < 2:
+        return
+    step = float(np.median(d))
+    if step > _MAX_STEP:
+        raise DriveValidationError(
+            f"column 't' has a median step of {step:.6g} s over {len(t)} samples: implausible "
+            f"for vehicle data (expected {_MIN_STEP:g} to {_MAX_STEP:g} s){_time_unit_hint(t)}"
+        )
+    if step < _MIN_STEP:
+        raise DriveValidationError(
+            f"column 't' has a median step of {step:.3g} s ({1 / step:.3g} Hz) over {len(t)} "
+            f"samples: implausible for vehicle data (expected {_MIN_STEP:g} to {_MAX_STEP:g} s); "
+            "is the time in seconds?"
+        )
 
 
 def _pose_speed(df: pd.DataFrame) -> np.ndarray | None:
@@ -218,7 +372,8 @@ def _pose_speed(df: pd.DataFrame) -> np.ndarray | None:
     return v if np.max(v) > 0.5 else None
 
 
-def _check_units(df: pd.DataFrame) -> None:
+def _check_magnitudes(df: pd.DataFrame) -> None:
+    """Accelerations in g, rates in deg/s, steering in degrees, from their magnitude."""
     cols = df.columns
     for c in ("ax", "ay"):
         if c in cols and np.max(np.abs(df[c].to_numpy(float))) > _MAX_ACCEL:
@@ -236,6 +391,10 @@ def _check_units(df: pd.DataFrame) -> None:
             f"column 'steer' reaches {np.max(np.abs(df['steer'])):.3g}: this looks like degrees "
             "or a steering-wheel angle, expected the road-wheel angle in rad"
         )
+
+
+def _check_units(df: pd.DataFrame) -> None:
+    cols = df.columns
     # Consistency of ay with vx * yaw_rate in steady cornering: catches ay in g and
     # yaw rate in deg/s even when their magnitudes alone look plausible.
     # The speed comes from the pose where the frame has one: wheel or driveshaft
@@ -282,6 +441,18 @@ def _check_units(df: pd.DataFrame) -> None:
                     )
 
 
+def _merged(df: pd.DataFrame, source: str) -> pd.DataFrame:
+    """:func:`merge_duplicate_times` with a :class:`DriveWarning` naming what was merged."""
+    out, n = merge_duplicate_times(df)
+    if n:
+        t = df["t"].to_numpy(float)
+        first = float(t[1:][np.diff(t) == 0][0])
+        warnings.warn(f"{source}: {n} row(s) with a duplicated timestamp in 't' merged into the "
+                      f"row of the same time (numeric columns averaged), first at t = {first:.6g} s",
+                      DriveWarning, stacklevel=3)
+    return out
+
+
 @dataclass(frozen=True)
 class Drive:
     """A drive: a time-indexed frame of canonical columns plus :class:`DriveMeta`.
@@ -315,7 +486,13 @@ class Drive:
         required: tuple[str, ...] = ("t",),
         check_units: bool = True,
     ) -> Drive:
-        """Validate ``df`` (see :func:`validate_frame`) and wrap it."""
+        """Validate ``df`` (see :func:`validate_frame`) and wrap it.
+
+        Consecutive rows sharing a timestamp, which loggers write, are merged
+        first (:func:`merge_duplicate_times`: numeric columns averaged, text
+        columns keep the last value) with a :class:`DriveWarning`.
+        """
+        df = _merged(df, source)
         validate_frame(df, required, check_units=check_units)
         df = df.reset_index(drop=True)
         t = df["t"].to_numpy(float)

@@ -15,13 +15,22 @@ Parquet stores float64 as is. Extra columns are kept.
 from __future__ import annotations
 
 import json
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
 import pandas as pd
 
-from roadgrip.drive import SIGNAL_COLUMNS, TRUTH_COLUMNS, Drive, DriveMeta, validate_frame
-from roadgrip.io._csv import read_csv_exact
+from roadgrip.drive import (
+    SIGNAL_COLUMNS,
+    TRUTH_COLUMNS,
+    Drive,
+    DriveMeta,
+    DriveWarning,
+    merge_duplicate_times,
+    validate_frame,
+)
+from roadgrip.io._csv import read_table, read_text
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = ["META_PREFIX", "read_canonical_csv", "read_canonical_parquet"]
@@ -42,13 +51,23 @@ def _finish(
                 "(--vehicle PRESET or YAML file)"
             )
         return Drive.from_frame(df, vehicle, source=str(path))
+    df, n = merge_duplicate_times(df)
+    if n:
+        warnings.warn(f"{path.name}: {n} row(s) with a duplicated timestamp in 't' merged into the "
+                      "row of the same time (numeric columns averaged)", DriveWarning, stacklevel=3)
     validate_frame(df, ("t",))
     if vehicle is not None:
         meta = replace(meta, vehicle=vehicle)
     return Drive(df.reset_index(drop=True), meta)
 
 
-def read_canonical_csv(path: str | Path, vehicle: VehicleParams | None = None) -> Drive:
+def read_canonical_csv(
+    path: str | Path,
+    vehicle: VehicleParams | None = None,
+    *,
+    decimal: str = ".",
+    thousands: str | None = None,
+) -> Drive:
     """Read a canonical CSV drive.
 
     Parameters
@@ -57,29 +76,35 @@ def read_canonical_csv(path: str | Path, vehicle: VehicleParams | None = None) -
         CSV file, with or without the ``# roadgrip-meta`` line.
     vehicle : VehicleParams, optional
         Overrides the vehicle of the metadata; required without metadata.
+    decimal : str
+        Decimal mark (``','`` for a decimal comma; the delimiter is then ``;``).
+    thousands : str, optional
+        Thousands separator, only where the file uses one.
+
+    Compressed (gzip, bzip2, xz, zstd: told by the content), UTF-8 with a
+    byte-order mark and UTF-16 files are read; ``#`` comment lines are skipped.
+    Any problem is one line naming the file and line (:class:`TableError`).
 
     Returns
     -------
     Drive
     """
     path = Path(path)
-    with open(path, newline="") as fh:
-        first = fh.readline()
-        meta = None
-        dtypes: dict[str, str] = {}
-        if first.startswith(META_PREFIX):
-            text = first[len(META_PREFIX):]
-            try:
-                meta = DriveMeta.from_json(text)
-                dtypes = json.loads(text).get("dtypes") or {}
-            except (ValueError, KeyError, TypeError) as exc:
-                raise ValueError(f"{path.name}: unreadable roadgrip metadata line: {exc}") from None
-        else:
-            fh.seek(0)
+    text = read_text(path)
+    first = text.split("\n", 1)[0]
+    meta = None
+    dtypes: dict[str, str] = {}
+    if first.startswith(META_PREFIX):
+        body = first[len(META_PREFIX):]
         try:
-            df = read_csv_exact(fh)
-        except pd.errors.EmptyDataError:
-            raise ValueError(f"{path.name} is empty: no header and no samples") from None
+            meta = DriveMeta.from_json(body)
+            dtypes = json.loads(body).get("dtypes") or {}
+        except (ValueError, KeyError, TypeError, AttributeError) as exc:
+            raise ValueError(f"{path.name}:1: unreadable roadgrip metadata line: {exc}") from None
+    numeric = {c for c in _FLOAT_COLUMNS if dtypes.get(c, "float64") != "object"}
+    table = read_table(path, text, numeric=numeric, decimal=decimal, thousands=thousands,
+                       skip_first=meta is not None)
+    df = _restore_dtypes(table.frame, dtypes)
     return _finish(_restore_dtypes(df, dtypes), meta, vehicle, path)
 
 
