@@ -65,14 +65,17 @@ def source_table(extra: dict) -> Table | None:
     for section in ("signals", "extras"):
         for col, e in ((extra.get("topic_map") or {}).get(section) or {}).items():
             used.setdefault(e["topic"], []).append(col)
+    units = extra.get("units") or {}
     for col, name in (extra.get("channel_map") or {}).items():
-        used.setdefault(name, []).append(col)
+        used.setdefault(name, []).append(f"{col} (in {units[col]})" if col in units else col)
     title = "source topics" if extra.get("format") == "rosbag" else "source channels"
     table = Table(title=title)
     for name, right in (("source", False), ("rate [Hz]", True), ("samples", True), ("fills", False)):
         table.add_column(name, justify="right" if right else "left")
     for name, hz in rates.items():
         table.add_row(name, f"{hz:.2f}", str(counts.get(name, "")), ", ".join(used.get(name, [])) or "unused")
+    for name in extra.get("channels_unused") or ():
+        table.add_row(name, "", "", "unused")
     if extra.get("interpolation"):
         table.caption = f"time base: {extra['interpolation']}"
     return table
