@@ -105,3 +105,92 @@ def test_vehicle_path_that_is_a_folder(tmp_path):
     d.mkdir()
     with pytest.raises(ValueError, match="cannot be read"):
         load_vehicle(d)
+
+
+# -- physical ranges and the YAML user experience --------------------------------------------
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("mass", 5e-324), ("mass", 1e6), ("lr", 1e300), ("lf", 1e-5), ("yaw_inertia", 1e9),
+     ("cg_height", 40.0), ("wheel_radius", 20.0), ("track_width", 1e-4), ("wheel_inertia", 1e5),
+     ("cornering_stiffness_front", 1e12), ("cornering_stiffness_rear", 0.01), ("gear_ratio", 1e9),
+     ("max_steer", 1.56), ("roll_gradient", -0.01)],
+)
+def test_value_outside_physical_range_names_field_value_and_range(field, value):
+    from roadgrip.vehicle.params import FIELD_RANGES
+
+    _lo, hi, unit, _ = FIELD_RANGES[field]
+    with pytest.raises(ValueError, match=f"vehicle field '{field}'") as exc:
+        PRESETS["sedan"].replace(**{field: value})
+    msg = str(exc.value)
+    assert repr(value) in msg and f"{hi:g}" in msg and unit in msg
+
+
+def test_ranges_hold_every_preset_and_a_heavy_truck():
+    from roadgrip.vehicle.params import FIELD_RANGES
+
+    for v in PRESETS.values():
+        for f, (lo, hi, _, _) in FIELD_RANGES.items():
+            assert lo <= getattr(v, f) <= hi, (v.name, f)
+    truck = PRESETS["suv"].replace(name="truck", mass=40_000.0, yaw_inertia=3.0e5, lf=3.5, lr=2.5,
+                                   cg_height=2.0, wheel_radius=0.53, track_width=2.05,
+                                   wheel_inertia=30.0, cornering_stiffness_front=1.2e6,
+                                   cornering_stiffness_rear=2.4e6)
+    assert truck.mass == 40_000.0
+
+
+def test_missing_fields_reported_at_once_with_units():
+    d = PRESETS["sedan"].to_dict()
+    for k in ("mass", "lf", "wheel_radius"):
+        del d[k]
+    with pytest.raises(ValueError) as exc:
+        VehicleParams.from_dict(d)
+    msg = str(exc.value)
+    assert "['mass', 'lf', 'wheel_radius']" in msg
+    assert "mass [kg]" in msg and "lf [m]" in msg and "wheel_radius [m]" in msg
+
+
+@pytest.mark.parametrize("encoding", ["utf-8", "utf-8-sig", "utf-16", "utf-16-le", "utf-16-be"])
+def test_yaml_in_any_unicode_encoding_and_name_from_stem(tmp_path, encoding):
+    d = PRESETS["sedan"].to_dict()
+    del d["name"]
+    p = tmp_path / "my-truck.yaml"
+    p.write_bytes(yaml.safe_dump(d).encode(encoding))
+    v = load_vehicle(p)
+    assert v.name == "my-truck"
+    assert v == PRESETS["sedan"].replace(name="my-truck")
+
+
+def test_numeric_name_becomes_text_and_bad_bytes_name_the_line(tmp_path):
+    v = PRESETS["sedan"].replace(name=12345)
+    assert v.name == "12345"
+    p = tmp_path / "v.yaml"
+    p.write_bytes(b"name: a\nmass: \xff\xfe\xfd 1\n")
+    with pytest.raises(ValueError, match=r"v.yaml:2: not UTF-8"):
+        load_vehicle(p)
+    p.write_text(yaml.safe_dump(PRESETS["sedan"].to_dict() | {"name": ["a", "b"]}))
+    with pytest.raises(ValueError, match="vehicle field 'name'"):
+        load_vehicle(p)
+
+
+def test_cli_template_loads_back_and_list_shows_multibody(tmp_path):
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+
+    runner = CliRunner()
+    out = tmp_path / "van.yaml"
+    res = runner.invoke(app, ["vehicle", "template", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    text = out.read_text()
+    assert "mass: 1500.0  # [kg]" in text
+    v = load_vehicle(out)
+    assert v == PRESETS["sedan"].replace(name="van")
+    res = runner.invoke(app, ["vehicle", "template", "-o", str(out)])
+    assert res.exit_code != 0 and "exists" in str(res.exception)
+    res = runner.invoke(app, ["vehicle", "list"])
+    assert res.exit_code == 0
+    for name in PRESETS:
+        assert name in res.output
+    rows = [line for line in res.output.splitlines() if "ford-escort" in line or "vw-vanagon" in line]
+    assert len(rows) == 2 and all("yes" in r for r in rows)

@@ -19,6 +19,7 @@ from roadgrip.cli import (  # noqa: F401  (importing a command module registers 
     info,
     report,
     simulate,
+    vehicle,
 )
 from roadgrip.cli._common import app, err_console
 

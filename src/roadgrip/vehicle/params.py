@@ -19,7 +19,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from roadgrip.constants import GRAVITY
 
-__all__ = ["PRESETS", "PRESET_SOURCES", "VehicleParams", "axle_loads", "driven_wheels", "load_vehicle"]
+__all__ = [
+    "FIELD_RANGES", "PRESETS", "PRESET_SOURCES", "VehicleParams", "axle_loads", "driven_wheels",
+    "load_vehicle", "template_yaml",
+]  # fmt: skip
 
 _DRIVEN = {
     "fwd": (True, True, False, False),
@@ -27,7 +30,29 @@ _DRIVEN = {
     "awd": (True, True, True, True),
 }
 _DRIVES = tuple(_DRIVEN)
-_BODY_GRADIENTS = ("roll_gradient", "pitch_gradient")  # may be 0 (rigid body / unknown)
+FIELD_RANGES: dict[str, tuple[float, float, str, str]] = {
+    "mass": (0.3, 6.0e4, "kg", "total mass"),
+    "yaw_inertia": (1e-4, 1.0e6, "kg m²", "yaw moment of inertia about the CG"),
+    "lf": (0.02, 10.0, "m", "distance CG to front axle"),
+    "lr": (0.02, 10.0, "m", "distance CG to rear axle"),
+    "cg_height": (0.0, 4.0, "m", "CG height above ground (> 0)"),
+    "wheel_radius": (0.01, 1.5, "m", "effective rolling radius"),
+    "track_width": (0.03, 4.0, "m", "track width"),
+    "wheel_inertia": (1e-7, 500.0, "kg m²", "spin inertia of one wheel with its drive line"),
+    "cornering_stiffness_front": (1.0, 5.0e6, "N/rad", "front-axle cornering stiffness"),
+    "cornering_stiffness_rear": (1.0, 5.0e6, "N/rad", "rear-axle cornering stiffness"),
+    "max_steer": (0.0, 1.5, "rad", "largest front road-wheel angle (> 0)"),
+    "gear_ratio": (0.01, 1000.0, "-", "motor revolutions per wheel revolution"),
+    "roll_gradient": (0.0, 0.05, "rad/(m/s²)", "body roll per lateral acceleration (0 = rigid)"),
+    "pitch_gradient": (0.0, 0.05, "rad/(m/s²)", "body pitch per longitudinal acceleration"),
+}
+"""Physical range of each numeric field: ``(low, high, unit, meaning)``.
+
+From a 1:10 model car (1.6 kg) to a heavy truck (60 t). A bound of 0 is
+exclusive except for the body gradients (0: rigid body or unknown), whose upper
+bound 0.05 (28 deg/g) is exclusive; other bounds are inclusive.
+"""
+_ZERO_ALLOWED = ("roll_gradient", "pitch_gradient")
 
 
 @dataclass(frozen=True)
@@ -93,23 +118,28 @@ class VehicleParams:
     pitch_gradient: float = 0.0
 
     def __post_init__(self) -> None:
+        if isinstance(self.name, bool) or not isinstance(self.name, str | int | float):
+            raise ValueError(f"vehicle field 'name' must be a text label, got {self.name!r}")
+        object.__setattr__(self, "name", str(self.name))
         for f in fields(self):
             if f.name in ("name", "drive"):
                 continue
             value = getattr(self, f.name)
+            lo, hi, unit, _ = FIELD_RANGES[f.name]
             if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ValueError(f"vehicle field {f.name!r} must be a number, got {value!r}")
-            if f.name in _BODY_GRADIENTS:
-                if not 0 <= value < 0.05:
-                    raise ValueError(f"vehicle field {f.name!r} must lie in [0, 0.05) rad/(m/s²) "
-                                     f"(0.05 is 28 deg/g), got {value!r}")
-            elif not math.isfinite(value) or value <= 0:
-                raise ValueError(f"vehicle field {f.name!r} must be positive and finite, got {value!r}")
+                raise ValueError(f"vehicle field {f.name!r} must be a number in {unit}, got {value!r}")
+            if f.name in _ZERO_ALLOWED:
+                ok = lo <= value < hi
+                rng = f"[{lo:g}, {hi:g})"
+            else:
+                ok = (lo < value if lo == 0 else lo <= value) and value <= hi
+                rng = f"({lo:g}, {hi:g}]" if lo == 0 else f"[{lo:g}, {hi:g}]"
+            if not (math.isfinite(value) and ok):
+                raise ValueError(f"vehicle field {f.name!r} = {value!r} {unit} is outside its "
+                                 f"physical range {rng} {unit}")
             object.__setattr__(self, f.name, float(value))
-        if self.drive not in _DRIVES:
+        if not isinstance(self.drive, str) or self.drive not in _DRIVES:
             raise ValueError(f"vehicle field 'drive' must be one of {_DRIVES}, got {self.drive!r}")
-        if self.max_steer >= math.pi / 2:
-            raise ValueError(f"vehicle field 'max_steer' must be below pi/2 rad, got {self.max_steer!r}")
 
     # -- derived quantities ------------------------------------------------------------
     @property
@@ -140,11 +170,14 @@ class VehicleParams:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> VehicleParams:
-        """Build from a mapping; unknown keys and missing required keys are errors."""
+        """Build from a mapping; unknown keys and missing required keys are errors.
+
+        Every missing field is reported at once, with its unit and meaning.
+        """
         if not isinstance(d, dict):
             raise ValueError(f"vehicle description must be a mapping, got {type(d).__name__}")
         known = {f.name for f in fields(cls)}
-        unknown = sorted(set(d) - known)
+        unknown = sorted(str(k) for k in set(d) - known)
         if unknown:
             raise ValueError(f"unknown vehicle field(s) {unknown}; known fields: {sorted(known)}")
         required = [
@@ -153,7 +186,11 @@ class VehicleParams:
             if f.default is dataclasses.MISSING and f.name not in d
         ]
         if required:
-            raise ValueError(f"missing vehicle field(s) {required}")
+            what = "; ".join(
+                f"{k} [{FIELD_RANGES[k][2]}]: {FIELD_RANGES[k][3]}" if k in FIELD_RANGES
+                else f"{k}: a label" for k in required
+            )
+            raise ValueError(f"missing vehicle field(s) {required} ({what})")
         return cls(**d)
 
     def to_yaml(self, path: str | Path) -> None:
@@ -161,18 +198,64 @@ class VehicleParams:
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> VehicleParams:
+        """Read a YAML file (UTF-8 with or without byte-order mark, or UTF-16).
+
+        ``name`` defaults to the file's stem.
+        """
         try:
-            data = yaml.safe_load(Path(path).read_text())
+            data = yaml.safe_load(_decode(Path(path).read_bytes(), path))
         except FileNotFoundError:
             raise ValueError(f"vehicle file not found: {path}") from None
         except OSError as exc:
             raise ValueError(f"vehicle file {path} cannot be read: {exc.strerror}") from None
         except yaml.YAMLError as exc:
-            raise ValueError(f"vehicle file {path} is not valid YAML: {exc}") from None
-        return cls.from_dict(data)
+            msg = " ".join(str(exc).split())
+            raise ValueError(f"vehicle file {path} is not valid YAML: {msg}") from None
+        if isinstance(data, dict) and "name" not in data:
+            data = {"name": Path(path).stem, **data}
+        try:
+            return cls.from_dict(data)
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"vehicle file {Path(path).name}: {exc}") from None
 
     def replace(self, **changes: Any) -> VehicleParams:
         return dataclasses.replace(self, **changes)
+
+
+def _decode(raw: bytes, path: str | Path) -> str:
+    """Text of a YAML file: UTF-8 (byte-order mark dropped) or UTF-16 (with or without mark)."""
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        enc = "utf-16"
+    elif len(raw) >= 4 and raw[1] == 0 and raw[3] == 0 and raw[0] != 0:
+        enc = "utf-16-le"
+    elif len(raw) >= 4 and raw[0] == 0 and raw[2] == 0 and raw[1] != 0:
+        enc = "utf-16-be"
+    else:
+        enc = "utf-8-sig"
+    try:
+        return raw.decode(enc).lstrip("\ufeff")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise ValueError(f"vehicle file {path}:{line}: not UTF-8 or UTF-16 text ({exc.reason})") from None
+
+
+def template_yaml() -> str:
+    """A commented vehicle YAML: every field with its unit, meaning, range and a sedan's value."""
+    sedan = PRESETS["sedan"]
+    lines = ["# roadgrip vehicle description (SI units). Fields without a default are required;",
+             "# `name` defaults to the file's stem. Values are a C-segment sedan's: replace them.",
+             "# name: my-car  # label; default: the file name without .yaml"]
+    for f in fields(VehicleParams):
+        if f.name == "name":
+            continue
+        value = getattr(sedan, f.name)
+        opt = "" if f.default is dataclasses.MISSING else f"; optional, default {f.default!r}"
+        if f.name == "drive":
+            lines.append(f"drive: {value}  # driven axles: fwd, rwd or awd{opt}")
+            continue
+        lo, hi, unit, meaning = FIELD_RANGES[f.name]
+        lines.append(f"{f.name}: {value!r}  # [{unit}] {meaning}; range {lo:g} to {hi:g}{opt}")
+    return "\n".join(lines) + "\n"
 
 
 PRESET_SOURCES: dict[str, str] = {
