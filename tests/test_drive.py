@@ -160,3 +160,73 @@ def test_metadata_with_numpy_values_serialises(tmp_path):
     assert read_drive(p).meta.extra == {"n": 3, "a": [0, 1, 2], "f": 0.5, "b": True}
     with pytest.raises(TypeError, match="metadata value of type object is not JSON-serialisable"):
         Drive.from_frame(_cornering(), PRESETS["sedan"], extra={"x": object()}).meta.to_json()
+
+
+# -- physical ranges, text and complex columns, time base, duplicates ------------------------
+
+@pytest.mark.parametrize(("col", "value"), [("omega_fl", 1.7e308), ("vx", 400.0), ("x", 1e19),
+                                            ("psi", -1e9), ("yaw_rate", 200.0), ("vx_pose", 1e6),
+                                            ("mu_true", 1e12)])
+def test_value_outside_physical_range_names_column_value_row_and_range(col, value):
+    from roadgrip.drive import SIGNAL_RANGES
+
+    df = _cornering()
+    for c in ("omega_fl", "x", "psi", "vx_pose", "mu_true"):
+        df[c] = 0.0
+    df.loc[33, col] = value
+    with pytest.raises(DriveValidationError) as exc:
+        validate_frame(df, check_units=False)
+    msg = str(exc.value)
+    hi = SIGNAL_RANGES.get(col, (0, 1e9, ""))[1]
+    assert f"column {col!r}" in msg and f"{value:.6g}" in msg and "row 33" in msg and f"{hi:g}" in msg
+
+
+@pytest.mark.parametrize("col", ["ay", "vx_pose", "omega_rr"])
+def test_text_column_named(col):
+    df = _cornering()
+    df[col] = df["vx"].astype(str)
+    df.loc[7, col] = "n/a"
+    with pytest.raises(DriveValidationError, match=f"column '{col}' is not numeric.*'n/a' at row 7"):
+        validate_frame(df)
+
+
+def test_complex_and_duplicated_columns_named():
+    df = _cornering()
+    df["ay"] = df["ay"] + 0j
+    with pytest.raises(DriveValidationError, match="column 'ay' is complex"):
+        validate_frame(df)
+    df = pd.concat([_cornering(), _cornering()[["vx"]]], axis=1)
+    with pytest.raises(DriveValidationError, match="duplicated column name 'vx'"):
+        Drive.from_frame(df, PRESETS["sedan"])
+
+
+@pytest.mark.parametrize(("scale", "unit"), [(1e3, "ms"), (1e6, "µs"), (1e9, "ns")])
+def test_time_not_in_seconds_refused_with_its_evidence(scale, unit):
+    df = _cornering()
+    df["t"] = np.round(df["t"] * scale)
+    with pytest.raises(DriveValidationError, match=f"median step {0.01 * scale:g}.* in {unit}".replace("+", r"\+")):
+        Drive.from_frame(df, PRESETS["sedan"])
+
+
+def test_sample_rates_of_real_loggers_accepted():
+    for dt in (1e-3, 0.01, 0.1, 0.5):
+        df = _cornering(n=40)
+        df["t"] = np.arange(40) * dt
+        Drive.from_frame(df, PRESETS["sedan"], check_units=False)
+
+
+def test_duplicated_timestamps_merged_by_from_frame():
+    from roadgrip.drive import DriveWarning
+
+    df = _cornering()
+    df["surface"] = "snow"
+    df.loc[41, "t"] = df.loc[40, "t"]
+    df.loc[42, "t"] = df.loc[40, "t"]
+    df.loc[42, "surface"] = "ice"
+    with pytest.warns(DriveWarning, match=r"2 row\(s\) with a duplicated timestamp.*t = 0\.4 s"):
+        d = Drive.from_frame(df, PRESETS["sedan"])
+    assert d.n == len(df) - 2
+    row = d.data.iloc[40]
+    assert row["ay"] == pytest.approx(df.loc[40:42, "ay"].mean())
+    assert row["surface"] == "ice"
+    assert np.all(np.diff(d.t) > 0)
