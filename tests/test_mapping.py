@@ -309,3 +309,49 @@ def test_the_library_grid_imports_no_figures_console_or_command_line():
             "or m.startswith(('roadgrip.plots', 'roadgrip.cli'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+# -- grid robustness: far-apart observations, huge coordinates, files that are not grids ------
+
+def test_far_apart_observations_refused_with_the_memory_they_would_need():
+    g = M.empty_grid(0.5)
+    with pytest.raises(ValueError) as exc:
+        M.fuse(g, [0.0, 30_000.0], [0.0, 30_000.0], [0.5, 0.6], [0.01, 0.01])
+    msg = str(exc.value)
+    # 60000 x 60000 cells of 40 bytes
+    assert "60001 x 60001" in msg and f"{60001**2 * 40 / 2**30:.3g} GiB" in msg
+    assert "x 0 to 30000.5 m" in msg
+    # the same distance along one axis is a thin strip and fits
+    g2 = M.fuse(g, [0.0, 30_000.0], [0.0, 0.0], [0.5, 0.6], [0.01, 0.01])
+    assert g2.shape == (1, 60001) and int(g2.n_obs.sum()) == 2
+    a = M.fuse(g, [0.0], [0.0], [0.5], [0.01])
+    b = M.fuse(g, [30_000.0], [30_000.0], [0.5], [0.01])
+    with pytest.raises(ValueError, match=r"merged grids .* GiB"):
+        M.merge(a, b)
+
+
+@pytest.mark.parametrize("x", [1e19, 1e308, -2e8])
+def test_huge_coordinates_refused_naming_the_observation(x):
+    with pytest.raises(ValueError, match=r"observation 1 is not usable: at x = .*1e\+08 m"):
+        M.fuse(M.empty_grid(0.5), [0.0, x], [0.0, 0.0], [0.5, 0.5], [0.01, 0.01])
+
+
+def test_from_npz_on_files_that_are_not_grids(tmp_path):
+    rng = np.random.default_rng(0)
+    good = tmp_path / "good.npz"
+    M.fuse(M.empty_grid(0.5), [0.1, 3.0], [0.2, 1.0], [0.5, 0.6], [0.01, 0.01]).to_npz(good)
+    raw = good.read_bytes()
+    cases = {
+        "random.npz": rng.bytes(4096),
+        "truncated.npz": raw[: len(raw) // 2],
+        "empty.npz": b"",
+    }
+    for name, data in cases.items():
+        (tmp_path / name).write_bytes(data)
+    np.save(tmp_path / "pickled.npy", np.array([{"a": 1}], dtype=object))
+    np.savez(tmp_path / "other.npz", a=np.zeros(3))
+    for name in (*cases, "pickled.npy", "other.npz"):
+        with pytest.raises(ValueError, match=name) as exc:
+            M.FrictionGrid.from_npz(tmp_path / name)
+        assert "allow_pickle" not in str(exc.value), name
+    assert M.FrictionGrid.from_npz(good).n_obs.sum() == 2

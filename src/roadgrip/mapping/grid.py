@@ -16,7 +16,16 @@ import pandas as pd
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["FrictionGrid", "Observations", "empty_grid", "fuse", "merge"]
+__all__ = ["MAX_CELLS", "MAX_COORD", "FrictionGrid", "Observations", "empty_grid", "fuse", "merge"]
+
+MAX_CELLS = 10_000_000
+"""Largest grid [cells]: 400 MB for its five arrays (40 bytes a cell). A map is dense over
+the bounding box of its observations; a larger one is refused with what it would need."""
+
+MAX_COORD = 1.0e8
+"""Largest position magnitude [m] in a map frame (a local frame: 100,000 km)."""
+
+_BYTES_PER_CELL = 40
 
 
 class Observations(NamedTuple):
@@ -93,9 +102,15 @@ class FrictionGrid:
             raise ValueError("prior_mean must be finite and prior_std positive")
         if not self.tau > 0:
             raise ValueError(f"forgetting time constant tau must be positive (inf: none), got {self.tau!r}")
-        shapes = {a.shape for a in (self.s0, self.s1, self.s2, self.sb, self.n_obs)}
+        shapes = {np.shape(a) for a in (self.s0, self.s1, self.s2, self.sb, self.n_obs)}
         if len(shapes) != 1 or len(next(iter(shapes))) != 2:
             raise ValueError(f"grid arrays must share one 2-D shape, got {shapes}")
+        ny, nx = next(iter(shapes))
+        _check_size(nx, ny, self.cell)
+        for name, i0, n in (("ix0", self.ix0, nx), ("iy0", self.iy0, ny)):
+            if not abs(i0 * self.cell) <= MAX_COORD or not abs((i0 + n) * self.cell) <= MAX_COORD:
+                raise ValueError(f"grid origin {name} = {i0} cells of {self.cell:g} m lies beyond "
+                                 f"+-{MAX_COORD:g} m")
 
     # -- geometry --------------------------------------------------------------------
     @property
@@ -188,18 +203,48 @@ class FrictionGrid:
 
     @classmethod
     def from_npz(cls, path: str | Path) -> FrictionGrid:
-        """Read :meth:`to_npz` output; a clear error for other files."""
+        """Read :meth:`to_npz` output; a one-line error naming the file for anything else."""
+        import zipfile
+        import zlib
+
+        name = Path(path).name
         try:
-            with np.load(path) as z:
-                if "format" not in z or str(z["format"]) != "roadgrip-friction-grid-1":
-                    raise ValueError(f"{path} is not a roadgrip friction grid (.npz from `roadgrip map`)")
+            with np.load(path, allow_pickle=False) as z:
+                if not hasattr(z, "files") or "format" not in z.files or (
+                        str(z["format"]) != "roadgrip-friction-grid-1"):
+                    raise ValueError(f"{name} is not a roadgrip friction grid (.npz from `roadgrip map`)")
+                arrays = [np.asarray(z[k], dtype=float) for k in ("s0", "s1", "s2", "sb")]
                 return cls(
-                    float(z["cell"]), int(z["ix0"]), int(z["iy0"]), z["s0"], z["s1"], z["s2"], z["sb"],
-                    z["n_obs"].astype(np.int64), float(z["prior_mean"]), float(z["prior_std"]),
-                    float(z["tau"]), float(z["t_ref"]), bool(z["overdispersion"]), z["path"],
+                    float(z["cell"]), int(z["ix0"]), int(z["iy0"]), *arrays,
+                    np.asarray(z["n_obs"]).astype(np.int64), float(z["prior_mean"]),
+                    float(z["prior_std"]), float(z["tau"]), float(z["t_ref"]),
+                    bool(z["overdispersion"]), np.asarray(z["path"], dtype=float).reshape(-1, 2),
                 )
         except FileNotFoundError:
             raise ValueError(f"map file not found: {path}") from None
+        except IsADirectoryError:
+            raise ValueError(f"map file {path} is a folder") from None
+        except (zipfile.BadZipFile, EOFError, zlib.error, KeyError, OSError, TypeError,
+                ValueError) as exc:
+            if str(exc).startswith(name):
+                raise
+            why = ("a damaged or truncated archive" if isinstance(exc, zipfile.BadZipFile | EOFError | zlib.error)
+                   else "not an .npz archive of arrays" if isinstance(exc, ValueError | OSError)
+                   else f"a grid array is missing or malformed ({type(exc).__name__})")
+            raise ValueError(f"{name} is not a readable roadgrip friction grid (.npz from "
+                             f"`roadgrip map`): {why}") from None
+
+
+def _check_size(nx: int, ny: int, cell: float, spread: str = "") -> None:
+    """Refuse a grid of more than :data:`MAX_CELLS` cells, with the memory it would need."""
+    n = int(nx) * int(ny)
+    if n > MAX_CELLS:
+        gib = n * _BYTES_PER_CELL / 2**30
+        raise ValueError(
+            f"the map would need {nx} x {ny} = {n:.3g} cells of {cell:g} m ({gib:.3g} GiB){spread}; "
+            f"the limit is {MAX_CELLS:.3g} cells ({MAX_CELLS * _BYTES_PER_CELL / 2**30:.2g} GiB): "
+            "use larger cells or map the areas separately"
+        )
 
 
 def empty_grid(
@@ -351,15 +396,23 @@ def fuse(
     b = np.zeros(n) if sys is None else np.ascontiguousarray(np.asarray(sys, dtype=float).ravel())
     if b.size != n or not np.all(np.isfinite(b)) or np.any(b < 0):
         raise ValueError("systematic errors sys must be finite, >= 0 and as many as the observations")
+    far = ~(np.abs(x) <= MAX_COORD) | ~(np.abs(y) <= MAX_COORD)
+    if far.any():
+        i = int(np.flatnonzero(far)[0])
+        raise ValueError(f"observation {i} is not usable: at x = {x[i]:.6g}, y = {y[i]:.6g} m; positions must be "
+                         f"finite and within +-{MAX_COORD:g} m of the map origin")
     bad, bx0, by0, bx1, by1 = _bounds(x, y, mu, var, g.cell)
     if bad >= 0:
-        raise ValueError(f"observation {bad} is not usable: positions, mu and var must be finite, var > 0")
+        raise ValueError(f"observation {bad} is not usable: positions, mu and var must be finite, var > 0 "
+                         f"(mu = {mu[bad]:.6g}, var = {var[bad]:.6g})")
     decay = np.empty(0)
     if t is not None:
         g = _decay(grid, float(t.max()))
         if np.isfinite(g.tau):
             decay = np.exp(-(g.t_ref - t) / g.tau)
     x0, y0, nx, ny = _union(_window(g), _Window(bx0, by0, bx1 - bx0 + 1, by1 - by0 + 1))
+    _check_size(nx, ny, g.cell, f" to hold observations over x {x0 * g.cell:.6g} to "
+                f"{(x0 + nx) * g.cell:.6g} m, y {y0 * g.cell:.6g} to {(y0 + ny) * g.cell:.6g} m")
     sums = _embed(g, x0, y0, nx, ny)
     _accumulate(_Batch(x, y, mu, var, decay, b), g.cell, x0, y0, sums)
     return dataclasses.replace(g, ix0=x0, iy0=y0, **sums._asdict(), path=new_path)
@@ -423,6 +476,8 @@ def merge(*grids: FrictionGrid) -> FrictionGrid:
     for g in grids:
         win = _union(win, _window(g))
     x0, y0, nx, ny = win
+    _check_size(nx, ny, first.cell, f" to hold the merged grids over x {x0 * first.cell:.6g} to "
+                f"{(x0 + nx) * first.cell:.6g} m, y {y0 * first.cell:.6g} to {(y0 + ny) * first.cell:.6g} m")
     acc = _Sums(*(np.zeros((ny, nx)) for _ in range(4)), np.zeros((ny, nx), np.int64))
     paths = []
     for g in grids:
