@@ -230,7 +230,12 @@ def nonlinear_fraction(
             labels = np.full(len(alpha), next(iter(drive.meta.truth["surfaces"])))
         thresh = np.empty(len(alpha))
         parts = []
+        known_surfaces = set(truth.get("surfaces") or {})
         for lab in np.unique(labels):
+            if str(lab) not in known_surfaces:  # a label the truth does not describe (cut file)
+                thresh[labels == lab] = np.inf
+                parts.append(f"{lab}: no true curve")
+                continue
             a80 = slip_at_fraction_of_peak(drive.true_tire("front", surface=str(lab)), 0.8)
             thresh[labels == lab] = a80
             parts.append(f"{lab}: {a80:.4f} rad")
@@ -395,7 +400,7 @@ def describe_drive(drive: Drive, *, mu_peak: float | None = None) -> list[Sectio
     t = drive.t
     dt = np.diff(t)
     over: list[tuple[str, ...]] = [
-        ("vehicle", drive.vehicle.name),
+        ("vehicle", str(drive.vehicle.name)),
         ("samples", str(drive.n)),
         ("duration", f"{drive.duration:.2f} s"),
     ]
