@@ -40,6 +40,7 @@ def estimate(
     curves: Annotated[Path | None, typer.Option(help="gpssm: write posterior curves here.")] = None,
     curve_times: Annotated[str | None, typer.Option(help="gpssm: comma-separated times [s].")] = None,
     plot: Annotated[Path | None, typer.Option(help="Write a PNG figure.")] = None,
+    vss: Annotated[Path | None, typer.Option(help="Write VSS road friction (percent) as JSON lines.")] = None,
 ) -> None:
     """Run one estimator over a drive and write its estimates."""
     from roadgrip import estimators
@@ -69,6 +70,13 @@ def estimate(
     if curves is not None and result.curves is not None and len(result.curves):
         result.curves.to_parquet(curves, index=False)
         written.append(curves)
+    if vss is not None:
+        from roadgrip.io.vss import write_vss
+
+        counts = write_vss(vss, result.table, method, est.prior_band(config))
+        written.append(vss)
+        console.print(f"VSS: {counts['lines']} lines, MostProbable in {counts['MostProbable']}, "
+                      f"LowerBound in {counts['LowerBound']}, UpperBound in {counts['UpperBound']}")
     if plot is not None:
         from roadgrip.plots import plot_estimate
 
