@@ -102,7 +102,9 @@ def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measu
         b_rows.append(eb)
     a, b = pd.DataFrame(a_rows), pd.DataFrame(b_rows)
     assert a["resampled"].sum() > 5 and (~a["excited"]).sum() > 5
-    pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-7, atol=1e-9)
+    # (atol 1e-8: the per-step axle loads and accelerometer gains carry the rounding
+    # differences of fastmath a little further than the paper's static model did)
+    pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-7, atol=1e-8)
     np.testing.assert_allclose(b_state.Psi, a_state.Psi, rtol=1e-7, atol=1e-9)
     # (fastmath sums in another order; with each particle's accelerometer gain the slips
     # that enter the information matrices differ from the reference's by ~1e-9 relative)
@@ -131,7 +133,9 @@ def test_fast_step_carries_the_posterior_the_reference_solves_for(snow20, basis)
         b_rows.append(eb)
     a, b = pd.DataFrame(a_rows), pd.DataFrame(b_rows)
     assert a["resampled"].sum() > 5 and b_state.lin.c != 1.0  # 6 refactorisations, c far from 1
-    pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-7, atol=1e-9)
+    # (atol 1e-8: the per-step axle loads and accelerometer gains carry the rounding
+    # differences of fastmath a little further than the paper's static model did)
+    pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-7, atol=1e-8)
     m = b_state.M.shape[-1]
     B = la.information(b_state.lin) - (1.0 - b_state.lin.c) * np.eye(m)  # Sigma + c I
     M = np.swapaxes(np.linalg.solve(B, np.swapaxes(b_state.Psi, -1, -2)), -1, -2)

@@ -104,6 +104,7 @@ def true_peak(drive: Any, axle: str) -> float:
 
 def honesty_figures(
     drive: Any, table: Any, curve: CurvePosterior | None = None, *, vy_ref: NDArray | None = None,
+    ay: NDArray | None = None,
 ) -> dict[str, Any]:
     """Accuracy and honesty figures of one run (the acceptance of ``docs/gpssm.md``).
 
@@ -117,6 +118,9 @@ def honesty_figures(
     vy_ref : ndarray, shape (n,), optional
         Reference lateral velocity [m/s] (the truth, or the pose-derived one); default
         ``vy_true`` when the drive has it.
+    ay : ndarray, shape (n,), optional
+        The lateral acceleration of the floor [m/s²]: the filter's input (e.g. the
+        kinematic one of the DART options); default the drive's ``ay`` column.
 
     Returns
     -------
@@ -133,7 +137,7 @@ def honesty_figures(
     out: dict[str, Any] = {}
     has_truth = bool(getattr(drive, "has_truth", False)) and drive.has("alpha_f_true")
     acc = curve_accuracy(curve, drive) if (curve is not None and has_truth) else None
-    floor = sustained_lateral(drive.t, drive.col("ay"))
+    floor = sustained_lateral(drive.t, drive.col("ay") if ay is None else ay)
     last = table.iloc[-1]
     for axle in AXLES:
         a = axle[0]
@@ -163,7 +167,7 @@ def honesty_figures(
     if vy_ref is not None:
         ok = np.isfinite(vy_ref)
         err = np.abs(vy - vy_ref)[ok]
-        out["vy_coverage"] = float(np.mean(err <= Z95 * table["vy_std"].to_numpy()[ok]))
+        out["vy_coverage"] = float(np.mean(err <= Z95 * table["vy_std"].to_numpy()[ok] + 1e-9))
         out["vy_rmse"] = float(np.sqrt(np.mean(err**2)))
     out["floor"] = float(floor[-1])
     return out

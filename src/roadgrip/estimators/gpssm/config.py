@@ -151,6 +151,10 @@ class GPSSMConfig(EstimatorConfig):
         1.11-1.15, which the paper's model takes for friction (the learned peak 7 % high,
         the curve band covering the truth on 30-80 % of the slip bins). Used only with
         ``ay_source='imu'``.
+    axle_loads : {'static', 'dynamic'}
+        ``'static'``: the paper's static axle loads. ``'dynamic'``: the loads with the
+        longitudinal load transfer of the measured ``ax`` (CG height, wheelbase,
+        :func:`roadgrip.vehicle.params.axle_loads`) in eq. 7-8, where the drive has ``ax``.
     ay_gain_walk : float
         Random-walk std of the gain [1/sqrt(s)] (artificial dynamics of a static
         parameter in a particle filter, so that resampling does not exhaust it).
@@ -207,6 +211,7 @@ class GPSSMConfig(EstimatorConfig):
     slip_limit: float | None = None
     ay_gain_sigma: float = 0.1
     ay_gain_walk: float = 0.003
+    axle_loads: str = "static"
     max_sideslip_ratio: float = 0.5
     diverge_time: float = 1.0
     floor_margin: float = 0.01
@@ -256,6 +261,8 @@ class GPSSMConfig(EstimatorConfig):
             raise ValueError("ay_source='kinematic' needs a measured lateral velocity (vy_source='pose')")
         if self.vx_source not in ("auto", "wheels", "column", "pose"):
             raise ValueError(f"vx_source must be auto, wheels, column or pose, got {self.vx_source!r}")
+        if self.axle_loads not in ("static", "dynamic"):
+            raise ValueError(f"axle_loads must be 'static' or 'dynamic', got {self.axle_loads!r}")
         if self.proposal not in ("conditional", "prior"):
             raise ValueError(f"proposal must be 'conditional' or 'prior', got {self.proposal!r}")
         if self.refactor_every < 1 or self.peak_grid < 3 or self.peak_visits < 1:

@@ -12,16 +12,18 @@ Divergence
     (``|r_meas - r_est|`` above ``5 sqrt(sigma_r² + yaw_rate_std²)``) or the weights
     have collapsed (effective sample size below 1.5) for ``diverge_time`` seconds in a
     row. A flagged step reports the prior band ``[0, peak_max]`` for both peaks, not
-    observed, and the particles' lateral velocity and yaw rate are re-initialised as at
+    observed, ``vy_std`` at least ``max(sigma_vy0, |vy|)``, and the particles' lateral
+    velocity and yaw rate are re-initialised as at
     the start (``vy ~ N(0, sigma_vy0²)``, the yaw rate from the gyro); the learned
     statistics are kept. The output stays flagged for ``diverge_time`` after the
     re-initialisation while the state settles.
 Physics floor
     ``floor`` is the largest ``|mean a_y| / g`` over a full trailing second up to the
     step: the friction the car demonstrably used. No upper bound is reported below it
-    (the accelerometer as read); an observed peak below it (the accelerometer divided
-    by the learned gain, :attr:`GPSSMConfig.ay_gain_sigma`, less ``floor_margin``) is
-    reported as not observed.
+    (the accelerometer as read). Over the learned accelerometer gain
+    (:attr:`GPSSMConfig.ay_gain_sigma`) it is the floor of the peak estimates: an observed
+    peak more than ``floor_margin`` below it is reported as not observed (the learned
+    curve contradicts the data), and no ``mu_*`` is reported below it.
 Lateral-velocity band
     Without a measured lateral velocity the particle spread after resampling
     under-represents the error of ``vy``: ``vy_std`` includes ``slip_sigma |vx|`` in
@@ -34,7 +36,7 @@ import math
 
 import numpy as np
 
-from roadgrip.constants import GRAVITY
+from roadgrip.constants import GRAVITY, Z95
 from roadgrip.estimators.gpssm.inputs import Sample
 from roadgrip.estimators.gpssm.model import State
 
@@ -125,6 +127,11 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
     vy_std = est.vy_std
     if not measured_vy:
         vy_std = math.sqrt(vy_std**2 + (config.slip_sigma * vx) ** 2)
+    if not moving:
+        # near standstill the filter holds vy at 0: its band is what a measurement says
+        # against that, or a sideslip of max_sideslip_ratio at min_speed
+        gap = abs(sample.vy - est.vy) if measured_vy else config.max_sideslip_ratio * config.min_speed
+        vy_std = max(vy_std, gap / Z95)
     # divergence
     runaway = moving and not measured_vy and abs(est.vy) > config.max_sideslip_ratio * vx
     yaw_gap = abs(sample.yaw_rate - est.yaw_rate) > _YAW_SIGMAS * math.hypot(ctx.sigma_yaw_rate, est.yaw_rate_std)
@@ -140,6 +147,9 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
         g.bad_since = math.nan
         g.flagged_until = t + config.diverge_time
     diverged = bool(runaway or lost or t < g.flagged_until)
+    if diverged and not measured_vy:
+        # the lateral state is unknown: its band as wide as the start's, or the estimate
+        vy_std = max(vy_std, config.sigma_vy0, abs(est.vy))
     rep = {"vy_std": vy_std, "diverged": diverged, "floor": g.floor_raw}
     for axle in ("front", "rear"):
         obs = getattr(est, f"peak_observed_{axle}")
@@ -147,8 +157,12 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
         lo, hi = getattr(est, f"mu_{axle}_lower"), getattr(est, f"mu_{axle}_upper")
         if obs and mu < floor_gain - config.floor_margin:
             obs, hi = False, config.peak_max  # an observed peak below what the car used
+        # the car demonstrably used the floor: no peak estimate below it (a small shortfall
+        # of an observed peak is within the floor's noise)
+        mu = max(mu, floor_gain)
         if diverged:
             obs, lo, hi = False, 0.0, config.peak_max
+        rep[f"mu_{axle}"] = float(mu)
         rep[f"peak_observed_{axle}"] = bool(obs)
         rep[f"mu_{axle}_lower"] = float(min(lo, mu))
         rep[f"mu_{axle}_upper"] = float(max(hi, g.floor_raw, mu))

@@ -24,6 +24,8 @@ class Sample(NamedTuple):
     """One time step of the filter's inputs (SI units).
 
     ``vy`` is a measured lateral velocity (NaN: none, ``GPSSMConfig.vy_source``);
+    ``ax`` the longitudinal acceleration [m/s²] of the axle loads (NaN: none,
+    ``GPSSMConfig.axle_loads``);
     ``recorded`` is False for a sub-step interpolated between recorded samples
     (:func:`upsample_inputs`), which gives no output row.
     """
@@ -34,6 +36,7 @@ class Sample(NamedTuple):
     steer: float
     vx: float
     vy: float = math.nan
+    ax: float = math.nan
     recorded: bool = True
 
 
@@ -92,9 +95,10 @@ def drive_vy(drive: Any, source: str = "pose") -> NDArray[np.float64]:
 def drive_inputs(
     drive: Any, vx_source: str = "auto", vy_source: str = "none", ay_source: str = "imu"
 ) -> NDArray[np.float64]:
-    """Columns ``t, ay, yaw_rate, steer, vx, vy`` of a drive as an array (n, 6), the
+    """Columns ``t, ay, yaw_rate, steer, vx, vy, ax`` of a drive as an array (n, 7), the
     fields of :class:`Sample` (``vy`` NaN unless ``vy_source`` measures it; ``ay`` the
-    accelerometer or, with ``ay_source='kinematic'``, ``r vx + dvy/dt``)."""
+    accelerometer or, with ``ay_source='kinematic'``, ``r vx + dvy/dt``; ``ax`` the
+    accelerometer's, NaN without one)."""
     drive.require("t", "yaw_rate", "steer", why="inputs of the GP-SSM filter")
     vx, vy = drive_vx(drive, vx_source), drive_vy(drive, vy_source)
     if ay_source == "kinematic":
@@ -104,7 +108,8 @@ def drive_inputs(
     else:
         drive.require("ay", why="the lateral acceleration of the GP-SSM filter")
         ay = drive.col("ay")
-    return np.column_stack([drive.col("t"), ay, drive.col("yaw_rate"), drive.col("steer"), vx, vy])
+    ax = drive.col("ax") if drive.has("ax") else np.full(drive.n, np.nan)
+    return np.column_stack([drive.col("t"), ay, drive.col("yaw_rate"), drive.col("steer"), vx, vy, ax])
 
 
 def upsample_inputs(data: NDArray, max_dt: float) -> tuple[NDArray, NDArray, int]:
@@ -116,7 +121,7 @@ def upsample_inputs(data: NDArray, max_dt: float) -> tuple[NDArray, NDArray, int
     interpolated rows between recorded ones (and the filter widens ``R`` by ``sqrt(k)`` so
     that the information per recorded sample is unchanged).
 
-    Returns the rows (n', 6), a mask of the recorded rows and ``k``.
+    Returns the rows (n', columns), a mask of the recorded rows and ``k``.
     """
     t = data[:, 0]
     if len(t) < 2:

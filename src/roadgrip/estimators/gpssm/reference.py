@@ -52,7 +52,7 @@ def step_reference(
     mode); :func:`~roadgrip.estimators.gpssm.stepping.step` documents the arguments."""
     check_sample(sample)
     config = ctx.config
-    veh = ctx.veh
+    veh = ctx.step_vehicle(sample)
     b = config.basis
     lam = config.forgetting
     N, d = config.particles, b.outputs

@@ -18,7 +18,7 @@ from roadgrip.estimators.gpssm.config import GPSSMConfig
 from roadgrip.estimators.gpssm.guard import Guard
 from roadgrip.estimators.gpssm.inputs import Sample
 from roadgrip.estimators.gpssm.model import State, VehicleConstants, vehicle_constants
-from roadgrip.vehicle.params import VehicleParams
+from roadgrip.vehicle.params import VehicleParams, axle_loads
 
 GAIN_MIN, GAIN_MAX = 0.5, 2.0
 """Range of the accelerometer gain [-] (``State.AY_GAIN``)."""
@@ -62,6 +62,15 @@ class Context:
         self.gain_sigma = config.ay_gain_sigma if imu else 0.0
         self.gain_walk = config.ay_gain_walk if (imu and config.ay_gain_sigma > 0.0) else 0.0
         self.kernel: dict[str, Any] = {}
+
+    def step_vehicle(self, sample: Sample) -> VehicleConstants:
+        """The vehicle constants of a step: the axle loads with the longitudinal load
+        transfer of the measured ``sample.ax`` (``GPSSMConfig.axle_loads = 'dynamic'``,
+        :func:`roadgrip.vehicle.params.axle_loads`), else the static ones."""
+        if self.config.axle_loads != "dynamic" or not math.isfinite(sample.ax):
+            return self.veh
+        fzf, fzr = axle_loads(self.vehicle, float(sample.ax))
+        return self.veh._replace(fz_front=float(fzf), fz_rear=float(fzr))
 
     def gain_steps(self, rng: np.random.Generator, dt: float) -> NDArray:
         """Random-walk increments of the particles' accelerometer gains over ``dt`` [s],
@@ -241,11 +250,11 @@ def init_state(ctx: Context, sample: Sample, seed: int = 0) -> GPSSMState:
 
 
 def check_sample(sample: Sample) -> None:
-    """Raise ``ValueError`` naming the non-finite inputs of a sample (``vy`` may be NaN)."""
+    """Raise ``ValueError`` naming the non-finite inputs of a sample (``vy``, ``ax`` may be NaN)."""
     vals = (sample.t, sample.ay, sample.yaw_rate, sample.steer, sample.vx)
-    if not all(map(math.isfinite, vals)) or math.isinf(sample.vy):
-        names = [n for n, v in zip(Sample._fields[:6], [*vals, sample.vy], strict=True)
-                 if not np.isfinite(v) and not (n == "vy" and math.isnan(v))]
+    if not all(map(math.isfinite, vals)) or math.isinf(sample.vy) or math.isinf(sample.ax):
+        names = [n for n, v in zip(Sample._fields[:7], [*vals, sample.vy, sample.ax], strict=True)
+                 if not np.isfinite(v) and not (n in ("vy", "ax") and math.isnan(v))]
         raise ValueError(f"GP-SSM sample at t = {sample.t} has non-finite input(s) {names}")
 
 

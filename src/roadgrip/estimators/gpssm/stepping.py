@@ -170,7 +170,7 @@ def _step_compiled(
         gk.StepInput(propagate, float(dt), float(state.u[Input.STEER]), float(state.u[Input.VX]),
                      float(sample.steer), float(sample.vx), float(sample.ay), float(sample.yaw_rate),
                      not math.isnan(sample.vy), 0.0 if math.isnan(sample.vy) else float(sample.vy), learn),
-        ctx.veh,
+        ctx.step_vehicle(sample),
         gk.Params(kc["mf"], lam, nu, kc["Lambda0"], ctx.sigma_ay, ctx.sigma_yaw_rate, vy_max,
                   lin.p_scale, 0.0 if carry else 1.0 - lin.c, kc["tol"], kc["max_terms"],
                   config.proposal == "conditional", carry),
