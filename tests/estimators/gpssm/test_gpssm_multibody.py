@@ -97,7 +97,7 @@ def test_physics_floor(runs):
     # reads it. (An observed peak does lie below that reading, 0.33-0.34 g against a true
     # peak of 0.30, because the reading includes g sin(roll); the filter holds observed
     # peaks to the floor over its learned accelerometer gain instead)
-    for key, (d, table, h) in runs.items():
+    for key, (_, table, h) in runs.items():
         for axle in AXLES:
             assert h[axle]["upper_below_floor"] == 0, (key, axle)
             obs = table[f"peak_observed_{axle}"].to_numpy(bool)
