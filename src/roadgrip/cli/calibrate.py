@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import numpy as np
 import typer
 
-from roadgrip.cli._common import FormatOpt, VehicleOpt, app, console
+from roadgrip.cli._common import ChannelsOpt, FormatOpt, TopicsOpt, VehicleOpt, app, console
 
 if TYPE_CHECKING:
     from roadgrip.estimators.classify import Calibration
@@ -146,6 +146,8 @@ def calibrate(
     output: Annotated[Path, typer.Option("-o", "--output", help="calibration.yaml")],
     vehicle: VehicleOpt = None,
     fmt: FormatOpt = None,
+    topics: TopicsOpt = None,
+    channels: ChannelsOpt = None,
 ) -> None:
     """Learn bRLS / slipmap references and thresholds from labelled drives."""
     from roadgrip.estimators.classify import calibrate as learn
@@ -155,7 +157,7 @@ def calibrate(
     labelled = []
     for arg, label in pairs:
         path, window = split_window(arg)
-        drive = read_drive(path, format=fmt, vehicle=vehicle)
+        drive = read_drive(path, format=fmt, vehicle=vehicle, topics=topics, channels=channels)
         if window is not None:
             drive = drive.slice_time(*window)
             if drive.n < 2:

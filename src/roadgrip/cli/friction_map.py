@@ -8,7 +8,15 @@ from typing import TYPE_CHECKING, Annotated, Any
 import numpy as np
 import typer
 
-from roadgrip.cli._common import FormatOpt, VehicleOpt, app, console, load_drive
+from roadgrip.cli._common import (
+    ChannelsOpt,
+    FormatOpt,
+    TopicsOpt,
+    VehicleOpt,
+    app,
+    console,
+    load_drive,
+)
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -16,7 +24,8 @@ if TYPE_CHECKING:
     from roadgrip.mapping import FrictionGrid
 
 
-def _estimates_table(path: str, vehicle: str | None, fmt: str | None) -> tuple[pd.DataFrame, str]:
+def _estimates_table(path: str, vehicle: str | None, fmt: str | None,
+                     topics: str | None = None, channels: str | None = None) -> tuple[pd.DataFrame, str]:
     """The estimates of ``path``: an estimates Parquet file as written, a drive through the cascade."""
     from roadgrip.estimators import EstimateResult, run_estimator
 
@@ -28,7 +37,7 @@ def _estimates_table(path: str, vehicle: str | None, fmt: str | None) -> tuple[p
         if b"roadgrip_estimate" in md:
             res = EstimateResult.read_parquet(p)
             return res.table, f"estimates ({res.method})"
-    drive = load_drive(path, fmt, vehicle)
+    drive = load_drive(path, fmt, vehicle, topics, channels)
     return run_estimator("cascade", drive).table, "drive (cascade run)"
 
 
@@ -42,6 +51,8 @@ def map_files(
     vehicle: str | None = None,
     fmt: str | None = None,
     console: Any = None,
+    topics: str | None = None,
+    channels: str | None = None,
 ) -> FrictionGrid:
     """Grids of estimates files or drives (cascade), merged and written to ``output`` (NPZ).
 
@@ -58,7 +69,7 @@ def map_files(
         raise ValueError(f"--cell must be a positive size in m, got {cell}")
     grids = []
     for path in inputs:
-        table, kind = _estimates_table(path, vehicle, fmt)
+        table, kind = _estimates_table(path, vehicle, fmt, topics, channels)
         g = grid_from_estimates(table, cell)
         grids.append(g)
         if console is not None:
@@ -101,6 +112,8 @@ def map_cmd(
     png: Annotated[Path | None, typer.Option(help="Write a PNG heat map.")] = None,
     vehicle: VehicleOpt = None,
     fmt: FormatOpt = None,
+    topics: TopicsOpt = None,
+    channels: ChannelsOpt = None,
 ) -> None:
     """Fuse friction estimates into a spatial grid (`roadgrip map show MAP -o PNG` to plot)."""
     if inputs and inputs[0] == "show":
@@ -108,4 +121,5 @@ def map_cmd(
             raise ValueError("usage: roadgrip map show MAP.npz -o MAP.png")
         show_map(inputs[1], output, console=console)
         return
-    map_files(inputs, output, cell=cell, csv=csv, png=png, vehicle=vehicle, fmt=fmt, console=console)
+    map_files(inputs, output, cell=cell, csv=csv, png=png, vehicle=vehicle, fmt=fmt, console=console,
+              topics=topics, channels=channels)
