@@ -247,3 +247,20 @@ def test_topic_map_errors():
     m = load_topic_map({"signals": {"yaw_rate": {"topic": "/a", "field": "w", "unit": "deg/s"}}})
     assert m["signals"]["yaw_rate"]["factor"] == pytest.approx(math.pi / 180)
     assert m["clock"] == "/a"
+
+
+@pytest.mark.parametrize("name", ["run.mcap", "run.bag"])
+def test_f1tenth_export_reads_back_with_the_shipped_map(tmp_path, source, name):
+    from roadgrip.io.rosbag import write_f1tenth_bag
+
+    write_f1tenth_bag(source, tmp_path / name)
+    got = read_drive(tmp_path / name)  # format detected; topic map defaults to f1tenth
+    src = source.data
+    assert got.n == source.n
+    assert list(got.data.columns) == ["t", "ax", "ay", "yaw_rate", "steer", "vx", "x", "y", "psi", "vx_motor"]
+    for c in ("ax", "ay", "yaw_rate", "vx", "x", "y"):
+        np.testing.assert_array_equal(got.col(c), src[c].to_numpy(float), err_msg=c)
+    np.testing.assert_array_equal(got.col("steer"), src["steer"].to_numpy(np.float32).astype(float))
+    np.testing.assert_allclose(np.angle(np.exp(1j * (got.col("psi") - src["psi"]))), 0.0, atol=1e-12)
+    np.testing.assert_allclose(got.data["vx_motor"], src["vx"], rtol=1e-12)
+    assert got.meta.extra["topics_unused"] == []

@@ -65,6 +65,7 @@ __all__ = [
     "read_rosbag",
     "shipped_topic_maps",
     "typestore_for",
+    "write_f1tenth_bag",
 ]
 
 BAG_SUFFIXES = (".bag", ".mcap", ".db3")
@@ -407,3 +408,98 @@ def read_rosbag(
         ),
     }
     return Drive.from_frame(df.reset_index(drop=True), veh, source=str(p), extra=extra)
+
+
+F1TENTH_ERPM_GAIN = 4614.0
+"""F1TENTH ``speed_to_erpm_gain`` [ERPM / (m/s)] (f1tenth_system's vesc.yaml)."""
+
+
+def write_f1tenth_bag(drive: Drive, path: str | Path, *, t0_ns: int = 1_700_000_000_000_000_000) -> None:
+    """Write a drive as an F1TENTH bag: the topics of the shipped ``f1tenth`` map.
+
+    Every sample becomes one message on each of ``/sensors/imu/raw``
+    (``sensor_msgs/msg/Imu``: ``ax``, ``ay``, ``yaw_rate``), ``/odom``
+    (``nav_msgs/msg/Odometry``: ``vx``), ``/drive``
+    (``ackermann_msgs/msg/AckermannDriveStamped``: ``steer``, float32),
+    ``/sensors/core`` (``vesc_msgs/msg/VescStateStamped``: ``vx`` times
+    :data:`F1TENTH_ERPM_GAIN`) and, where the drive has a pose, ``/pf/pose/odom``
+    (``x``, ``y``, ``psi`` as a quaternion), header-stamped at ``t0_ns + t``.
+    For replaying simulated drives through a ROS stack and for examples.
+
+    Parameters
+    ----------
+    drive : Drive
+        Needs ``ax``, ``ay``, ``yaw_rate``, ``vx`` and ``steer``.
+    path : str or Path
+        ``.bag`` (ROS 1), ``.mcap`` (ROS 2 MCAP) or another name (a ROS 2 SQLite bag
+        folder); must not exist.
+    t0_ns : int
+        Absolute time of ``t = 0`` [ns].
+    """
+    from rosbags.rosbag1 import Writer as Writer1
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    p = Path(path)
+    ros1 = p.suffix.lower() == ".bag"
+    store = typestore_for(load_topic_map("f1tenth"), ros1=ros1)
+    T = store.types
+    if ros1:
+        writer = Writer1(p)
+    else:
+        plugin = StoragePlugin.MCAP if p.suffix.lower() == ".mcap" else StoragePlugin.SQLITE3
+        writer = Writer(p, version=9, storage_plugin=plugin)
+    serialize = store.serialize_ros1 if ros1 else store.serialize_cdr
+    d = drive.data
+    pose = drive.has_pose
+    zeros9, zeros36 = np.zeros(9), np.zeros(36)
+    vec = T["geometry_msgs/msg/Vector3"]
+    quat = T["geometry_msgs/msg/Quaternion"]
+    vesc_fields = [f for f in T["vesc_msgs/msg/VescState"].__dataclass_fields__ if f != "__msgtype__"]
+
+    def header(ns: int):
+        stamp = T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+        if ros1:
+            return T["std_msgs/msg/Header"](seq=0, stamp=stamp, frame_id="base_link")
+        return T["std_msgs/msg/Header"](stamp=stamp, frame_id="base_link")
+
+    def odometry(ns: int, x=0.0, y=0.0, psi=0.0, vx=0.0):
+        q = quat(x=0.0, y=0.0, z=math.sin(psi / 2), w=math.cos(psi / 2))
+        pose_msg = T["geometry_msgs/msg/PoseWithCovariance"](
+            pose=T["geometry_msgs/msg/Pose"](position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
+                                             orientation=q), covariance=zeros36)
+        twist = T["geometry_msgs/msg/TwistWithCovariance"](
+            twist=T["geometry_msgs/msg/Twist"](linear=vec(x=vx, y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=0.0)),
+            covariance=zeros36)
+        return T["nav_msgs/msg/Odometry"](header=header(ns), child_frame_id="base_link", pose=pose_msg, twist=twist)
+
+    topics = {"/sensors/imu/raw": "sensor_msgs/msg/Imu", "/odom": "nav_msgs/msg/Odometry",
+              "/drive": "ackermann_msgs/msg/AckermannDriveStamped",
+              "/sensors/core": "vesc_msgs/msg/VescStateStamped"}
+    if pose:
+        topics["/pf/pose/odom"] = "nav_msgs/msg/Odometry"
+    writer.open()
+    try:
+        conns = {t: writer.add_connection(t, ty, typestore=store) for t, ty in topics.items()}
+
+        def put(topic: str, ns: int, msg: Any) -> None:
+            writer.write(conns[topic], ns, serialize(msg, topics[topic]))
+
+        for row in d.itertuples(index=False):
+            ns = t0_ns + round(float(row.t) * 1e9)
+            put("/sensors/imu/raw", ns, T["sensor_msgs/msg/Imu"](
+                header=header(ns), orientation=quat(x=0.0, y=0.0, z=0.0, w=1.0), orientation_covariance=zeros9,
+                angular_velocity=vec(x=0.0, y=0.0, z=row.yaw_rate), angular_velocity_covariance=zeros9,
+                linear_acceleration=vec(x=row.ax, y=row.ay, z=0.0), linear_acceleration_covariance=zeros9))
+            put("/odom", ns, odometry(ns, vx=row.vx))
+            cmd = T["ackermann_msgs/msg/AckermannDrive"](steering_angle=row.steer, steering_angle_velocity=0.0,
+                                                         speed=row.vx, acceleration=0.0, jerk=0.0)
+            put("/drive", ns, T["ackermann_msgs/msg/AckermannDriveStamped"](header=header(ns), drive=cmd))
+            state = {f: 0 if f in ("displacement", "distance_traveled", "fault_code", "controller_id") else 0.0
+                     for f in vesc_fields}
+            state["speed"] = row.vx * F1TENTH_ERPM_GAIN
+            put("/sensors/core", ns, T["vesc_msgs/msg/VescStateStamped"](
+                header=header(ns), state=T["vesc_msgs/msg/VescState"](**state)))
+            if pose:
+                put("/pf/pose/odom", ns, odometry(ns, x=row.x, y=row.y, psi=row.psi))
+    finally:
+        writer.close()
