@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from roadgrip.drive import SIGNAL_COLUMNS, WHEEL_COLUMNS
-from roadgrip.io import read_drive
+from roadgrip.io import detect_format, read_drive
 from roadgrip.io.rosbag import load_topic_map, read_rosbag, typestore_for
 
 T0_NS = 1_700_000_000_123_456_789  # absolute time of the first sample [ns]
@@ -151,6 +151,7 @@ def test_round_trip_every_canonical_column(tmp_path, source, kind):
     m = _topic_map()
     path = _bag_path(tmp_path, kind)
     write_drive_bag(path, kind, source, m)
+    assert detect_format(path) == "rosbag"  # .mcap, .bag, or a ROS 2 folder with metadata.yaml
     got = read_drive(path, format="rosbag", topics=m)
     src = source.data
     assert got.n == source.n
@@ -264,3 +265,24 @@ def test_f1tenth_export_reads_back_with_the_shipped_map(tmp_path, source, name):
     np.testing.assert_allclose(np.angle(np.exp(1j * (got.col("psi") - src["psi"]))), 0.0, atol=1e-12)
     np.testing.assert_allclose(got.data["vx_motor"], src["vx"], rtol=1e-12)
     assert got.meta.extra["topics_unused"] == []
+
+
+def test_gap_longer_than_max_gap_is_not_bridged(tmp_path):
+    m = _topic_map(signals={
+        "ax": {"topic": "/sensors/imu/raw", "field": "linear_acceleration.x"},
+        "vx": {"topic": "/odom", "field": "twist.twist.linear.x"},
+    }, extras={}, max_gap=0.25)
+    t_imu = np.arange(201) * 0.01
+    t_odom = np.array([t for t in np.arange(41) * 0.05 if not 0.9 < t < 1.3])  # silent 0.9-1.3 s
+    path = tmp_path / "gap.mcap"
+    with _Bag(path, "mcap", m) as bag:
+        for t in sorted({*t_imu, *t_odom}):
+            if t in t_imu:
+                bag.imu(_ns(t), 0.0, 0.0, 0.0)
+            if t in t_odom:
+                bag.odom("/odom", _ns(t), vx=2.0)
+    d = read_rosbag(path, m, vehicle="f1tenth")
+    t = d.t + 0.0  # the IMU starts the clock at 0
+    assert not ((t > 0.9 + 1e-9) & (t < 1.3 - 1e-9)).any()
+    assert d.n == 201 - 39  # the 39 ticks strictly inside the gap
+    np.testing.assert_array_equal(d.col("vx"), 2.0)
