@@ -3,7 +3,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-fast kernels lint bench clean
+.PHONY: demo test test-fast fuzz kernels lint bench clean
 
 $(BIN)/python:
 	@test -n "$(PYTHON)" || { echo "error: no python3.11 or python3 on PATH"; exit 1; }
@@ -32,6 +32,14 @@ test: $(STAMP)
 test-fast: $(STAMP)
 	$(BIN)/python tests/compile_kernels.py
 	$(BIN)/python -m pytest -n 2 -m "not slow and not realdata" --durations=15
+
+# The generated bad-input corpus at full size (tests/test_fuzz_inputs.py): more than 10,000
+# derandomised cases over readers, validation, vehicle files, the grid and the estimators
+# (`make test` runs the same properties on a few hundred).
+FUZZ_EXAMPLES ?= 12000
+fuzz: $(STAMP)
+	ROADGRIP_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest tests/test_fuzz_inputs.py -p no:cacheprovider \
+		--hypothesis-show-statistics -q
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks

@@ -52,26 +52,10 @@ __all__ = [
 WHEEL_COLUMNS = ("omega_fl", "omega_fr", "omega_rl", "omega_rr")
 SIGNAL_COLUMNS = ("t", "ax", "ay", "yaw_rate", "steer", "vx", *WHEEL_COLUMNS, "x", "y", "psi")
 TRUTH_COLUMNS = (
-    "vx_true",
-    "vy_true",
-    "yaw_rate_true",
-    "alpha_f_true",
-    "alpha_r_true",
-    "kappa_fl_true",
-    "kappa_fr_true",
-    "kappa_rl_true",
-    "kappa_rr_true",
-    "mu_true",
-    "Fxf_true",
-    "Fxr_true",
-    "Fyf_true",
-    "Fyr_true",
-    "Fzf_true",
-    "Fzr_true",
-    "util_f_true",
-    "util_r_true",
-    "surface",
-)
+    "vx_true", "vy_true", "yaw_rate_true", "alpha_f_true", "alpha_r_true", "kappa_fl_true",
+    "kappa_fr_true", "kappa_rl_true", "kappa_rr_true", "mu_true", "Fxf_true", "Fxr_true",
+    "Fyf_true", "Fyr_true", "Fzf_true", "Fzr_true", "util_f_true", "util_r_true", "surface",
+)  # fmt: skip
 
 # Plausibility limits used to catch unit mistakes. They are generous on purpose:
 # a road vehicle (or a small racing car) does not sustain them.
@@ -85,20 +69,13 @@ AUX_COLUMNS = ("vx_pose", "vy_pose", "motor_rpm")
 sample without a value."""
 
 SIGNAL_RANGES: dict[str, tuple[float, float, str]] = {
-    "t": (-1e10, 1e10, "s"),
-    "ax": (-500.0, 500.0, "m/s²"),
-    "ay": (-500.0, 500.0, "m/s²"),
-    "yaw_rate": (-100.0, 100.0, "rad/s"),
-    "steer": (-1.5707963, 1.5707963, "rad"),
-    "vx": (-200.0, 200.0, "m/s"),
-    **{c: (-1e4, 1e4, "rad/s") for c in WHEEL_COLUMNS},
-    "x": (-1e8, 1e8, "m"),
-    "y": (-1e8, 1e8, "m"),
-    "psi": (-1e7, 1e7, "rad"),
-    "vx_pose": (-200.0, 200.0, "m/s"),
-    "vy_pose": (-200.0, 200.0, "m/s"),
+    "t": (-1e10, 1e10, "s"), "ax": (-500.0, 500.0, "m/s²"), "ay": (-500.0, 500.0, "m/s²"),
+    "yaw_rate": (-100.0, 100.0, "rad/s"), "steer": (-1.5707963, 1.5707963, "rad"),
+    "vx": (-200.0, 200.0, "m/s"), **{c: (-1e4, 1e4, "rad/s") for c in WHEEL_COLUMNS},
+    "x": (-1e8, 1e8, "m"), "y": (-1e8, 1e8, "m"), "psi": (-1e7, 1e7, "rad"),
+    "vx_pose": (-200.0, 200.0, "m/s"), "vy_pose": (-200.0, 200.0, "m/s"),
     "motor_rpm": (-1e6, 1e6, "rpm"),
-}
+}  # fmt: skip
 """Physical range of each numeric signal: ``(low, high, unit)``; values outside are refused.
 
 Wide enough for a 1:10 model car up to a heavy truck and for every recording
@@ -124,32 +101,26 @@ class DriveWarning(UserWarning):
 def merge_duplicate_times(df: pd.DataFrame) -> tuple[pd.DataFrame, int]:
     """Merge consecutive rows that share a timestamp, as loggers write them.
 
-    Rows with the same ``t`` (consecutive) become one: numeric columns are
-    averaged, other columns keep the last value. Time that goes backwards is
-    left for :func:`validate_frame` to refuse.
-
-    Parameters
-    ----------
-    df : DataFrame
-
-    Returns
-    -------
-    merged : DataFrame
-        ``df`` itself when nothing was merged.
-    n_merged : int
-        Number of rows removed.
+    Such rows with the same ``t`` become one: numeric columns are averaged,
+    other columns keep the last value. Time that goes backwards is left for
+    :func:`validate_frame` to refuse. Returns the merged frame (``df`` itself when
+    nothing was merged) and the number of rows removed.
     """
-    if "t" not in df.columns or len(df) < 2 or df.columns.duplicated().any():
-        return df, 0
-    if df["t"].dtype.kind not in "fiu":
+    if "t" not in df.columns or len(df) < 2 or df.columns.duplicated().any() or (
+            df["t"].dtype.kind not in "fiu"):
         return df, 0
     t = df["t"].to_numpy(float)
     dup = np.diff(t) == 0
     if not dup.any():
         return df, 0
     key = np.concatenate([[0], np.cumsum(~dup)])
-    agg = {c: ("mean" if df[c].dtype.kind in "fiub" else "last") for c in df.columns}
-    out = df.groupby(key, sort=False).agg(agg).reset_index(drop=True)[list(df.columns)]
+    last = np.flatnonzero(np.append(~dup, True))  # the last row of each group
+    out = df.iloc[last].reset_index(drop=True)
+    for c in df.columns:
+        if df[c].dtype.kind in "fiub":
+            v = df[c].to_numpy(float)
+            with np.errstate(over="ignore", invalid="ignore"):
+                out[c] = np.bincount(key, v) / np.bincount(key)
     return out, int(dup.sum())
 
 
@@ -282,13 +253,11 @@ def validate_frame(
     if t is not None and len(t) > 1:
         d = np.diff(t)
         if (d == 0).any():
-            raise DriveValidationError(
-                f"time column 't' has duplicated timestamps, first at {_first_bad(t[1:], d == 0)}"
-            )
+            raise DriveValidationError(f"time column 't' has duplicated timestamps, first at "
+                                       f"{_first_bad(t[1:], d == 0)}")
         if (d < 0).any():
-            raise DriveValidationError(
-                f"time column 't' is not increasing: it goes backwards at {_first_bad(t[1:], d < 0)}"
-            )
+            raise DriveValidationError(f"time column 't' is not increasing: it goes backwards at "
+                                       f"{_first_bad(t[1:], d < 0)}")
     if check_units:
         _check_units(df)
 
@@ -304,10 +273,9 @@ def _check_ranges(df: pd.DataFrame, t: np.ndarray | None) -> None:
         if out.any():
             i = int(np.flatnonzero(out)[0])
             hint = _time_unit_hint(v) if col == "t" else ""
-            raise DriveValidationError(
-                f"column {col!r} has {int(out.sum())} value(s) outside its physical range "
-                f"[{lo:g}, {hi:g}] {unit}, first {v[i]:.6g} at {_first_bad(t, out)}{hint}"
-            )
+            raise DriveValidationError(f"column {col!r} has {int(out.sum())} value(s) outside its "
+                                       f"physical range [{lo:g}, {hi:g}] {unit}, first {v[i]:.6g} at "
+                                       f"{_first_bad(t, out)}{hint}")
 
 
 def _first_text(col: pd.Series) -> str:

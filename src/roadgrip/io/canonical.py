@@ -26,6 +26,7 @@ from roadgrip.drive import (
     TRUTH_COLUMNS,
     Drive,
     DriveMeta,
+    DriveValidationError,
     DriveWarning,
     merge_duplicate_times,
     validate_frame,
@@ -42,6 +43,16 @@ _FLOAT_COLUMNS = frozenset(SIGNAL_COLUMNS + TRUTH_COLUMNS) - {"surface"}
 
 
 def _finish(
+    df: pd.DataFrame, meta: DriveMeta | None, vehicle: VehicleParams | None, path: Path
+) -> Drive:
+    """Validate and wrap; a validation error is prefixed with the file's name."""
+    try:
+        return _finish_unnamed(df, meta, vehicle, path)
+    except DriveValidationError as exc:
+        raise DriveValidationError(f"{path.name}: {exc}") from None
+
+
+def _finish_unnamed(
     df: pd.DataFrame, meta: DriveMeta | None, vehicle: VehicleParams | None, path: Path
 ) -> Drive:
     if meta is None:
