@@ -104,3 +104,19 @@ def test_physics_floor(runs):
             floor_gain = table["floor"].to_numpy() / table["ay_gain"].to_numpy()
             mu = table[f"mu_{axle}"].to_numpy()
             assert not np.any(obs & (mu < floor_gain - GPSSMConfig.floor_margin)), (key, axle)
+
+
+@pytest.mark.parametrize("vehicle", VEHICLES)
+def test_friction_drop_without_excitation_is_not_observed(vehicle):
+    # straight cruise, mu 1.0 -> 0.3 half-way where nothing excites the tires: from the drop
+    # on no peak is reported observed and both upper bands are peak_max
+    d = simulate_scenario("straight-cruise", seed=0, engine="multibody", vehicle=vehicle)
+    mu = d.col("mu_true")
+    t_drop = d.t[int(np.argmax(mu < mu[0] - 0.1))]
+    table, _ = run_filter(d, GPSSMConfig(particles=200), seed=0)
+    after = table[table["t"] >= t_drop]
+    assert len(after) > 0.3 * len(table)
+    for axle in AXLES:
+        assert not after[f"peak_observed_{axle}"].any()
+        assert (after[f"mu_{axle}_upper"] == GPSSMConfig.peak_max).all()
+    assert not table["diverged"].any()
