@@ -286,3 +286,38 @@ def test_gap_longer_than_max_gap_is_not_bridged(tmp_path):
     assert not ((t > 0.9 + 1e-9) & (t < 1.3 - 1e-9)).any()
     assert d.n == 201 - 39  # the 39 ticks strictly inside the gap
     np.testing.assert_array_equal(d.col("vx"), 2.0)
+
+
+@pytest.mark.parametrize("stamp", ["header", "bag"])
+def test_servo_command_without_header_and_stamp_choice(tmp_path, stamp):
+    """The servo command (std_msgs/msg/Float64, no header) on its receive time, inverted to
+    the road-wheel angle with the F1TENTH servo map; IMU headers 5 ms before their receive time."""
+    gain, offset = -1.2135, 0.5304  # servo = gain * steer + offset
+    m = _topic_map(signals={
+        "ax": {"topic": "/sensors/imu/raw", "field": "linear_acceleration.x"},
+        "steer": {"topic": "/sensors/servo_position_command", "field": "data",
+                  "scale": 1.0 / gain, "offset": -offset / gain},
+    }, extras={}, stamp=stamp)
+    t = np.arange(101) * 0.01
+    steer = 0.3 * np.sin(2.0 * t)
+    latency = 5_000_000  # [ns]
+    path = tmp_path / "servo.mcap"
+    with _Bag(path, "mcap", m) as bag:
+        for k, tk in enumerate(t):
+            ns = _ns(tk)
+            msg = bag.T["sensor_msgs/msg/Imu"](
+                header=bag.header(ns - latency), orientation=bag.T["geometry_msgs/msg/Quaternion"](0.0, 0.0, 0.0, 1.0),
+                orientation_covariance=np.zeros(9), angular_velocity=bag.vec(), angular_velocity_covariance=np.zeros(9),
+                linear_acceleration=bag.vec(tk), linear_acceleration_covariance=np.zeros(9))
+            bag.write("/sensors/imu/raw", "sensor_msgs/msg/Imu", ns, msg)
+            bag.write("/sensors/servo_position_command", "std_msgs/msg/Float64", ns,
+                      bag.T["std_msgs/msg/Float64"](data=gain * steer[k] + offset))
+    d = read_rosbag(path, m, vehicle="f1tenth")
+    if stamp == "bag":  # both on receive times: every sample, exact
+        assert d.n == len(t) and d.meta.extra["t_origin_ns"] == _ns(0.0)
+        np.testing.assert_allclose(d.col("steer"), steer, rtol=0, atol=1e-12)
+    else:  # IMU clock 5 ms early: the servo (receive time) interpolated onto it, first tick dropped
+        assert d.n == len(t) - 1 and d.meta.extra["t_origin_ns"] == _ns(0.01) - latency
+        t_clock = t[1:] - 0.005
+        np.testing.assert_allclose(d.col("steer"), np.interp(t_clock, t, steer), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(d.col("ax"), t[-d.n:], atol=1e-12)
