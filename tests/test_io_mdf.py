@@ -139,3 +139,13 @@ def test_channel_map_errors():
         load_channel_map({"channels": {"t": {"channel": "time"}}})
     with pytest.raises(ValueError, match="unit 'furlong' is not understood"):
         load_channel_map({"channels": {"vx": {"channel": "v", "unit": "furlong"}}})
+
+
+def test_validation_error_names_the_file(tmp_path, source):
+    """A yaw rate scaled back to deg/s by mistake fails the Drive's unit checks."""
+    path = tmp_path / "run.mf4"
+    write_mdf(path, source)
+    cmap = {"vehicle": "f1tenth", "channels": {"ax": "IMU_AccX", "ay": "IMU_AccY", "vx": "VehSpeed",
+                                               "yaw_rate": {"channel": "IMU_YawRate", "scale": 180 / math.pi}}}
+    with pytest.raises(ValueError, match=r"^run\.mf4: column 'yaw_rate' reaches"):
+        read_mdf(path, cmap)

@@ -44,7 +44,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from roadgrip.drive import SIGNAL_COLUMNS, Drive
+from roadgrip.drive import SIGNAL_COLUMNS, Drive, DriveValidationError
 from roadgrip.io.mapping import QUANTITY_OF, UNITS
 from roadgrip.io.resample import make_clock, resample
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
@@ -271,4 +271,7 @@ def read_mdf(
                                     if m.get("max_gap") else "")
         ),
     }
-    return Drive.from_frame(df[order].reset_index(drop=True), veh, source=str(p), extra=extra)
+    try:
+        return Drive.from_frame(df[order].reset_index(drop=True), veh, source=str(p), extra=extra)
+    except DriveValidationError as exc:  # name the file, as the other readers do
+        raise DriveValidationError(f"{p.name}: {exc}") from None

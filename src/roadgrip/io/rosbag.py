@@ -53,7 +53,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from roadgrip.drive import SIGNAL_COLUMNS, Drive
+from roadgrip.drive import SIGNAL_COLUMNS, Drive, DriveValidationError
 from roadgrip.io.mapping import QUANTITY_OF, UNITS
 from roadgrip.io.resample import resample
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
@@ -407,7 +407,10 @@ def read_rosbag(
             + "dropped"
         ),
     }
-    return Drive.from_frame(df.reset_index(drop=True), veh, source=str(p), extra=extra)
+    try:
+        return Drive.from_frame(df.reset_index(drop=True), veh, source=str(p), extra=extra)
+    except DriveValidationError as exc:  # name the file, as the other readers do
+        raise DriveValidationError(f"{p.name}: {exc}") from None
 
 
 F1TENTH_ERPM_GAIN = 4614.0
