@@ -29,7 +29,6 @@ from __future__ import annotations
 import bz2
 import functools
 import gzip
-import io
 import lzma
 import os
 import tempfile
@@ -420,5 +419,10 @@ def test_fuzz_regressions():
         p.write_bytes(b"t,ax\n0.00,1\n,2\nabc,3\n")
         with pytest.raises(ValueError, match=r"drive.csv:4: column 't' holds 'abc'"):
             read_canonical_csv(p, PRESETS["sedan"])
-    buf = io.BytesIO()
-    assert buf.getvalue() == b""
+    # a variance of 1e-203 overflowed the squared sums of the posterior
+    g = G.fuse(G.empty_grid(0.001), [0.0, 0.0], [0.0, 0.0], [0.0, 1.0], [1.0, 1.0496507466775351e-203])
+    m, s = g.posterior()
+    assert np.all(np.isfinite(m)) and np.all(np.isfinite(s))
+    assert float(m.ravel()[0]) == pytest.approx(1.0, abs=1e-6)
+    with pytest.raises(ValueError, match=r"observation 0 is not usable.*mu = 1e\+300"):
+        G.fuse(G.empty_grid(0.5), [0.0], [0.0], [1e300], [0.01])

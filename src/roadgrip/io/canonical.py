@@ -10,6 +10,15 @@ Reading is lossless: CSV floats are parsed exactly (the writer emits 17
 significant digits; ``float_precision='round_trip'`` on pandas < 3, the default
 parser from pandas 3), column dtypes are restored from the meta line, and
 Parquet stores float64 as is. Extra columns are kept.
+
+What real loggers write is read (:mod:`roadgrip.io._csv`): gzip, bzip2, xz or
+zstd compression told by the content whatever the name, a UTF-8 byte-order mark,
+UTF-16, ``#`` comment lines anywhere, ``;`` or tab delimiters, a decimal comma
+(``decimal=','``) or thousands separator (``thousands=','``) where stated. Rows
+without a time are dropped, and consecutive rows sharing a timestamp are merged
+into one (numeric columns averaged, text columns keep the last value), each with
+a warning naming the line or time. Anything else is refused in one line naming
+the file, the line and the column.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ import pandas as pd
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["MAX_CELLS", "MAX_COORD", "FrictionGrid", "Observations", "empty_grid", "fuse", "merge"]
+__all__ = ["MAX_CELLS", "MAX_COORD", "MAX_MU", "MIN_VAR", "FrictionGrid", "Observations", "empty_grid", "fuse", "merge"]
 
 MAX_CELLS = 10_000_000
 """Largest grid [cells]: 400 MB for its five arrays (40 bytes a cell). A map is dense over
@@ -24,6 +24,13 @@ the bounding box of its observations; a larger one is refused with what it would
 
 MAX_COORD = 1.0e8
 """Largest position magnitude [m] in a map frame (a local frame: 100,000 km)."""
+
+MIN_VAR = 1e-8
+"""Smallest observation variance [-] (standard deviation 1e-4): smaller ones are raised to it,
+so that the precision-weighted sums stay finite."""
+
+MAX_MU = 100.0
+"""Largest friction magnitude [-] an observation may carry."""
 
 _BYTES_PER_CELL = 40
 
@@ -358,7 +365,7 @@ def fuse(
     mu : array_like, shape (n,)
         Friction observations [-].
     var : array_like, shape (n,)
-        Their variances [-], positive.
+        Their variances [-], positive (raised to :data:`MIN_VAR`).
     t : array_like, shape (n,), optional
         Observation times [s]; required when the grid forgets (finite ``tau``).
     path : array_like, shape (k, 2), optional
@@ -402,9 +409,12 @@ def fuse(
         raise ValueError(f"observation {i} is not usable: at x = {x[i]:.6g}, y = {y[i]:.6g} m; positions must be "
                          f"finite and within +-{MAX_COORD:g} m of the map origin")
     bad, bx0, by0, bx1, by1 = _bounds(x, y, mu, var, g.cell)
+    if bad < 0 and np.any(np.abs(mu) > MAX_MU):
+        bad = int(np.flatnonzero(np.abs(mu) > MAX_MU)[0])
     if bad >= 0:
-        raise ValueError(f"observation {bad} is not usable: positions, mu and var must be finite, var > 0 "
-                         f"(mu = {mu[bad]:.6g}, var = {var[bad]:.6g})")
+        raise ValueError(f"observation {bad} is not usable: positions, mu and var must be finite, var > 0, "
+                         f"|mu| <= {MAX_MU:g} (mu = {mu[bad]:.6g}, var = {var[bad]:.6g})")
+    var = np.maximum(var, MIN_VAR)
     decay = np.empty(0)
     if t is not None:
         g = _decay(grid, float(t.max()))
