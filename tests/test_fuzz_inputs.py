@@ -29,6 +29,7 @@ from __future__ import annotations
 import bz2
 import functools
 import gzip
+import json
 import lzma
 import os
 import tempfile
@@ -82,6 +83,10 @@ BAD_CELLS = ["", "nan", "NaN", "inf", "-inf", "1.8e308", "1e400", "-1e400", "abc
              "\u00e9", "1_000", "-0", "2e9", "1e19"]
 
 
+_ANY = (st.floats() | st.integers(-10**30, 10**30) | st.text(max_size=5) | st.booleans() | st.none()
+        | st.lists(st.floats(), max_size=2))
+
+
 @st.composite
 def csv_files(draw):
     """``(name, raw bytes, names)``: a canonical CSV under one or more mutations."""
@@ -94,7 +99,7 @@ def csv_files(draw):
          "deccomma"]), min_size=1, max_size=3))
     sep, decimal = ",", "."
     for kind in kinds:
-        if kind == "cell" and rows:
+        if kind == "cell" and rows and header:
             r = draw(st.integers(0, len(rows) - 1))
             c = draw(st.integers(0, len(header) - 1))
             if c < len(rows[r]):
@@ -152,10 +157,30 @@ def csv_files(draw):
             names.add(header[c])
         elif kind == "deccomma":
             sep, decimal = ";", ","
+    meta = None
+    if draw(st.integers(0, 3)) == 0:  # a metadata line, possibly damaged
+        meta = {"vehicle": PRESETS["sedan"].to_dict(), "source": "x", "sample_rate": 100.0,
+                "truth": None, "extra": {}, "dtypes": {c: "float64" for c in header}}
+        key = draw(st.sampled_from(["vehicle", "source", "sample_rate", "truth", "extra", "dtypes",
+                                    "mass", "none"]))
+        value = draw(_ANY | st.dictionaries(st.text(max_size=3), _ANY, max_size=2)
+                     | st.sampled_from([{"surfaces": 1}, {"surfaces": {"snow": 1}}, {"t": "complex128"},
+                                        {"t": "datetime64[ns]"}, {"ax": "bogus"}]))
+        if key == "mass":
+            meta["vehicle"]["mass"] = value
+            names.add("mass")
+        elif key != "none":
+            meta[key] = value
+            names.add(key)
+            if key == "dtypes" and isinstance(value, dict):
+                names.update(map(str, value))
+
     def line(cells):
         text = sep.join(cells)
         return text.replace(".", ",") if decimal == "," and not text.startswith("#") else text
     text = "\n".join([line(header), *(line(r) for r in rows)]) + "\n" if header else ""
+    if meta is not None:
+        text = "# roadgrip-meta " + json.dumps(meta) + "\n" + text
     if draw(st.booleans()):
         text = text.replace("\n", "\r\n")
     enc = draw(st.sampled_from(["utf-8", "utf-8", "bom", "utf-16", "utf-16-le", "utf-16-be", "gzip",
@@ -201,6 +226,9 @@ def test_reader_accepts_or_names_the_problem(case):
                 assert _names_something(msg, name, names, COLUMNS), msg
                 return
     _check_drive(d)
+    from roadgrip.io.describe import describe_drive, format_text
+
+    assert format_text(describe_drive(d))
 
 
 @st.composite
@@ -245,9 +273,6 @@ def test_validation_accepts_or_names_the_column(case):
             return
     _check_drive(d)
 
-
-_ANY = (st.floats() | st.integers(-10**30, 10**30) | st.text(max_size=5) | st.booleans() | st.none()
-        | st.lists(st.floats(), max_size=2))
 
 
 @st.composite

@@ -116,16 +116,15 @@ def read_canonical_csv(
     dtypes: dict[str, str] = {}
     if first.startswith(META_PREFIX):
         body = first[len(META_PREFIX):]
-        try:
-            meta = DriveMeta.from_json(body)
-            dtypes = json.loads(body).get("dtypes") or {}
-        except (ValueError, KeyError, TypeError, AttributeError) as exc:
-            raise ValueError(f"{path.name}:1: unreadable roadgrip metadata line: {exc}") from None
+        meta = _meta(body, path, "line 1")
+        dtypes = json.loads(body).get("dtypes")
+        if not isinstance(dtypes, dict):
+            dtypes = {}
+        dtypes = {str(k): str(v) for k, v in dtypes.items()}
     numeric = {c for c in _FLOAT_COLUMNS if dtypes.get(c, "float64") != "object"}
     table = read_table(path, text, numeric=numeric, decimal=decimal, thousands=thousands,
                        skip_first=meta is not None)
-    df = _restore_dtypes(table.frame, dtypes)
-    return _finish(_restore_dtypes(df, dtypes), meta, vehicle, path)
+    return _finish(_restore_dtypes(table.frame, dtypes), meta, vehicle, path)
 
 
 def _restore_dtypes(df: pd.DataFrame, dtypes: dict[str, str]) -> pd.DataFrame:
@@ -166,6 +165,52 @@ def read_canonical_parquet(path: str | Path, vehicle: VehicleParams | None = Non
     except (pa.ArrowInvalid, OSError) as exc:
         raise ValueError(f"{path.name} is not a readable Parquet file: {exc}") from None
     md = table.schema.metadata or {}
-    meta = DriveMeta.from_json(md[b"roadgrip"].decode()) if b"roadgrip" in md else None
-    df = table.to_pandas()
+    meta = _meta(md[b"roadgrip"].decode("utf-8", "replace"), path, "schema key 'roadgrip'") if (
+        b"roadgrip" in md) else None
+    try:
+        df = table.to_pandas()
+    except (pa.ArrowException, ValueError, TypeError) as exc:
+        raise ValueError(f"{path.name}: columns that cannot be read ({type(exc).__name__}: "
+                         f"{' '.join(str(exc).split())[:160]})") from None
     return _finish(df, meta, vehicle, path)
+
+
+def _meta(text: str, path: Path, where: str) -> DriveMeta:
+    """The metadata, or a one-line error naming the file and where the metadata sits."""
+    try:
+        meta = DriveMeta.from_json(text)
+        _check_truth(meta)
+        return meta
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        msg = " ".join(str(exc).split())[:200]
+        raise ValueError(f"{path.name}: unreadable roadgrip metadata ({where}): "
+                         f"{type(exc).__name__}: {msg}") from None
+
+
+def _check_truth(meta: DriveMeta) -> None:
+    """The metadata's free-form parts have the types their readers expect."""
+    from roadgrip.tire import model_from_dict
+
+    if not isinstance(meta.extra, dict):
+        raise TypeError(f"'extra' must be a mapping, got {type(meta.extra).__name__}")
+    if not isinstance(meta.source, str):
+        raise TypeError(f"'source' must be text, got {type(meta.source).__name__}")
+    if meta.truth is None:
+        return
+    if not isinstance(meta.truth, dict):
+        raise TypeError(f"'truth' must be a mapping, got {type(meta.truth).__name__}")
+    surfaces = meta.truth.get("surfaces")
+    if surfaces is None:
+        return
+    if not isinstance(surfaces, dict):
+        raise TypeError(f"'truth.surfaces' must be a mapping, got {type(surfaces).__name__}")
+    for label, entry in surfaces.items():
+        if not isinstance(entry, dict):
+            raise TypeError(f"'truth.surfaces.{label}' must be a mapping, got {type(entry).__name__}")
+        for key in ("front", "rear", "front_long", "rear_long"):
+            if key in entry:
+                try:
+                    model_from_dict(entry[key])
+                except Exception as exc:  # any malformed tire description
+                    raise ValueError(f"'truth.surfaces.{label}.{key}' is not a tire model "
+                                     f"({type(exc).__name__}: {exc})") from None
