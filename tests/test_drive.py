@@ -230,3 +230,32 @@ def test_duplicated_timestamps_merged_by_from_frame():
     assert row["ay"] == pytest.approx(df.loc[40:42, "ay"].mean())
     assert row["surface"] == "ice"
     assert np.all(np.diff(d.t) > 0)
+
+
+def _posed(n: int = 300) -> pd.DataFrame:
+    """Steady cornering with a consistent pose: heading, position and speed."""
+    df = _cornering(n)
+    t = df["t"].to_numpy()
+    r, vx = df["yaw_rate"].to_numpy(), df["vx"].to_numpy()
+    psi = np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * np.diff(t))])
+    ds = np.concatenate([[0.0], 0.5 * (vx[1:] + vx[:-1]) * np.diff(t)])
+    df["psi"], df["x"], df["y"] = psi, np.cumsum(ds * np.cos(psi)), np.cumsum(ds * np.sin(psi))
+    return df
+
+
+def test_likely_unit_mistakes_warned_with_evidence():
+    import warnings as w
+
+    from roadgrip.drive import DriveWarning
+
+    with w.catch_warnings():
+        w.simplefilter("error", DriveWarning)
+        Drive.from_frame(_posed(), PRESETS["sedan"])  # consistent: no warning
+    df = _posed()
+    df["psi"] = np.rad2deg(df["psi"])
+    with pytest.warns(DriveWarning, match=r"'psi' changes about 57\.\d x yaw_rate .* degrees"):
+        Drive.from_frame(df, PRESETS["sedan"])
+    df = _posed()
+    df["vx"] = df["vx"] * 3.6
+    with pytest.warns(DriveWarning, match=r"'vx' is about 3\.6\d x the pose's speed .* km/h"):
+        Drive.from_frame(df, PRESETS["sedan"])

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from roadgrip.drive_units import unit_warnings
 from roadgrip.tire import FrictionModel, model_from_dict
 from roadgrip.vehicle.params import VehicleParams
 
@@ -57,12 +58,10 @@ TRUTH_COLUMNS = (
     "Fyf_true", "Fyr_true", "Fzf_true", "Fzr_true", "util_f_true", "util_r_true", "surface",
 )  # fmt: skip
 
-# Plausibility limits used to catch unit mistakes. They are generous on purpose:
-# a road vehicle (or a small racing car) does not sustain them.
+# Unit-mistake limits, generous: a road vehicle (or a small racing car) does not sustain them.
 _MAX_ACCEL = 60.0  # m/s², about 6 g
 _MAX_YAW_RATE = 10.0  # rad/s, about 570 deg/s
 _MAX_STEER = 1.2  # rad, about 69 deg road-wheel angle
-
 
 AUX_COLUMNS = ("vx_pose", "vy_pose", "motor_rpm")
 """Optional numeric columns some estimators read (pose velocity, motor speed); NaN marks a
@@ -204,8 +203,9 @@ def validate_frame(
     value, row and range named); a time base whose step is implausible for
     vehicle data (milliseconds, microseconds or nanoseconds, with the evidence);
     time not strictly increasing (duplicates and reversals reported separately;
-    :meth:`Drive.from_frame` merges duplicates first); and, with ``check_units``,
-    units that look wrong (accelerations in g, rates in deg/s, steering in degrees).
+    :meth:`Drive.from_frame` merges duplicates first); with ``check_units``, units that are
+    wrong (accelerations in g, rates in deg/s, steering in degrees) and a
+    :class:`DriveWarning` for likely ones (:func:`roadgrip.drive_units.unit_warnings`).
 
     Parameters
     ----------
@@ -260,6 +260,8 @@ def validate_frame(
                                        f"{_first_bad(t[1:], d < 0)}")
     if check_units:
         _check_units(df)
+        for msg in unit_warnings(df):  # likely, not certain: warned with the evidence
+            warnings.warn(msg, DriveWarning, stacklevel=3)
 
 
 def _check_ranges(df: pd.DataFrame, t: np.ndarray | None) -> None:
@@ -280,11 +282,8 @@ def _check_ranges(df: pd.DataFrame, t: np.ndarray | None) -> None:
 
 def _first_text(col: pd.Series) -> str:
     """``', e.g. 'abc' at row 3'``: the first value that is not a real number, or ''."""
-    if col.dtype.kind == "c":
-        return ""
-    num = pd.to_numeric(col, errors="coerce")
-    bad = (num.isna() & col.notna()).to_numpy()
-    if not bad.any():
+    bad = (pd.to_numeric(col, errors="coerce").isna() & col.notna()).to_numpy()
+    if col.dtype.kind == "c" or not bad.any():
         return ""
     i = int(np.flatnonzero(bad)[0])
     return f", e.g. {str(col.iloc[i])[:40]!r} at row {i}"
