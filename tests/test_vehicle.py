@@ -194,3 +194,17 @@ def test_cli_template_loads_back_and_list_shows_multibody(tmp_path):
         assert name in res.output
     rows = [line for line in res.output.splitlines() if "ford-escort" in line or "vw-vanagon" in line]
     assert len(rows) == 2 and all("yes" in r for r in rows)
+
+
+def test_combinations_no_vehicle_has_are_refused():
+    suv = PRESETS["suv"]
+    # each value in range, together impossible: a 2.1 t SUV with the yaw inertia of a toy car
+    with pytest.raises(ValueError, match=r"vehicle field 'yaw_inertia' = 0.0001 kg m² is 2.44e-08 x mass"):
+        suv.replace(yaw_inertia=1e-4)
+    with pytest.raises(ValueError, match=r"vehicle field 'cornering_stiffness_rear' = 10.0 N/rad is 0.001"):
+        suv.replace(cornering_stiffness_rear=10.0)
+    # the presets lie well inside: dynamic index 0.4-1.2, stiffness 5-20 /rad of the axle load
+    for v in PRESETS.values():
+        assert 0.3 < v.yaw_inertia / (v.mass * v.lf * v.lr) < 1.5, v.name
+        for c, fz in ((v.cornering_stiffness_front, v.fz_front), (v.cornering_stiffness_rear, v.fz_rear)):
+            assert 3.0 < c / fz < 25.0, v.name

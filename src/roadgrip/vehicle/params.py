@@ -53,6 +53,8 @@ exclusive except for the body gradients (0: rigid body or unknown), whose upper
 bound 0.05 (28 deg/g) is exclusive; other bounds are inclusive.
 """
 _ZERO_ALLOWED = ("roll_gradient", "pitch_gradient")
+_DYNAMIC_INDEX = (0.1, 10.0)  # yaw_inertia / (mass lf lr)
+_STIFFNESS_PER_LOAD = (0.5, 100.0)  # axle cornering stiffness / static axle load [1/rad]
 
 
 @dataclass(frozen=True)
@@ -140,6 +142,31 @@ class VehicleParams:
             object.__setattr__(self, f.name, float(value))
         if not isinstance(self.drive, str) or self.drive not in _DRIVES:
             raise ValueError(f"vehicle field 'drive' must be one of {_DRIVES}, got {self.drive!r}")
+        self._check_consistency()
+
+    def _check_consistency(self) -> None:
+        """Refuse field combinations no vehicle has (each field alone being in range).
+
+        The yaw inertia over ``m lf lr`` (the dynamic index) lies near 1 for cars
+        and trucks (0.4 to 1.2 for the presets); the axle cornering stiffness per
+        unit static axle load is 5 to 20 /rad for tires on a road.
+        """
+        ratio = self.yaw_inertia / (self.mass * self.lf * self.lr)
+        if not _DYNAMIC_INDEX[0] <= ratio <= _DYNAMIC_INDEX[1]:
+            raise ValueError(
+                f"vehicle field 'yaw_inertia' = {self.yaw_inertia!r} kg m² is {ratio:.3g} x "
+                f"mass * lf * lr; a vehicle has {_DYNAMIC_INDEX[0]:g} to {_DYNAMIC_INDEX[1]:g} "
+                "(check the unit and the other fields)"
+            )
+        for axle, c, fz in (("front", self.cornering_stiffness_front, self.fz_front),
+                            ("rear", self.cornering_stiffness_rear, self.fz_rear)):
+            per_load = c / fz
+            if not _STIFFNESS_PER_LOAD[0] <= per_load <= _STIFFNESS_PER_LOAD[1]:
+                raise ValueError(
+                    f"vehicle field 'cornering_stiffness_{axle}' = {c!r} N/rad is {per_load:.3g} /rad "
+                    f"per unit of the static axle load {fz:.4g} N; a tire has "
+                    f"{_STIFFNESS_PER_LOAD[0]:g} to {_STIFFNESS_PER_LOAD[1]:g} /rad"
+                )
 
     # -- derived quantities ------------------------------------------------------------
     @property
