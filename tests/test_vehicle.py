@@ -208,3 +208,21 @@ def test_combinations_no_vehicle_has_are_refused():
         assert 0.3 < v.yaw_inertia / (v.mass * v.lf * v.lr) < 1.5, v.name
         for c, fz in ((v.cornering_stiffness_front, v.fz_front), (v.cornering_stiffness_rear, v.fz_rear)):
             assert 3.0 < c / fz < 25.0, v.name
+
+
+def test_cli_error_keeps_the_units_in_brackets(tmp_path):
+    import subprocess
+    import sys
+
+    d = PRESETS["sedan"].to_dict()
+    del d["mass"]
+    p = tmp_path / "van.yaml"
+    p.write_text(yaml.safe_dump(d))
+    drive = tmp_path / "d.csv"
+    drive.write_text("t,ax\n0.0,0.1\n0.01,0.2\n")
+    code = ("import sys; sys.argv = ['roadgrip', 'info', sys.argv[1], '--vehicle', sys.argv[2]]; "
+            "from roadgrip.cli import main; main()")
+    res = subprocess.run([sys.executable, "-c", code, str(drive), str(p)], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 2
+    assert "mass [kg]: total mass" in " ".join(res.stderr.split())

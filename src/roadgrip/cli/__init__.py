@@ -39,8 +39,10 @@ def main() -> None:
         if hasattr(exc, "show") and hasattr(exc, "exit_code"):  # usage errors
             exc.show()
             sys.exit(exc.exit_code)
-        msg = str(exc) or type(exc).__name__
-        err_console.print(f"[bold red]error:[/] {msg}", highlight=False, soft_wrap=True)
+        from rich.markup import escape
+
+        msg = str(exc) or type(exc).__name__  # brackets in it ('mass [kg]') are text, not markup
+        err_console.print(f"[bold red]error:[/] {escape(msg)}", highlight=False, soft_wrap=True)
         sys.exit(2)
 
 
