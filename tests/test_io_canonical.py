@@ -271,3 +271,22 @@ def test_time_in_milliseconds_refused_with_evidence(tmp_path):
     p.write_text(text)
     with pytest.raises(DriveValidationError, match=r"'t' .* physical range .* in ns: divide 't' by 1e\+09"):
         read_drive(p, vehicle="sedan")
+
+
+def test_drive_with_a_reversing_segment_reads_without_error(tmp_path):
+    """Forward, stop, reverse while turning: speed, wheel speeds and pose consistent."""
+    n, dt = 1500, 0.01
+    t = np.arange(n) * dt
+    vx = np.where(t < 5, 8.0, np.where(t < 7, 8.0 - 5.5 * (t - 5), -3.0))  # reverses at about 6.5 s
+    r = 0.25 * np.sin(0.8 * t)
+    psi = np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * dt)])
+    x = np.concatenate([[0.0], np.cumsum(vx[1:] * np.cos(psi[1:]) * dt)])
+    y = np.concatenate([[0.0], np.cumsum(vx[1:] * np.sin(psi[1:]) * dt)])
+    omega = vx / PRESETS["sedan"].wheel_radius
+    df = pd.DataFrame({"t": t, "ax": np.gradient(vx, t), "ay": vx * r, "yaw_rate": r, "steer": 0.05 * r,
+                       "vx": vx, **{f"omega_{w}": omega for w in ("fl", "fr", "rl", "rr")},
+                       "x": x, "y": y, "psi": psi})
+    p = tmp_path / "reverse.csv"
+    df.to_csv(p, index=False)
+    d = read_drive(p, vehicle="sedan")
+    assert d.n == n and d.col("vx").min() == -3.0
