@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from roadgrip.drive import SIGNAL_RANGES, Drive, DriveValidationError
@@ -225,7 +225,9 @@ def test_reader_accepts_or_names_the_problem(case):
                 msg = str(exc)
                 assert "\n" not in msg.strip(), msg
                 assert _names_something(msg, name, names, COLUMNS), msg
+                event(f"refused: {type(exc).__name__}")
                 return
+    event("accepted")
     _check_drive(d)
     from roadgrip.io.describe import describe_drive, format_text
 
@@ -271,7 +273,9 @@ def test_validation_accepts_or_names_the_column(case):
             d = Drive.from_frame(df, PRESETS["sedan"], source="fuzz")
         except DriveValidationError as exc:
             assert _names_something(str(exc), "fuzz", names, list(df.columns)) or "empty" in str(exc)
+            event("refused")
             return
+    event("accepted")
     _check_drive(d)
 
 
@@ -315,7 +319,9 @@ def test_vehicle_yaml_accepts_or_names_the_field(case):
         except ValueError as exc:
             msg = str(exc)
             assert "car.yaml" in msg or any(f"'{n}'" in msg for n in names), msg
+            event("refused")
             return
+    event("accepted")
     for f, (lo, hi, _, _) in FIELD_RANGES.items():
         assert lo <= getattr(v, f) <= hi, f
     assert isinstance(v.name, str)
@@ -340,7 +346,9 @@ def test_grid_fuses_or_refuses_with_a_reason(obs, cell, split):
     except ValueError as exc:
         msg = str(exc)
         assert "observation" in msg or "map would need" in msg, msg
+        event("refused: " + ("observation" if "observation" in msg else "size"))
         return
+    event("accepted")
     assert g.s0.size <= G.MAX_CELLS
     assert int(g.n_obs.sum()) == len(x)
     m, s = g.posterior()
@@ -439,14 +447,17 @@ def test_estimators_run_on_what_validation_accepts(case):
         try:
             drive = Drive.from_frame(df, vehicle, source="fuzz", check_units=False)
         except DriveValidationError:
+            event("refused by validation")
             return
         t0 = time.perf_counter()
         try:
             res = run_estimator(method, drive, {"particles": 50} if method == "gpssm" else None)
         except DriveValidationError as exc:  # a required column missing: a clean refusal
             assert "column" in str(exc)
+            event(f"{method}: refused (column missing)")
             return
         assert time.perf_counter() - t0 < 60.0, method
+        event(f"{method}: ran")
     for c, kind in CONTRACT_COLUMNS.items():
         if kind != "float" or c not in res.table.columns:
             continue
