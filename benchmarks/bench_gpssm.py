@@ -22,8 +22,13 @@ the end, and the lateral-velocity error, per basis and seed (``--seeds``, defaul
 the drive and the filter take the same seed; the paper's basis also in the fast mode:
 its error against the truth, beside the exact mode's).
 
+With ``--accuracy --multibody`` the acceptance figures on the multi-body snow slaloms of
+both vehicles (seeds 0-4; ``--option KEY=VALUE`` sets filter options), with ``--accuracy
+--realdata`` the honesty figures on every recording in ``../shared/data``
+(docs/gpssm.md).
+
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_gpssm.py [--quick | --accuracy
-[--seeds 0,1,2,3,4]]``
+[--seeds 0,1,2,3,4] [--multibody | --realdata]]``
 (one core).
 """
 
@@ -186,15 +191,59 @@ def multibody(seeds=(0, 1, 2, 3, 4), vehicles=MB_VEHICLES, options=None) -> None
                   f"{bands_overlap(bands[axle])}")
 
 
+def realdata(seeds=(0, 1, 2)) -> None:
+    """The honesty figures on every recording in ``../shared/data`` (DART, frictionmaps)
+    with the data sets' presets: per file and seed the largest |vy|, the samples past
+    0.5 vx not flagged, the samples flagged diverged, the vy band against the pose, the
+    upper bounds and observed peaks below the floor of the filter's own a_y, the final
+    peaks; then whether the seeds' final bands overlap."""
+    from pathlib import Path
+
+    from roadgrip.estimators.gpssm import drive_inputs
+    from roadgrip.estimators.gpssm.accuracy import bands_overlap, honesty_figures
+    from roadgrip.io import read_drive
+    from roadgrip.io.presets import preset_options
+    from roadgrip.signals import pose_velocity
+
+    root = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
+    files = [(p, "dart") for p in sorted((root / "dart").glob("*/*.csv"))]
+    files += [(p, "frictionmaps") for p in sorted((root / "frictionmaps").glob("DS*"))]
+    for path, fmt in files:
+        d = read_drive(path, format=fmt)
+        cfg = GPSSMConfig.from_options({"particles": 200, **preset_options("gpssm", d)})
+        ay = drive_inputs(d, cfg.vx_source, cfg.vy_source, cfg.ay_source)[:, 1]
+        vy_ref = d.col("vy_pose") if d.has("vy_pose") else pose_velocity(d)[1] if d.has("x", "y", "psi") else None
+        bands = {"front": [], "rear": []}
+        for seed in seeds:
+            table, _ = run_filter(d, cfg, seed=seed)
+            h = honesty_figures(d, table, vy_ref=vy_ref, ay=ay)
+            print(f"{path.name[:28]:28s} seed {seed}: max |vy| {table['vy'].abs().max():.2f} m/s, past 0.5 vx "
+                  f"unflagged {h['vy_runaway']}, diverged {int(table['diverged'].sum())}/{len(table)}, vy band "
+                  f"covers the pose's {h.get('vy_coverage', float('nan')):.2f}, floor {h['floor']:.3f}, gain "
+                  f"{table['ay_gain'].iloc[-1]:.3f}; " + "; ".join(
+                      f"{ax} {'obs' if h[ax]['observed'] else 'n/o'} {h[ax]['mu']:.2f} [{h[ax]['lower']:.2f}, "
+                      f"{h[ax]['upper']:.2f}] upper < floor {h[ax]['upper_below_floor']}, observed < floor "
+                      f"{h[ax]['observed_below_floor']}" for ax in bands))
+            for ax in bands:
+                bands[ax].append((h[ax]["lower"], h[ax]["upper"]))
+        print(f"  final bands of seeds {list(seeds)} overlap: " + ", ".join(
+            f"{ax} {bands_overlap(b)}" for ax, b in bands.items()))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="shorter drives and fewer points")
     ap.add_argument("--accuracy", action="store_true", help="acceptance figures instead")
     ap.add_argument("--multibody", action="store_true",
                     help="with --accuracy: the multi-body snow slaloms (both vehicles, seeds 0-4 by default)")
+    ap.add_argument("--realdata", action="store_true",
+                    help="with --accuracy: every recording in ../shared/data (seeds 0,1,2 by default)")
     ap.add_argument("--option", action="append", default=[], help="KEY=VALUE filter option (--multibody)")
     ap.add_argument("--seeds", default=None, help="drives and filter seeds of --accuracy (e.g. 0,1,2,3,4)")
     args = ap.parse_args()
+    if args.accuracy and args.realdata:
+        realdata(tuple(int(v) for v in (args.seeds or "0,1,2").split(",")))
+        return
     if args.accuracy and args.multibody:
         seeds = tuple(int(v) for v in (args.seeds or "0,1,2,3,4").split(","))
         opts = {}

@@ -574,3 +574,4 @@ def test_progress_counts_every_output_row(snow20):
     calls = []
     res = run(d, _cfg(d, "separable:5", n=12), seed=0, progress=calls.append)
     assert sum(calls) == len(res.table) == d.n and max(calls) == 50
+

@@ -82,6 +82,7 @@ reference      the NumPy reference step
 kernel         the compiled per-particle pass; kernel_ops: its building blocks, the peak
 linalg         per-particle solves with ``Sigma + I``
 posterior      posterior curves and the peak per axle
+guard          honesty checks after every step: divergence, the physics floor, the vy band
 estimator      ``prepare`` / ``init`` / ``step`` / ``run``; the online :class:`GPSSM`
 presets        data-set options (DART)
 accuracy       curve accuracy against the truth (evaluation)

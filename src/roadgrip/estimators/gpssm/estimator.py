@@ -145,7 +145,8 @@ def run(
     """The whole drive: table, posterior curves at ``config.curve_times`` and meta.
 
     ``meta`` holds ``config``, ``seed``, ``timing``, ``diagnostics`` (effective sample
-    size, resampling rate) and ``summary``: the smaller of the two axles' peak estimates
+    size, resampling rate, ``diverged_samples`` and a ``warning`` when there are any)
+    and ``summary``: the smaller of the two axles' peak estimates
     and the union of their bands at the last sample.
     """
     config = config if config is not None else GPSSMConfig()
@@ -167,6 +168,12 @@ def run(
         },
         "summary": summary(table),
     }
+    n_div = int(table["diverged"].sum())
+    meta["diagnostics"]["diverged_samples"] = n_div
+    if n_div:
+        meta["diagnostics"]["warning"] = (
+            f"the filter diverged on {n_div} of {len(table)} samples (column 'diverged'): "
+            "there the peaks are reported with the prior band and the state was re-initialised")
     if not table["excited"].any():
         meta["diagnostics"]["information"] = "no excitation: posterior equals the prior"
     return EstimateResult("gpssm", table, meta, curves_frame(curves, drive) if curves else None)

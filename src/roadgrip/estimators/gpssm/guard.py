@@ -18,8 +18,8 @@ Divergence
     statistics are kept. The output stays flagged for ``diverge_time`` after the
     re-initialisation while the state settles.
 Physics floor
-    ``floor`` is the largest ``|mean a_y| / g`` over a full trailing second up to the
-    step: the friction the car demonstrably used. No upper bound is reported below it
+    ``floor`` is the largest ``|mean a_y| / g`` over a full trailing second of recorded
+    samples up to the step: the friction the car demonstrably used. No upper bound is reported below it
     (the accelerometer as read). Over the learned accelerometer gain
     (:attr:`GPSSMConfig.ay_gain_sigma`) it is the floor of the peak estimates: an observed
     peak more than ``floor_margin`` below it is reported as not observed (the learned
@@ -118,7 +118,9 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
     config = ctx.config
     g = state.guard
     t = float(sample.t)
-    g.add(t, float(sample.ay), dt if dt > 0 else 0.04)
+    if sample.recorded:
+        # recorded samples only: the floor of the data, not of the interpolated sub-steps
+        g.add(t, float(sample.ay), t - g.times[-1] if g.times else (dt if dt > 0 else 0.04))
     # the floor over the accelerometer gain as learned now (a constant of the car)
     floor_gain = g.floor_raw / max(est.ay_gain, 1e-6)
     vx = float(sample.vx)

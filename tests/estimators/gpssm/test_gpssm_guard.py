@@ -1,0 +1,66 @@
+"""The GP-SSM filter's honesty checks (:mod:`roadgrip.estimators.gpssm.guard`)."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from roadgrip.drive import Drive
+from roadgrip.estimators.gpssm import GPSSM, GPSSMConfig, Sample, drive_inputs, run_filter
+from roadgrip.sim.scenarios import simulate_scenario
+from roadgrip.vehicle import PRESETS
+
+
+@pytest.fixture(scope="module")
+def snow20():
+    return simulate_scenario("snow-slalom", seed=3, duration=20.0)
+
+
+def _cfg(drive, basis="separable:8", n=24, **kw):
+    return GPSSMConfig(basis=basis, particles=n, **kw)
+
+
+def _samples(drive):
+    return [Sample(*row) for row in drive_inputs(drive)]
+
+
+def test_a_runaway_state_is_flagged_reset_and_reported_with_the_prior_band(snow20):
+    # a filter whose particles all left for |vy| = 30 m/s at 12 m/s: the next step is
+    # flagged diverged, reports the prior band with a vy band as wide as the error, and
+    # the particles are back at the start's spread; a few seconds later the flag is gone
+    d = snow20.slice_time(0.0, 8.0)
+    cfg = _cfg(d, "separable-odd:6", n=24)
+    f = GPSSM(cfg, d.vehicle, seed=0)
+    samples = _samples(d)
+    for s in samples[:50]:
+        est = f.step(s)
+    assert not est.diverged
+    f.state_.x[:, 0] = 30.0
+    est = f.step(samples[50])
+    assert est.diverged and abs(est.vy) > 0.5 * samples[50].vx
+    assert est.vy_std >= abs(est.vy) - 1e-9
+    for axle in ("front", "rear"):
+        assert not getattr(est, f"peak_observed_{axle}")
+        assert getattr(est, f"mu_{axle}_lower") == 0.0
+        assert getattr(est, f"mu_{axle}_upper") == cfg.peak_max
+    assert np.abs(f.state_.x[:, 0]).max() < 5 * cfg.sigma_vy0
+    ests = [f.step(s) for s in samples[51:150]]
+    assert not ests[-1].diverged and abs(ests[-1].vy - d.col("vy_true")[149]) < 0.3
+
+
+def test_no_upper_bound_below_the_sustained_lateral_acceleration():
+    # a steady turn at 0.6 g for 4 s: whatever the filter learned, no upper bound lies
+    # below 0.6 once a full second has passed, and no peak below 0.6 over the learned
+    # accelerometer gain
+    n = 100
+    df = pd.DataFrame({
+        "t": np.arange(n) * 0.04, "ay": np.full(n, 0.6 * 9.80665), "yaw_rate": np.full(n, 0.6 * 9.80665 / 15.0),
+        "steer": np.full(n, 0.03), "vx": np.full(n, 15.0),
+    })
+    d = Drive.from_frame(df, PRESETS["sedan"], source="steady turn")
+    t, _ = run_filter(d, _cfg(d, "separable-odd:6", n=24), seed=0)
+    late = t[t["t"] >= 1.0]
+    np.testing.assert_allclose(late["floor"], 0.6, rtol=1e-9)
+    for axle in ("front", "rear"):
+        assert (late[f"mu_{axle}_upper"] >= 0.6 - 1e-12).all()
+        assert (late[f"mu_{axle}"] >= 0.6 / late["ay_gain"] - 1e-12).all()
+    assert (t.loc[t["t"] < 0.9, "floor"] == 0.0).all()
