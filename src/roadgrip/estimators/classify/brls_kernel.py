@@ -166,7 +166,9 @@ def _state_from_vector(v: NDArray[np.float64]) -> BRLSState:
 @numba.njit(cache=True)
 def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - compiled
     """One classifier update in place on ``st``; returns (grip index, w_long, w_lat)."""
-    mu = np.exp(-dt / p.memory_s)
+    # forgetting factor; after a long pause (a logger stopped for minutes) it would
+    # underflow to 0 and divide by zero below: the memory is then simply emptied
+    mu = max(np.exp(-dt / p.memory_s), 1e-9)
     ke = 1.0 - np.exp(-dt / p.excitation_tau_s)
     kf = 1.0 if p.prefilter_tau_s <= 0.0 else 1.0 - np.exp(-dt / p.prefilter_tau_s)
     e_min = p.excitation_min
