@@ -129,3 +129,19 @@ def test_missing_mapping_file(tmp_path):
     csv, _, _ = _log(tmp_path)
     with pytest.raises(ValueError, match="mapping file not found"):
         read_mapped(csv, tmp_path / "none.yaml")
+
+
+def test_a_compressed_csv_name_reads_as_canonical(tmp_path):
+    import gzip
+
+    from roadgrip.io.read import detect_format, read_drive
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    drive = simulate_scenario("f1tenth-patches", 0, duration=2.0)
+    plain = tmp_path / "drive.csv"
+    drive.to_csv(plain)
+    packed = tmp_path / "drive.csv.gz"
+    packed.write_bytes(gzip.compress(plain.read_bytes()))
+    assert detect_format(packed) == "canonical"
+    back = read_drive(packed, vehicle=drive.vehicle)
+    np.testing.assert_array_equal(back.col("ay"), read_drive(plain, vehicle=drive.vehicle).col("ay"))

@@ -60,6 +60,8 @@ def detect_format(path: str | Path) -> str:
         return "canonical"
     if suffix == ".csv":
         return "dart" if is_dart_csv(p) else "canonical"
+    if suffix in (".gz", ".bz2", ".xz", ".zst") and Path(p.stem).suffix.lower() == ".csv":
+        return "canonical"  # a compressed canonical CSV (the reader detects the compression by content)
     raise ValueError(
         f"cannot tell the format of {p.name!r}: expected .csv, .parquet, "
         f"{', '.join(BAG_SUFFIXES + MDF_SUFFIXES)}, or pass "
