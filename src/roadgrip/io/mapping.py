@@ -38,7 +38,7 @@ from roadgrip.drive import SIGNAL_COLUMNS, Drive
 from roadgrip.io._csv import read_csv_exact
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
-__all__ = ["QUANTITY_OF", "UNITS", "load_mapping", "read_mapped"]
+__all__ = ["QUANTITY_OF", "UNITS", "load_mapping", "read_map", "read_mapped"]
 
 UNITS: dict[str, tuple[str, float]] = {
     "m/s^2": ("acceleration", 1.0),
@@ -78,6 +78,54 @@ _TOP_KEYS = {"columns", "vehicle", "time_zero", "keep", "source", "description"}
 _ENTRY_KEYS = {"column", "unit", "sign", "scale", "axis"}
 
 
+
+def read_map(spec: str | Path | dict[str, Any], *, kind: str, file_kind: str, section: str,
+             top_keys: set[str], missing_hint: str = "") -> tuple[dict[str, Any], str]:
+    """A YAML map (column, channel or topic map) read and checked for its main section.
+
+    Parameters
+    ----------
+    spec : str, Path or dict
+        A YAML file or an already-parsed map.
+    kind : str
+        What the map is, in messages (``'channel map'``); also the name of a parsed map.
+    file_kind : str
+        What the file is, in the messages about reading it (``'mapping file'``).
+    section : str
+        The section that must be a non-empty mapping (``'channels'``).
+    top_keys : set of str
+        The keys allowed at the top level.
+    missing_hint : str
+        Appended to the not-found message (e.g. the shipped maps).
+
+    Returns
+    -------
+    (dict, str)
+        The map and its name for messages (the file's name, or ``kind``).
+
+    Raises
+    ------
+    ValueError
+        A missing or unreadable file, invalid YAML, no such section, unknown top-level keys.
+    """
+    if isinstance(spec, dict):
+        m, name = dict(spec), kind
+    else:
+        p = Path(spec)
+        name = p.name
+        try:
+            m = yaml.safe_load(p.read_text())
+        except FileNotFoundError:
+            raise ValueError(f"{file_kind} not found: {p}{missing_hint}") from None
+        except yaml.YAMLError as exc:
+            raise ValueError(f"{file_kind} {name} is not valid YAML: {exc}") from None
+    if not isinstance(m, dict) or not isinstance(m.get(section), dict) or not m[section]:
+        raise ValueError(f"{name}: a {kind} needs a non-empty '{section}' section")
+    unknown = sorted(set(m) - top_keys)
+    if unknown:
+        raise ValueError(f"{name}: unknown key(s) {unknown}; known: {sorted(top_keys)}")
+    return m, name
+
 def load_mapping(spec: str | Path | dict[str, Any]) -> dict[str, Any]:
     """Read and check a mapping (YAML path or an already-parsed mapping).
 
@@ -87,22 +135,7 @@ def load_mapping(spec: str | Path | dict[str, Any]) -> dict[str, Any]:
         Unreadable file, unknown keys, a non-canonical target column, a unit
         that is unknown or does not fit the column, a sign other than +-1.
     """
-    if isinstance(spec, dict):
-        m, name = spec, "mapping"
-    else:
-        p = Path(spec)
-        name = p.name
-        try:
-            m = yaml.safe_load(p.read_text())
-        except FileNotFoundError:
-            raise ValueError(f"mapping file not found: {p}") from None
-        except yaml.YAMLError as exc:
-            raise ValueError(f"mapping file {name} is not valid YAML: {exc}") from None
-    if not isinstance(m, dict) or not isinstance(m.get("columns"), dict) or not m["columns"]:
-        raise ValueError(f"{name}: a mapping needs a non-empty 'columns' section")
-    unknown = sorted(set(m) - _TOP_KEYS)
-    if unknown:
-        raise ValueError(f"{name}: unknown key(s) {unknown}; known: {sorted(_TOP_KEYS)}")
+    m, name = read_map(spec, kind="mapping", file_kind="mapping file", section="columns", top_keys=_TOP_KEYS)
     cols = m["columns"]
     if "t" not in cols:
         raise ValueError(f"{name}: the mapping must give the time column 't'")

@@ -42,10 +42,9 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import yaml
 
 from roadgrip.drive import SIGNAL_COLUMNS, Drive, DriveValidationError
-from roadgrip.io.mapping import QUANTITY_OF, UNITS
+from roadgrip.io.mapping import QUANTITY_OF, UNITS, read_map
 from roadgrip.io.resample import make_clock, resample
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
@@ -81,22 +80,7 @@ def load_channel_map(spec: str | Path | dict[str, Any]) -> dict[str, Any]:
         is ``t``, which comes from the file's time channels), a unit that is unknown
         or does not fit the signal, a sign other than +-1, a bad scale or rate.
     """
-    if isinstance(spec, dict):
-        m, name = spec, "channel map"
-    else:
-        p = Path(spec)
-        name = p.name
-        try:
-            m = yaml.safe_load(p.read_text())
-        except FileNotFoundError:
-            raise ValueError(f"channel map not found: {p}") from None
-        except yaml.YAMLError as exc:
-            raise ValueError(f"channel map {name} is not valid YAML: {exc}") from None
-    if not isinstance(m, dict) or not isinstance(m.get("channels"), dict) or not m["channels"]:
-        raise ValueError(f"{name}: a channel map needs a non-empty 'channels' section")
-    unknown = sorted(set(m) - _TOP_KEYS)
-    if unknown:
-        raise ValueError(f"{name}: unknown key(s) {unknown}; known: {sorted(_TOP_KEYS)}")
+    m, name = read_map(spec, kind="channel map", file_kind="channel map", section="channels", top_keys=_TOP_KEYS)
     for key in ("rate", "max_gap"):
         v = m.get(key)
         if v is not None and (isinstance(v, bool) or not isinstance(v, int | float) or not v > 0

@@ -54,7 +54,7 @@ import pandas as pd
 import yaml
 
 from roadgrip.drive import SIGNAL_COLUMNS, Drive, DriveValidationError
-from roadgrip.io.mapping import QUANTITY_OF, UNITS
+from roadgrip.io.mapping import QUANTITY_OF, UNITS, read_map
 from roadgrip.io.resample import resample
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
@@ -91,19 +91,11 @@ def shipped_topic_maps() -> list[str]:
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".yaml"))
 
 
-def _read_yaml(spec: str | Path) -> tuple[dict[str, Any], str]:
-    p = Path(spec)
-    if not p.exists() and str(spec) in shipped_topic_maps():
-        text = (resources.files("roadgrip") / "data" / "topics" / f"{spec}.yaml").read_text()
-        return yaml.safe_load(text), f"{spec}.yaml"
-    try:
-        return yaml.safe_load(p.read_text()), p.name
-    except FileNotFoundError:
-        raise ValueError(
-            f"topic map not found: {p} (shipped maps: {', '.join(shipped_topic_maps())})"
-        ) from None
-    except yaml.YAMLError as exc:
-        raise ValueError(f"topic map {p.name} is not valid YAML: {exc}") from None
+def _shipped_or_given(spec: str | Path | dict[str, Any]) -> str | Path | dict[str, Any]:
+    """The parsed shipped map where ``spec`` names one (and no such file exists), else ``spec``."""
+    if not isinstance(spec, dict) and not Path(spec).exists() and str(spec) in shipped_topic_maps():
+        return yaml.safe_load((resources.files("roadgrip") / "data" / "topics" / f"{spec}.yaml").read_text())
+    return spec
 
 
 def load_topic_map(spec: str | Path | dict[str, Any]) -> dict[str, Any]:
@@ -126,12 +118,11 @@ def load_topic_map(spec: str | Path | dict[str, Any]) -> dict[str, Any]:
         Unknown keys, a target that is not a canonical signal, a missing topic or
         field, a unit that does not fit its signal, a bad scale, offset or convert.
     """
-    m, name = (dict(spec), "topic map") if isinstance(spec, dict) else _read_yaml(spec)
-    if not isinstance(m, dict) or not isinstance(m.get("signals"), dict) or not m["signals"]:
-        raise ValueError(f"{name}: a topic map needs a non-empty 'signals' section")
-    unknown = sorted(set(m) - _TOP_KEYS)
-    if unknown:
-        raise ValueError(f"{name}: unknown key(s) {unknown}; known: {sorted(_TOP_KEYS)}")
+    given = _shipped_or_given(spec)
+    m, name = read_map(given, kind="topic map", file_kind="topic map", section="signals", top_keys=_TOP_KEYS,
+                       missing_hint=f" (shipped maps: {', '.join(shipped_topic_maps())})")
+    if given is not spec:
+        name = f"{spec}.yaml"
     if m.get("stamp", "header") not in ("header", "bag"):
         raise ValueError(f"{name}: stamp must be 'header' or 'bag', got {m['stamp']!r}")
     gap = m.get("max_gap")
