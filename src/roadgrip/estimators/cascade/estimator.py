@@ -31,7 +31,7 @@ from roadgrip.estimators.cascade.model import ForceState, FrictionState, Velocit
 from roadgrip.estimators.cascade.result import diagnostics, output_columns, summary
 from roadgrip.estimators.protocol import DriveInfo, Estimator, Prepared
 from roadgrip.inference.kalman import merwe_weights
-from roadgrip.signals import WHEELS, driven_wheels, sustained_grip, sustained_grip_step
+from roadgrip.signals import sustained_grip, sustained_grip_step, undriven_wheels
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = ["ESTIMATOR", "CascadeState", "init", "prepare", "run", "run_filter", "step"]
@@ -148,14 +148,15 @@ def _speed_slip(source: str, drive: Drive, config: CascadeConfig) -> tuple[float
     """Wheel slip per acceleration of the wheels the speed comes from, braking and driving [s²/m].
 
     ``1 / (g C_x)`` with ``C_x = config.wheel_slip_stiffness``; driving counts only
-    when a measured wheel is driven. Zero for a speed that is not from wheel speeds.
+    when a measured wheel is driven, i.e. when the car has no undriven wheel (the
+    speed comes from the undriven wheels where there are any,
+    :func:`~roadgrip.estimators.cascade.inputs.measured_speed`). Zero for a speed
+    that is not from wheel speeds.
     """
     if not source.startswith("wheel speeds") or config.wheel_slip_stiffness <= 0:
         return 0.0, 0.0
     gain = 1.0 / (GRAVITY * config.wheel_slip_stiffness)
-    driven = set(np.flatnonzero(driven_wheels(drive.vehicle.drive)))
-    used = {WHEELS.index(c.split("_")[1]) for c in source.split()[2].split("+")}
-    return gain, gain if used & driven else 0.0
+    return gain, 0.0 if undriven_wheels(drive.vehicle.drive).any() else gain
 
 
 def prepare(drive: Drive, config: CascadeConfig) -> Prepared:
