@@ -14,6 +14,7 @@ column              unit    meaning
 ``omega_fl`` ...    rad/s   wheel angular speeds (``fl, fr, rl, rr``)
 ``x``, ``y``        m       position in a local map frame
 ``psi``             rad     heading in the map frame
+``lat``, ``lon``    deg     optional GNSS WGS84 latitude, longitude (NaN: no fix)
 ``*_true``          ...     simulator truth (``vy_true``, ``alpha_f_true``, ...)
 ``Fyf_true`` ...    N       true axle forces
 ``surface``         -       label of the true surface under the vehicle
@@ -63,9 +64,9 @@ _MAX_ACCEL = 60.0  # m/s², about 6 g
 _MAX_YAW_RATE = 10.0  # rad/s, about 570 deg/s
 _MAX_STEER = 1.2  # rad, about 69 deg road-wheel angle
 
-AUX_COLUMNS = ("vx_pose", "vy_pose", "motor_rpm")
-"""Optional numeric columns some estimators read (pose velocity, motor speed); NaN marks a
-sample without a value."""
+AUX_COLUMNS = ("vx_pose", "vy_pose", "motor_rpm", "lat", "lon")
+"""Optional numeric columns some estimators read (pose velocity, motor speed) and the GNSS
+position the maps place cells with (WGS84 degrees); NaN marks a sample without a value."""
 
 SIGNAL_RANGES: dict[str, tuple[float, float, str]] = {
     "t": (-1e10, 1e10, "s"), "ax": (-500.0, 500.0, "m/s²"), "ay": (-500.0, 500.0, "m/s²"),
@@ -73,7 +74,7 @@ SIGNAL_RANGES: dict[str, tuple[float, float, str]] = {
     "vx": (-200.0, 200.0, "m/s"), **{c: (-1e4, 1e4, "rad/s") for c in WHEEL_COLUMNS},
     "x": (-1e8, 1e8, "m"), "y": (-1e8, 1e8, "m"), "psi": (-1e7, 1e7, "rad"),
     "vx_pose": (-200.0, 200.0, "m/s"), "vy_pose": (-200.0, 200.0, "m/s"),
-    "motor_rpm": (-1e6, 1e6, "rpm"),
+    "motor_rpm": (-1e6, 1e6, "rpm"), "lat": (-90.0, 90.0, "deg"), "lon": (-180.0, 180.0, "deg"),
 }  # fmt: skip
 """Physical range of each numeric signal: ``(low, high, unit)``; values outside are refused.
 
