@@ -349,10 +349,13 @@ def test_grid_fuses_or_refuses_with_a_reason(obs, cell, split):
         event("refused: " + ("observation" if "observation" in msg else "size"))
         return
     event("accepted")
-    assert g.s0.size <= G.MAX_CELLS
-    assert int(g.n_obs.sum()) == len(x)
-    m, s = g.posterior()
+    # sparse: memory follows the observed cells, whatever their spread
+    assert g.n_cells <= len(x) and g.nbytes == g.n_cells * 48
+    assert int(g.cells.n_obs.sum()) == len(x)
+    m, s = g.cell_posterior()
     assert np.all(np.isfinite(m)) and np.all(np.isfinite(s))
+    qm, _ = g.query(x, y)
+    np.testing.assert_allclose(np.sort(np.unique(qm)), np.sort(np.unique(m)), rtol=1e-12)
 
 
 @_budget(20, 0.05)

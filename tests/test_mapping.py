@@ -316,21 +316,40 @@ def test_the_library_grid_imports_no_figures_console_or_command_line():
 
 # -- grid robustness: far-apart observations, huge coordinates, files that are not grids ------
 
-def test_far_apart_observations_refused_with_the_memory_they_would_need():
+def test_far_apart_observations_take_the_memory_of_two_cells():
+    """Two observations 30 km apart with 0.5 m cells: two rows of the sparse table (dense: 26.8 GiB)."""
+    import tracemalloc
+
+    from roadgrip.mapping.cells import BYTES_PER_CELL
+
     g = M.empty_grid(0.5)
+    one = M.fuse(g, [0.0], [0.0], [0.5], [0.01])
+    tracemalloc.start()
+    two = M.fuse(g, [0.0, 30_000.0], [0.0, 30_000.0], [0.5, 0.6], [0.01, 0.01])
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 100_000, peak
+    assert one.nbytes == BYTES_PER_CELL and two.n_cells == 2 and two.nbytes == 2 * one.nbytes
+    np.testing.assert_allclose(two.cells.n_obs, [1, 1])
+    m, _ = two.query([0.1, 30_000.2, 15_000.0], [0.1, 30_000.2, 15_000.0])
+    np.testing.assert_allclose(m, [(0.7 / 0.16 + 50) / (1 / 0.16 + 100), (0.7 / 0.16 + 60) / (1 / 0.16 + 100), 0.7])
+    cells = two.cells_frame()
+    np.testing.assert_allclose(cells[["x", "y"]].to_numpy(), [[0.25, 0.25], [30_000.25, 30_000.25]])
+    # two drives far apart merge into the same two cells, in either order
+    a = M.fuse(g, [0.0], [0.0], [0.5], [0.01])
+    b = M.fuse(g, [30_000.0], [30_000.0], [0.6], [0.01])
+    for merged in (M.merge(a, b), M.merge(b, a)):
+        assert merged.nbytes == two.nbytes
+        for f in ("key", "s0", "s1", "s2", "sb", "n_obs"):
+            np.testing.assert_array_equal(getattr(merged.cells, f), getattr(two.cells, f))
+    # only the dense view over the bounding box (figures) is refused, with what it would need
     with pytest.raises(ValueError) as exc:
-        M.fuse(g, [0.0, 30_000.0], [0.0, 30_000.0], [0.5, 0.6], [0.01, 0.01])
+        _ = two.s0
     msg = str(exc.value)
-    # 60000 x 60000 cells of 40 bytes
-    assert "60001 x 60001" in msg and f"{60001**2 * 40 / 2**30:.3g} GiB" in msg
-    assert "x 0 to 30000.5 m" in msg
-    # the same distance along one axis is a thin strip and fits
+    assert "60001 x 60001" in msg and f"{60001**2 * 40 / 2**30:.3g} GiB" in msg and "x 0 to 30000.5 m" in msg
+    # a thin strip still has its dense view
     g2 = M.fuse(g, [0.0, 30_000.0], [0.0, 0.0], [0.5, 0.6], [0.01, 0.01])
     assert g2.shape == (1, 60001) and int(g2.n_obs.sum()) == 2
-    a = M.fuse(g, [0.0], [0.0], [0.5], [0.01])
-    b = M.fuse(g, [30_000.0], [30_000.0], [0.5], [0.01])
-    with pytest.raises(ValueError, match=r"merged grids .* GiB"):
-        M.merge(a, b)
 
 
 @pytest.mark.parametrize("x", [1e19, 1e308, -2e8])

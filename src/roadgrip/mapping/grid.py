@@ -1,26 +1,44 @@
-"""The friction grid: cells of precision-weighted sums, fusion, merging, posterior and files.
+"""The friction grid: a sparse table of observed cells, fusion, merging, posterior and files.
 
-The model is described in :mod:`roadgrip.mapping`.
+The model is described in :mod:`roadgrip.mapping`. A grid stores only the cells that
+hold observations (:class:`roadgrip.mapping.cells.CellSums`, 48 bytes a cell), so its
+memory follows the observed cells, not the bounding box of the observations. The dense
+views (``s0 ... n_obs``, :meth:`FrictionGrid.posterior`, :meth:`FrictionGrid.centres`)
+lay the cells out over their bounding box for figures and compact maps; they refuse a box
+of more than :data:`MAX_CELLS` cells, with the memory it would need.
 """
-
 
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
+
+from roadgrip.mapping.cells import (
+    MAX_INDEX,
+    CellSums,
+    add_cells,
+    birge_ratio,
+    cell_posterior,
+    cells_from_observations,
+    empty_cells,
+    lookup,
+    scale_cells,
+    square_index,
+    square_keys,
+)
 
 __all__ = ["MAX_CELLS", "MAX_COORD", "MAX_MU", "MIN_VAR", "FrictionGrid", "Observations", "empty_grid", "fuse", "merge"]
 
 MAX_CELLS = 10_000_000
-"""Largest grid [cells]: 400 MB for its five arrays (40 bytes a cell). A map is dense over
-the bounding box of its observations; a larger one is refused with what it would need."""
+"""Largest dense view [cells] (:attr:`FrictionGrid.s0` and the like over the bounding box of
+the observed cells): 400 MB for its five arrays. The sparse grid itself has no such limit."""
 
 MAX_COORD = 1.0e8
 """Largest position magnitude [m] in a map frame (a local frame: 100,000 km)."""
@@ -32,7 +50,8 @@ so that the precision-weighted sums stay finite."""
 MAX_MU = 100.0
 """Largest friction magnitude [-] an observation may carry."""
 
-_BYTES_PER_CELL = 40
+_DENSE_BYTES_PER_CELL = 40
+_FORMAT = "roadgrip-friction-grid-2"
 
 
 class Observations(NamedTuple):
@@ -60,21 +79,26 @@ class Observations(NamedTuple):
     sys: NDArray[np.float64]
 
 
+class _Dense(NamedTuple):
+    ix0: int
+    iy0: int
+    s0: NDArray[np.float64]
+    s1: NDArray[np.float64]
+    s2: NDArray[np.float64]
+    sb: NDArray[np.float64]
+    n_obs: NDArray[np.int64]
+
+
 @dataclass(frozen=True)
 class FrictionGrid:
-    """A friction grid (immutable; :func:`fuse` and :func:`merge` return new grids).
+    """A sparse friction grid (immutable; :func:`fuse` and :func:`merge` return new grids).
 
     Attributes
     ----------
     cell : float
-        Cell size [m].
-    ix0, iy0 : int
-        Global index of the first column / row (cell ``(i, j)`` covers
-        ``[i cell, (i+1) cell) x [j cell, (j+1) cell)``).
-    s0, s1, s2, sb : ndarray, shape (ny, nx)
-        Sums of ``w``, ``w mu``, ``w mu²``, ``w b`` (``b`` systematic error).
-    n_obs : ndarray of int64, shape (ny, nx)
-        Number of observations fused into each cell.
+        Cell size [m]; cell ``(i, j)`` covers ``[i cell, (i+1) cell) x [j cell, (j+1) cell)``.
+    cells : CellSums
+        The observed cells' sums, keyed by :func:`roadgrip.mapping.cells.square_keys`.
     prior_mean, prior_std : float
         Prior friction of an unvisited cell [-].
     tau : float
@@ -85,22 +109,20 @@ class FrictionGrid:
         Inflate cell variances by the Birge ratio (module docstring).
     path : ndarray, shape (k, 2)
         Decimated driven path for plots (rows of NaN separate drives).
+    origin : tuple of float or None
+        ``(lat, lon)`` [deg, WGS84] of the local east-north frame the positions are in, when the
+        grid was built from GNSS positions (:mod:`roadgrip.mapping.geo`); ``None``: a local frame.
     """
 
     cell: float
-    ix0: int
-    iy0: int
-    s0: NDArray[np.float64]
-    s1: NDArray[np.float64]
-    s2: NDArray[np.float64]
-    sb: NDArray[np.float64]
-    n_obs: NDArray[np.int64]
+    cells: CellSums = field(default_factory=empty_cells)
     prior_mean: float = 0.7
     prior_std: float = 0.4
     tau: float = float("inf")
     t_ref: float = float("-inf")
     overdispersion: bool = True
     path: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    origin: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.cell) and self.cell > 0):
@@ -109,61 +131,132 @@ class FrictionGrid:
             raise ValueError("prior_mean must be finite and prior_std positive")
         if not self.tau > 0:
             raise ValueError(f"forgetting time constant tau must be positive (inf: none), got {self.tau!r}")
-        shapes = {np.shape(a) for a in (self.s0, self.s1, self.s2, self.sb, self.n_obs)}
-        if len(shapes) != 1 or len(next(iter(shapes))) != 2:
-            raise ValueError(f"grid arrays must share one 2-D shape, got {shapes}")
-        ny, nx = next(iter(shapes))
-        _check_size(nx, ny, self.cell)
-        for name, i0, n in (("ix0", self.ix0, nx), ("iy0", self.iy0, ny)):
-            if not abs(i0 * self.cell) <= MAX_COORD or not abs((i0 + n) * self.cell) <= MAX_COORD:
-                raise ValueError(f"grid origin {name} = {i0} cells of {self.cell:g} m lies beyond "
-                                 f"+-{MAX_COORD:g} m")
+        c = self.cells
+        if not isinstance(c, CellSums) or len({a.shape for a in c}) != 1 or c.key.ndim != 1:
+            raise ValueError("grid cells must be a CellSums table of one length")
+        if c.size and not np.all(np.diff(c.key) > 0):
+            raise ValueError("grid cell keys must be sorted and unique")
+        ix, iy = square_index(c.key)
+        if c.size and max(np.abs(ix).max(), np.abs(iy).max()) * self.cell > MAX_COORD + self.cell:
+            raise ValueError(f"grid cells lie beyond +-{MAX_COORD:g} m of the map origin")
 
-    # -- geometry --------------------------------------------------------------------
+    # -- the sparse table ------------------------------------------------------------
+    @property
+    def n_cells(self) -> int:
+        """Number of observed cells."""
+        return self.cells.size
+
+    @property
+    def nbytes(self) -> int:
+        """Memory of the cell table [bytes] (:data:`roadgrip.mapping.cells.BYTES_PER_CELL` a cell)."""
+        return self.cells.nbytes
+
+    def cell_index(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """Global indices ``(ix, iy)`` of the observed cells, each shape ``(k,)``."""
+        return square_index(self.cells.key)
+
+    def cell_centres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Centres ``(x, y)`` [m] of the observed cells, each shape ``(k,)``."""
+        ix, iy = self.cell_index()
+        return (ix + 0.5) * self.cell, (iy + 0.5) * self.cell
+
+    def cell_posterior(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Posterior mean and standard deviation [-] of the observed cells, each shape ``(k,)``."""
+        return cell_posterior(self.cells, self.prior_mean, self.prior_std, self.overdispersion)
+
+    # -- dense views over the bounding box of the observed cells ----------------------
+    @cached_property
+    def _dense(self) -> _Dense:
+        c = self.cells
+        if c.size == 0:
+            z = np.zeros((0, 0))
+            return _Dense(0, 0, z, z, z, z, np.zeros((0, 0), np.int64))
+        ix, iy = square_index(c.key)
+        x0, y0 = int(ix.min()), int(iy.min())
+        nx, ny = int(ix.max()) - x0 + 1, int(iy.max()) - y0 + 1
+        _check_size(nx, ny, self.cell, f" to lay out the observed cells over x {x0 * self.cell:.6g} to "
+                    f"{(x0 + nx) * self.cell:.6g} m, y {y0 * self.cell:.6g} to {(y0 + ny) * self.cell:.6g} m")
+        out = []
+        for a in (c.s0, c.s1, c.s2, c.sb, c.n_obs):
+            d = np.zeros((ny, nx), a.dtype)
+            d[iy - y0, ix - x0] = a
+            out.append(d)
+        return _Dense(x0, y0, *out)
+
+    @property
+    def ix0(self) -> int:
+        """Global index of the first column of the dense view."""
+        return self._dense.ix0
+
+    @property
+    def iy0(self) -> int:
+        """Global index of the first row of the dense view."""
+        return self._dense.iy0
+
+    @property
+    def s0(self) -> NDArray[np.float64]:
+        """Dense ``sum w``, shape ``(ny, nx)``."""
+        return self._dense.s0
+
+    @property
+    def s1(self) -> NDArray[np.float64]:
+        """Dense ``sum w mu``, shape ``(ny, nx)``."""
+        return self._dense.s1
+
+    @property
+    def s2(self) -> NDArray[np.float64]:
+        """Dense ``sum w mu²``, shape ``(ny, nx)``."""
+        return self._dense.s2
+
+    @property
+    def sb(self) -> NDArray[np.float64]:
+        """Dense ``sum w b``, shape ``(ny, nx)``."""
+        return self._dense.sb
+
+    @property
+    def n_obs(self) -> NDArray[np.int64]:
+        """Dense observation counts, shape ``(ny, nx)``."""
+        return self._dense.n_obs
+
     @property
     def shape(self) -> tuple[int, int]:
-        """``(ny, nx)``."""
-        return self.s0.shape  # type: ignore[return-value]
+        """``(ny, nx)`` of the dense view."""
+        return self._dense.s0.shape  # type: ignore[return-value]
 
     @property
     def extent(self) -> tuple[float, float, float, float]:
-        """``(xmin, xmax, ymin, ymax)`` of the grid [m]."""
+        """``(xmin, xmax, ymin, ymax)`` of the dense view [m]."""
         ny, nx = self.shape
         c = self.cell
         return (self.ix0 * c, (self.ix0 + nx) * c, self.iy0 * c, (self.iy0 + ny) * c)
 
     def centres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Cell-centre coordinates ``X, Y`` [m], each shape ``(ny, nx)``."""
+        """Cell-centre coordinates ``X, Y`` [m] of the dense view, each shape ``(ny, nx)``."""
         ny, nx = self.shape
         xs = (self.ix0 + np.arange(nx) + 0.5) * self.cell
         ys = (self.iy0 + np.arange(ny) + 0.5) * self.cell
         return np.meshgrid(xs, ys)
 
-    # -- posterior -------------------------------------------------------------------
-    def birge_ratio(self) -> NDArray[np.float64]:
-        """Per-cell ``max(1, chi² / (n - 1))`` (1 where fewer than two observations)."""
-        out = np.ones(self.shape)
-        ok = (self.n_obs >= 2) & (self.s0 > 0)
-        if ok.any():
-            s0, s1, s2 = self.s0[ok], self.s1[ok], self.s2[ok]
-            chi2 = np.maximum(s2 - s1 * s1 / s0, 0.0)
-            out[ok] = np.maximum(chi2 / (self.n_obs[ok] - 1), 1.0)
+    def _spread(self, values: NDArray[np.float64], fill: float) -> NDArray[np.float64]:
+        out = np.full(self.shape, fill)
+        if self.cells.size:
+            ix, iy = self.cell_index()
+            out[iy - self.iy0, ix - self.ix0] = values
         return out
 
+    def birge_ratio(self) -> NDArray[np.float64]:
+        """Dense per-cell ``max(1, chi² / (n - 1))`` (1 where fewer than two observations)."""
+        return self._spread(birge_ratio(self.cells), 1.0)
+
     def posterior(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Per-cell posterior mean and standard deviation [-], shape ``(ny, nx)``."""
-        b = self.birge_ratio() if self.overdispersion else np.ones(self.shape)
-        p0 = 1.0 / self.prior_std**2
-        prec = p0 + self.s0 / b
-        mean = (self.prior_mean * p0 + self.s1 / b) / prec
-        sys = self.sb / b / prec
-        return mean, np.sqrt(1.0 / prec + sys * sys)
+        """Dense per-cell posterior mean and standard deviation [-], shape ``(ny, nx)`` (prior where unvisited)."""
+        mean, std = self.cell_posterior()
+        return self._spread(mean, self.prior_mean), self._spread(std, self.prior_std)
 
     def query(self, x: ArrayLike, y: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Friction mean and standard deviation [-] at positions ``(x, y)`` [m].
 
-        Positions outside the grid or in cells without observations return the
-        prior (``prior_mean``, ``prior_std``).
+        Positions in cells without observations return the prior (``prior_mean``, ``prior_std``).
 
         Examples
         --------
@@ -172,61 +265,56 @@ class FrictionGrid:
         >>> [round(float(v), 3) for v in m], round(float(s[1]), 3)
         ([0.603, 0.7], 0.4)
         """
-        x = np.asarray(x, dtype=float)
-        y = np.asarray(y, dtype=float)
-        mean, std = self.posterior()
-        out_m = np.full(np.broadcast(x, y).shape, self.prior_mean)
-        out_s = np.full(out_m.shape, self.prior_std)
-        x, y = np.broadcast_arrays(x, y)
-        ix = np.floor(x / self.cell).astype(np.int64) - self.ix0
-        iy = np.floor(y / self.cell).astype(np.int64) - self.iy0
-        ny, nx = self.shape
-        inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny) & np.isfinite(x) & np.isfinite(y)
-        out_m[inside] = mean[iy[inside], ix[inside]]
-        out_s[inside] = std[iy[inside], ix[inside]]
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        out_m = np.full(x.shape, self.prior_mean)
+        out_s = np.full(x.shape, self.prior_std)
+        with np.errstate(invalid="ignore", over="ignore"):
+            fx, fy = np.floor(x / self.cell), np.floor(y / self.cell)
+        ok = np.isfinite(fx) & np.isfinite(fy) & (np.abs(fx) <= MAX_INDEX) & (np.abs(fy) <= MAX_INDEX)
+        if ok.any() and self.cells.size:
+            row = lookup(self.cells, square_keys(fx[ok].astype(np.int64), fy[ok].astype(np.int64)))
+            mean, std = self.cell_posterior()
+            hit = np.flatnonzero(ok)[row >= 0]
+            out_m.flat[hit] = mean[row[row >= 0]]
+            out_s.flat[hit] = std[row[row >= 0]]
         return out_m, out_s
 
     # -- files -----------------------------------------------------------------------
     def cells_frame(self, min_obs: int = 1) -> pd.DataFrame:
-        """Cells with at least ``min_obs`` observations: ``x, y, mu_mean, mu_std, n_obs``."""
-        X, Y = self.centres()
-        mean, std = self.posterior()
-        sel = self.n_obs >= max(min_obs, 1)
-        return pd.DataFrame({"x": X[sel], "y": Y[sel], "mu_mean": mean[sel], "mu_std": std[sel],
-                             "n_obs": self.n_obs[sel]})
+        """Cells with at least ``min_obs`` observations: ``x, y, mu_mean, mu_std, n_obs`` (row, then column order)."""
+        x, y = self.cell_centres()
+        mean, std = self.cell_posterior()
+        sel = self.cells.n_obs >= max(min_obs, 1)
+        return pd.DataFrame({"x": x[sel], "y": y[sel], "mu_mean": mean[sel], "mu_std": std[sel],
+                             "n_obs": self.cells.n_obs[sel]})
 
     def to_csv(self, path: str | Path) -> None:
         """Visited cells as CSV with columns ``x, y`` (cell centre, m), ``mu_mean, mu_std, n_obs``."""
         self.cells_frame().to_csv(path, index=False, float_format="%.6g")
 
     def to_npz(self, path: str | Path) -> None:
-        """Lossless NPZ (sums, counts, geometry, prior, forgetting, path)."""
+        """Lossless NPZ (cell keys, sums, counts, size, prior, forgetting, path, origin)."""
+        c = self.cells
+        origin = np.array(self.origin if self.origin is not None else (np.nan, np.nan), float)
         np.savez_compressed(
-            path, cell=self.cell, ix0=self.ix0, iy0=self.iy0, s0=self.s0, s1=self.s1, s2=self.s2, sb=self.sb,
-            n_obs=self.n_obs, prior_mean=self.prior_mean, prior_std=self.prior_std, tau=self.tau,
-            t_ref=self.t_ref, overdispersion=self.overdispersion, path=self.path,
-            format="roadgrip-friction-grid-1",
+            path, cell=self.cell, key=c.key, s0=c.s0, s1=c.s1, s2=c.s2, sb=c.sb, n_obs=c.n_obs,
+            prior_mean=self.prior_mean, prior_std=self.prior_std, tau=self.tau, t_ref=self.t_ref,
+            overdispersion=self.overdispersion, path=self.path, origin=origin, format=_FORMAT,
         )
 
     @classmethod
     def from_npz(cls, path: str | Path) -> FrictionGrid:
-        """Read :meth:`to_npz` output; a one-line error naming the file for anything else."""
+        """Read :meth:`to_npz` output (also the earlier dense format); a one-line error naming the file otherwise."""
         import zipfile
         import zlib
 
         name = Path(path).name
         try:
             with np.load(path, allow_pickle=False) as z:
-                if not hasattr(z, "files") or "format" not in z.files or (
-                        str(z["format"]) != "roadgrip-friction-grid-1"):
+                fmt = str(z["format"]) if hasattr(z, "files") and "format" in z.files else ""
+                if fmt not in (_FORMAT, "roadgrip-friction-grid-1"):
                     raise ValueError(f"{name} is not a roadgrip friction grid (.npz from `roadgrip map`)")
-                arrays = [np.asarray(z[k], dtype=float) for k in ("s0", "s1", "s2", "sb")]
-                return cls(
-                    float(z["cell"]), int(z["ix0"]), int(z["iy0"]), *arrays,
-                    np.asarray(z["n_obs"]).astype(np.int64), float(z["prior_mean"]),
-                    float(z["prior_std"]), float(z["tau"]), float(z["t_ref"]),
-                    bool(z["overdispersion"]), np.asarray(z["path"], dtype=float).reshape(-1, 2),
-                )
+                return _from_arrays(z, fmt)
         except FileNotFoundError:
             raise ValueError(f"map file not found: {path}") from None
         except IsADirectoryError:
@@ -242,15 +330,39 @@ class FrictionGrid:
                              f"`roadgrip map`): {why}") from None
 
 
+def _from_arrays(z, fmt: str) -> FrictionGrid:
+    """A grid from the arrays of an NPZ file of format ``fmt``."""
+    sums = [np.asarray(z[k], dtype=float).ravel() for k in ("s0", "s1", "s2", "sb")]
+    n = np.asarray(z["n_obs"]).astype(np.int64).ravel()
+    if fmt == _FORMAT:
+        key = np.asarray(z["key"]).astype(np.int64).ravel()
+        origin = np.asarray(z["origin"], float).ravel()
+    else:  # dense window of format 1
+        shape = np.shape(z["n_obs"])
+        iy, ix = np.nonzero(np.asarray(z["n_obs"]).reshape(shape) > 0)
+        sel = np.ravel_multi_index((iy, ix), shape) if len(shape) == 2 else np.zeros(0, int)
+        key = square_keys(ix + int(z["ix0"]), iy + int(z["iy0"]))
+        sums, n = [a[sel] for a in sums], n[sel]
+        origin = np.array([np.nan, np.nan])
+    if not all(a.shape == key.shape for a in (*sums, n)):
+        raise ValueError("not an .npz archive of arrays: the grid arrays differ in length")
+    return FrictionGrid(
+        float(z["cell"]), CellSums(key, *sums, n), float(z["prior_mean"]), float(z["prior_std"]),
+        float(z["tau"]), float(z["t_ref"]), bool(z["overdispersion"]),
+        np.asarray(z["path"], dtype=float).reshape(-1, 2),
+        (float(origin[0]), float(origin[1])) if origin.size == 2 and np.all(np.isfinite(origin)) else None,
+    )
+
+
 def _check_size(nx: int, ny: int, cell: float, spread: str = "") -> None:
-    """Refuse a grid of more than :data:`MAX_CELLS` cells, with the memory it would need."""
+    """Refuse a dense view of more than :data:`MAX_CELLS` cells, with the memory it would need."""
     n = int(nx) * int(ny)
     if n > MAX_CELLS:
-        gib = n * _BYTES_PER_CELL / 2**30
+        gib = n * _DENSE_BYTES_PER_CELL / 2**30
         raise ValueError(
             f"the map would need {nx} x {ny} = {n:.3g} cells of {cell:g} m ({gib:.3g} GiB){spread}; "
-            f"the limit is {MAX_CELLS:.3g} cells ({MAX_CELLS * _BYTES_PER_CELL / 2**30:.2g} GiB): "
-            "use larger cells or map the areas separately"
+            f"the limit of a dense view is {MAX_CELLS:.3g} cells: use the sparse cells "
+            "(cells_frame, cell_posterior, query) or larger cells"
         )
 
 
@@ -260,6 +372,7 @@ def empty_grid(
     prior_std: float = 0.4,
     tau: float = float("inf"),
     overdispersion: bool = True,
+    origin: tuple[float, float] | None = None,
 ) -> FrictionGrid:
     """A grid with no cells yet.
 
@@ -273,66 +386,11 @@ def empty_grid(
         Forgetting time constant [s]; ``inf`` keeps every observation at full weight.
     overdispersion : bool
         Inflate cell variances by the Birge ratio.
+    origin : (float, float), optional
+        ``(lat, lon)`` [deg] of the local east-north frame of the positions (GNSS maps).
     """
-    z = np.zeros((0, 0))
-    return FrictionGrid(float(cell), 0, 0, z, z.copy(), z.copy(), z.copy(), np.zeros((0, 0), np.int64),
-                        float(prior_mean), float(prior_std), float(tau), float("-inf"), bool(overdispersion))
-
-
-class _Batch(NamedTuple):
-    """Observations as the compiled accumulation reads them, each shape (n,) (``decay`` may be empty)."""
-
-    x: NDArray[np.float64]
-    y: NDArray[np.float64]
-    mu: NDArray[np.float64]
-    var: NDArray[np.float64]
-    decay: NDArray[np.float64]  # forgetting factor of each observation; empty: none
-    sys: NDArray[np.float64]
-
-
-class _Sums(NamedTuple):
-    """The per-cell sums of a grid window, shape (ny, nx) each (:class:`FrictionGrid`)."""
-
-    s0: NDArray[np.float64]
-    s1: NDArray[np.float64]
-    s2: NDArray[np.float64]
-    sb: NDArray[np.float64]
-    n_obs: NDArray[np.int64]
-
-
-class _Window(NamedTuple):
-    """A window of global cell indices: first column and row, number of columns and rows."""
-
-    ix0: int
-    iy0: int
-    nx: int
-    ny: int
-
-
-def _embed(g: FrictionGrid, ix0: int, iy0: int, nx: int, ny: int) -> _Sums:
-    """The grid's sums placed into a larger window starting at ``(ix0, iy0)``."""
-    out = _Sums(*(np.zeros((ny, nx)) for _ in range(4)), np.zeros((ny, nx), np.int64))
-    gy, gx = g.shape
-    if gy and gx:
-        ox, oy = g.ix0 - ix0, g.iy0 - iy0
-        for o, a in zip(out, (g.s0, g.s1, g.s2, g.sb, g.n_obs), strict=True):
-            o[oy:oy + gy, ox:ox + gx] = a
-    return out
-
-
-def _window(g: FrictionGrid) -> _Window:
-    return _Window(g.ix0, g.iy0, g.shape[1], g.shape[0])
-
-
-def _union(a: _Window, b: _Window) -> _Window:
-    """Union of two index windows; empty windows are ignored."""
-    if a.nx == 0 or a.ny == 0:
-        return b
-    if b.nx == 0 or b.ny == 0:
-        return a
-    x0, y0 = min(a.ix0, b.ix0), min(a.iy0, b.iy0)
-    x1, y1 = max(a.ix0 + a.nx, b.ix0 + b.nx), max(a.iy0 + a.ny, b.iy0 + b.ny)
-    return _Window(x0, y0, x1 - x0, y1 - y0)
+    return FrictionGrid(float(cell), empty_cells(), float(prior_mean), float(prior_std), float(tau),
+                        float("-inf"), bool(overdispersion), origin=origin)
 
 
 def _decay(g: FrictionGrid, t_new: float) -> FrictionGrid:
@@ -340,9 +398,37 @@ def _decay(g: FrictionGrid, t_new: float) -> FrictionGrid:
     if not t_new > g.t_ref:
         return g
     if np.isfinite(g.tau) and np.isfinite(g.t_ref):
-        f = np.exp(-(t_new - g.t_ref) / g.tau)
-        return dataclasses.replace(g, s0=g.s0 * f, s1=g.s1 * f, s2=g.s2 * f, sb=g.sb * f, t_ref=t_new)
+        return dataclasses.replace(g, cells=scale_cells(g.cells, np.exp(-(t_new - g.t_ref) / g.tau)), t_ref=t_new)
     return dataclasses.replace(g, t_ref=t_new)
+
+
+def _join_paths(paths: list[NDArray[np.float64]]) -> NDArray[np.float64]:
+    out = np.zeros((0, 2))
+    for p in paths:
+        if p.size:
+            out = p if out.size == 0 else np.vstack([out, [[np.nan, np.nan]], p])
+    return out
+
+
+def _check_observations(x, y, mu, var, b, cell: float) -> None:
+    """Refuse the first unusable observation, naming it and its values."""
+    far = ~(np.abs(x) <= MAX_COORD) | ~(np.abs(y) <= MAX_COORD)
+    if far.any():
+        i = int(np.flatnonzero(far)[0])
+        raise ValueError(f"observation {i} is not usable: at x = {x[i]:.6g}, y = {y[i]:.6g} m; positions must be "
+                         f"finite and within +-{MAX_COORD:g} m of the map origin")
+    bad = ~(np.isfinite(mu) & np.isfinite(var) & (var > 0) & (np.abs(mu) <= MAX_MU))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"observation {i} is not usable: positions, mu and var must be finite, var > 0, "
+                         f"|mu| <= {MAX_MU:g} (mu = {mu[i]:.6g}, var = {var[i]:.6g})")
+    far = (np.abs(np.floor(x / cell)) > MAX_INDEX) | (np.abs(np.floor(y / cell)) > MAX_INDEX)
+    if far.any():
+        i = int(np.flatnonzero(far)[0])
+        raise ValueError(f"observation {i} is not usable: at x = {x[i]:.6g}, y = {y[i]:.6g} m it lies more than "
+                         f"{MAX_INDEX} cells of {cell:g} m from the map origin: use larger cells")
+    if b.size != x.size or not np.all(np.isfinite(b)) or np.any(b < 0):
+        raise ValueError("systematic errors sys must be finite, >= 0 and as many as the observations")
 
 
 def fuse(
@@ -376,126 +462,59 @@ def fuse(
     Raises
     ------
     ValueError
-        Non-finite values, non-positive variances, mismatched lengths.
+        Non-finite values, non-positive variances, mismatched lengths, positions beyond
+        :data:`MAX_COORD` (naming the first such observation).
 
     Notes
     -----
-    The accumulation is a compiled single pass over the observations (the
-    ``np.bincount`` pattern without temporaries).
+    The observations' cells are sorted by key and summed (``np.add.reduceat``), then added
+    to the grid's table: memory and time follow the observations and the observed cells.
     """
-    x, y, mu, var = (np.ascontiguousarray(np.asarray(a, dtype=float).ravel()) for a in (x, y, mu, var))
+    x, y, mu, var = (np.asarray(a, dtype=float).ravel() for a in (x, y, mu, var))
     n = x.size
     if not (y.size == mu.size == var.size == n):
         raise ValueError(f"x, y, mu, var must have one length, got {x.size}, {y.size}, {mu.size}, {var.size}")
-    g = grid
     if t is not None:
-        t = np.ascontiguousarray(np.asarray(t, dtype=float).ravel())
+        t = np.asarray(t, dtype=float).ravel()
         if t.size != n or not np.all(np.isfinite(t)):
             raise ValueError("observation times t must be finite and as many as the observations")
     if np.isfinite(grid.tau) and t is None:
         raise ValueError("a forgetting grid needs observation times t")
-    new_path = g.path
-    if path is not None:
-        p = np.asarray(path, dtype=float).reshape(-1, 2)
-        new_path = p if g.path.size == 0 else np.vstack([g.path, [[np.nan, np.nan]], p])
+    new_path = grid.path if path is None else _join_paths([grid.path, np.asarray(path, dtype=float).reshape(-1, 2)])
     if n == 0:
-        return dataclasses.replace(g, path=new_path)
-    b = np.zeros(n) if sys is None else np.ascontiguousarray(np.asarray(sys, dtype=float).ravel())
-    if b.size != n or not np.all(np.isfinite(b)) or np.any(b < 0):
-        raise ValueError("systematic errors sys must be finite, >= 0 and as many as the observations")
-    far = ~(np.abs(x) <= MAX_COORD) | ~(np.abs(y) <= MAX_COORD)
-    if far.any():
-        i = int(np.flatnonzero(far)[0])
-        raise ValueError(f"observation {i} is not usable: at x = {x[i]:.6g}, y = {y[i]:.6g} m; positions must be "
-                         f"finite and within +-{MAX_COORD:g} m of the map origin")
-    bad, bx0, by0, bx1, by1 = _bounds(x, y, mu, var, g.cell)
-    if bad < 0 and np.any(np.abs(mu) > MAX_MU):
-        bad = int(np.flatnonzero(np.abs(mu) > MAX_MU)[0])
-    if bad >= 0:
-        raise ValueError(f"observation {bad} is not usable: positions, mu and var must be finite, var > 0, "
-                         f"|mu| <= {MAX_MU:g} (mu = {mu[bad]:.6g}, var = {var[bad]:.6g})")
-    var = np.maximum(var, MIN_VAR)
-    decay = np.empty(0)
+        return dataclasses.replace(grid, path=new_path)
+    b = np.zeros(n) if sys is None else np.asarray(sys, dtype=float).ravel()
+    _check_observations(x, y, mu, var, b, grid.cell)
+    w = 1.0 / np.maximum(var, MIN_VAR)
+    g = grid
     if t is not None:
         g = _decay(grid, float(t.max()))
         if np.isfinite(g.tau):
-            decay = np.exp(-(g.t_ref - t) / g.tau)
-    x0, y0, nx, ny = _union(_window(g), _Window(bx0, by0, bx1 - bx0 + 1, by1 - by0 + 1))
-    _check_size(nx, ny, g.cell, f" to hold observations over x {x0 * g.cell:.6g} to "
-                f"{(x0 + nx) * g.cell:.6g} m, y {y0 * g.cell:.6g} to {(y0 + ny) * g.cell:.6g} m")
-    sums = _embed(g, x0, y0, nx, ny)
-    _accumulate(_Batch(x, y, mu, var, decay, b), g.cell, x0, y0, sums)
-    return dataclasses.replace(g, ix0=x0, iy0=y0, **sums._asdict(), path=new_path)
-
-
-@njit(cache=True)
-def _bounds(x, y, mu, var, cell):  # pragma: no cover - compiled
-    """First bad observation (-1 if none) and the cell-index bounds of the data."""
-    ix0 = iy0 = np.iinfo(np.int64).max
-    ix1 = iy1 = np.iinfo(np.int64).min
-    for i in range(x.shape[0]):
-        if not (np.isfinite(x[i]) and np.isfinite(y[i]) and np.isfinite(mu[i]) and var[i] > 0.0
-                and np.isfinite(var[i])):
-            return i, 0, 0, 0, 0
-        ix = np.int64(np.floor(x[i] / cell))
-        iy = np.int64(np.floor(y[i] / cell))
-        ix0 = min(ix0, ix)
-        ix1 = max(ix1, ix)
-        iy0 = min(iy0, iy)
-        iy1 = max(iy1, iy)
-    return -1, ix0, iy0, ix1, iy1
-
-
-@njit(cache=True)
-def _accumulate(obs, cell, x0, y0, sums):  # pragma: no cover - compiled
-    """Add precision, precision * mu, precision * mu², precision * sys and counts into ``sums``."""
-    use_decay = obs.decay.shape[0] > 0
-    for i in range(obs.x.shape[0]):
-        ix = np.int64(np.floor(obs.x[i] / cell)) - x0
-        iy = np.int64(np.floor(obs.y[i] / cell)) - y0
-        w = 1.0 / obs.var[i]
-        if use_decay:
-            w *= obs.decay[i]
-        wm = w * obs.mu[i]
-        sums.s0[iy, ix] += w
-        sums.s1[iy, ix] += wm
-        sums.s2[iy, ix] += wm * obs.mu[i]
-        sums.sb[iy, ix] += w * obs.sys[i]
-        sums.n_obs[iy, ix] += 1
+            w = w * np.exp(-(g.t_ref - t) / g.tau)
+    key = square_keys(np.floor(x / g.cell).astype(np.int64), np.floor(y / g.cell).astype(np.int64))
+    new = cells_from_observations(key, w, mu, b)
+    return dataclasses.replace(g, cells=add_cells(g.cells, new), path=new_path)
 
 
 def merge(*grids: FrictionGrid) -> FrictionGrid:
     """Merge grids of several drives: sums add, nothing is lost.
 
-    All grids must share cell size, prior, forgetting constant and the
-    overdispersion setting. With forgetting, every grid is first brought to the
-    latest reference time. ``merge(merge(a, b), c) == merge(a, merge(b, c))``
-    up to floating-point rounding, and the counts add exactly.
+    All grids must share cell size, prior, forgetting constant, the overdispersion setting
+    and the frame origin. With forgetting, every grid is first brought to the latest
+    reference time. ``merge(merge(a, b), c) == merge(a, merge(b, c)) == merge(c, b, a)``
+    up to floating-point rounding, and the counts add exactly. Memory follows the
+    observed cells.
     """
     if not grids:
         raise ValueError("merge needs at least one grid")
     first = grids[0]
     for g in grids[1:]:
-        for attr in ("cell", "prior_mean", "prior_std", "tau", "overdispersion"):
+        for attr in ("cell", "prior_mean", "prior_std", "tau", "overdispersion", "origin"):
             if getattr(g, attr) != getattr(first, attr):
                 raise ValueError(f"cannot merge grids with different {attr}: "
                                  f"{getattr(first, attr)!r} and {getattr(g, attr)!r}")
     t_ref = max(g.t_ref for g in grids)
     grids = tuple(_decay(g, t_ref) for g in grids)
-    win = _Window(0, 0, 0, 0)
-    for g in grids:
-        win = _union(win, _window(g))
-    x0, y0, nx, ny = win
-    _check_size(nx, ny, first.cell, f" to hold the merged grids over x {x0 * first.cell:.6g} to "
-                f"{(x0 + nx) * first.cell:.6g} m, y {y0 * first.cell:.6g} to {(y0 + ny) * first.cell:.6g} m")
-    acc = _Sums(*(np.zeros((ny, nx)) for _ in range(4)), np.zeros((ny, nx), np.int64))
-    paths = []
-    for g in grids:
-        for a, b in zip(acc, _embed(g, x0, y0, nx, ny), strict=True):
-            a += b
-        if g.path.size:
-            paths.append(g.path)
-    path = np.zeros((0, 2))
-    for p in paths:
-        path = p if path.size == 0 else np.vstack([path, [[np.nan, np.nan]], p])
-    return dataclasses.replace(first, ix0=x0, iy0=y0, **acc._asdict(), t_ref=t_ref, path=path)
+    cells = add_cells(*(g.cells for g in grids))
+    return dataclasses.replace(first, cells=cells, t_ref=t_ref, path=_join_paths([g.path for g in grids]))
+
