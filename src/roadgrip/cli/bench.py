@@ -55,7 +55,11 @@ def bench(
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
 ) -> None:
     """Run every estimator on every scenario (and the real data where present)."""
+    from roadgrip.cli.options import check_folder_output, check_seed
     from roadgrip.evaluate import suite
+
+    check_seed(seed)
+    check_folder_output(output, "--output")
     from roadgrip.evaluate.cases import FULL, QUICK, default_cases, real_data_root
 
     settings = QUICK if quick else FULL

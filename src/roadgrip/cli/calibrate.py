@@ -150,10 +150,14 @@ def calibrate(
     channels: ChannelsOpt = None,
 ) -> None:
     """Learn bRLS / slipmap references and thresholds from labelled drives."""
+    from roadgrip.cli.options import check_drive_args, check_output
     from roadgrip.estimators.classify import calibrate as learn
     from roadgrip.io import read_drive
 
     pairs, friction = parse_labelled(drives)
+    for arg, _ in pairs:
+        check_drive_args(split_window(arg)[0], fmt, vehicle, topics, channels)
+    check_output(output, "--output", (".yaml", ".yml"))
     labelled = []
     for arg, label in pairs:
         path, window = split_window(arg)

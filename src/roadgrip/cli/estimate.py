@@ -19,6 +19,11 @@ from roadgrip.cli._common import (
     progress_bar,
 )
 
+RESULT_SUFFIXES = (".parquet", ".pq", ".csv")
+"""Suffixes of ``--output`` and ``--curves``: Parquet, or CSV (the table only)."""
+
+PLOT_SUFFIXES = (".png", ".pdf", ".svg")
+
 PLOT_CURVE_TIMES = (4.0, 20.0, 40.0, 50.0)
 """Curve times [s from the drive start] of ``--plot`` when no ``--curve-times`` are given."""
 
@@ -27,7 +32,7 @@ PLOT_CURVE_TIMES = (4.0, 20.0, 40.0, 50.0)
 def estimate(
     drive_path: Annotated[str, typer.Argument(metavar="DRIVE", help="Drive file or data-set path.")],
     method: Annotated[str, typer.Option(help="gpssm, brls, slipmap or cascade.")],
-    output: Annotated[Path, typer.Option("-o", "--output", help="estimates.parquet")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="estimates.parquet, or .csv for the table only.")],
     vehicle: VehicleOpt = None,
     fmt: FormatOpt = None,
     topics: TopicsOpt = None,
@@ -44,9 +49,17 @@ def estimate(
 ) -> None:
     """Run one estimator over a drive and write its estimates."""
     from roadgrip import estimators
+    from roadgrip.cli import options as opt
 
+    # every option is checked before the drive is read
+    opt.check_drive_args(drive_path, fmt, vehicle, topics, channels)
+    opt.check_seed(seed)
+    opt.check_output(output, "--output", RESULT_SUFFIXES)
+    opt.check_output(curves, "--curves", RESULT_SUFFIXES)
+    opt.check_output(plot, "--plot", PLOT_SUFFIXES)
+    opt.check_output(vss, "--vss")
     options: dict[str, Any] = {"particles": particles, "basis": basis, "linalg": linalg,
-                               "curve_times": _parse_times(curve_times)}
+                               "curve_times": opt.parse_curve_times(curve_times)}
     if calibration is not None:
         from roadgrip.cli.calibrate import read_calibration
 
@@ -58,17 +71,22 @@ def estimate(
         raise ValueError(f"option --curves does not apply to {method}")
     if plot is not None and takes_curves and "curve_times" not in options:
         options["curve_times"] = PLOT_CURVE_TIMES
+    if method == "gpssm":
+        opt.check_gpssm_resources(options)
     est.Config.from_options(options)  # rejects options of other methods before reading the drive
     drive = load_drive(drive_path, fmt, vehicle, topics, channels)
     from roadgrip.io.presets import preset_options
 
-    config = est.Config.from_options({**preset_options(method, drive), **options})
+    all_options = {**preset_options(method, drive), **options}
+    if method == "gpssm":
+        opt.check_gpssm_resources(all_options)  # a data set's preset may change the particles
+    config = est.Config.from_options(all_options)
     with progress_bar(method, drive.n) as advance:
         result = est.run(drive, config, seed, progress=advance)
-    result.to_parquet(output)
+    write_estimates(result, output)
     written = [output]
     if curves is not None and result.curves is not None and len(result.curves):
-        result.curves.to_parquet(curves, index=False)
+        write_table(result.curves, curves)
         written.append(curves)
     if vss is not None:
         from roadgrip.io.vss import write_vss
@@ -88,10 +106,18 @@ def estimate(
     console.print(f"wrote {', '.join(str(p) for p in written)}")
 
 
-def _parse_times(text: str | None) -> tuple[float, ...] | None:
-    if not text:
-        return None
-    try:
-        return tuple(float(s) for s in text.split(","))
-    except ValueError:
-        raise ValueError(f"--curve-times must be comma-separated seconds, got {text!r}") from None
+def write_table(table, path: Path) -> None:
+    """A table as Parquet (``.parquet``, ``.pq``) or CSV (``.csv``), by the name's suffix."""
+    if path.suffix.lower() == ".csv":
+        table.to_csv(path, index=False)
+    else:
+        table.to_parquet(path, index=False)
+
+
+def write_estimates(result, path: Path) -> None:
+    """The estimates as Parquet with their metadata (``roadgrip map`` reads it back), or as
+    CSV, the per-sample table only, for a name ending in ``.csv``."""
+    if path.suffix.lower() == ".csv":
+        result.table.to_csv(path, index=False)
+    else:
+        result.to_parquet(path)

@@ -116,10 +116,21 @@ def map_cmd(
     channels: ChannelsOpt = None,
 ) -> None:
     """Fuse friction estimates into a spatial grid (`roadgrip map show MAP -o PNG` to plot)."""
+    from roadgrip.cli import options as opt
+
     if inputs and inputs[0] == "show":
         if len(inputs) != 2:
             raise ValueError("usage: roadgrip map show MAP.npz -o MAP.png")
+        opt.check_input(inputs[1])
+        opt.check_output(output, "--output", (".png", ".pdf", ".svg"))
         show_map(inputs[1], output, console=console)
         return
+    for path in inputs:
+        opt.check_input(path)
+    opt.check_drive_args(None, fmt, vehicle, topics, channels)
+    opt.check_cell(cell)
+    opt.check_output(output, "--output", (".npz",))
+    opt.check_output(csv, "--csv", (".csv",))
+    opt.check_output(png, "--png", (".png", ".pdf", ".svg"))
     map_files(inputs, output, cell=cell, csv=csv, png=png, vehicle=vehicle, fmt=fmt, console=console,
               topics=topics, channels=channels)

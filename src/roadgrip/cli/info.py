@@ -42,8 +42,10 @@ def info(
     channels: ChannelsOpt = None,
 ) -> None:
     """Duration, rates, signal ranges and tire excitation of a drive."""
+    from roadgrip.cli.options import check_drive_args
     from roadgrip.io import describe_drive
 
+    check_drive_args(file, fmt, vehicle, topics, channels)
     drive = load_drive(file, fmt, vehicle, topics, channels)
     console.print(render(describe_drive(drive)))
     sources = source_table(drive.meta.extra)

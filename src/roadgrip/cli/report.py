@@ -16,7 +16,12 @@ def report(
     output: Annotated[Path, typer.Option("-o", "--output", help="Report folder.")] = Path("report"),
 ) -> None:
     """Write a self-contained HTML report."""
+    from roadgrip.cli.options import check_folder_output, check_input
     from roadgrip.report import write_report
+
+    for path in inputs:
+        check_input(path)
+    check_folder_output(output, "--output")
 
     path = write_report(inputs, output,
                         on_run=lambda method, name: console.print(f"running {method} on {name} ..."))
@@ -29,6 +34,10 @@ def demo(
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
 ) -> None:
     """Simulate the built-in drives, run every estimator, write the report."""
+    from roadgrip.cli.options import check_folder_output, check_seed
+
+    check_seed(seed)
+    check_folder_output(out, "--out")
     from roadgrip.cli.bench import bench_renderable, case_progress
     from roadgrip.evaluate.cases import DEMO, default_cases
     from roadgrip.report import run_demo

@@ -24,7 +24,17 @@ def simulate(
     duration: Annotated[float | None, typer.Option(help="Simulated time [s] (default: the scenario's).")] = None,
 ) -> None:
     """Simulate a named scenario with full ground truth."""
-    from roadgrip.sim.scenarios import simulate_scenario
+    from roadgrip.cli import options as opt
+    from roadgrip.sim.scenarios import MB_VEHICLES, SCENARIOS, simulate_scenario
+
+    opt.check_choice(scenario, "SCENARIO", SCENARIOS)
+    sc = SCENARIOS[scenario]
+    opt.check_choice(engine, "--engine", sc.engines)
+    multibody = (engine or sc.engines[0]) == "multibody"
+    opt.check_choice(vehicle, "--vehicle", MB_VEHICLES if multibody else (sc.vehicle,))
+    opt.check_seed(seed)
+    opt.check_output(output, "--output", (".parquet", ".pq", ".csv"))
+    opt.check_duration(duration, sc.output_rate)
 
     drive = simulate_scenario(scenario, seed=seed, progress=True, engine=engine, vehicle=vehicle,
                               duration=duration)
