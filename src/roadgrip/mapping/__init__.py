@@ -10,8 +10,10 @@ position ``(x_i, y_i)``. A cell accumulates, with weights ``w_i = 1 / v_i``
 error that is shared with its neighbours in time and does not average out)
 
 so fusion is a sum: grids from several drives merge by adding their sums
-(associative and commutative, no observation lost), and ``np.bincount`` over
-flat cell indices does the accumulation. The cell posterior combines a
+(associative and commutative, no observation lost). A grid stores only the cells
+that hold observations, as a table sorted by cell key (:mod:`roadgrip.mapping.cells`,
+48 bytes a cell), so its memory follows the observed cells, not the extent of the map;
+fusing sorts the observations' keys and sums equal ones. The cell posterior combines a
 Gaussian prior ``N(prior_mean, prior_std²)`` with the data:
 
 ``precision = 1 / prior_std² + S0 / b``,
@@ -49,7 +51,10 @@ bound needs no slip angle, only the accelerations that give the forces.
 
 Cells are aligned to multiples of the cell size (cell ``(i, j)`` covers
 ``[i c, (i+1) c) x [j c, (j+1) c)``), so grids of the same cell size always
-share cell boundaries.
+share cell boundaries. Drives with GNSS positions (``lat, lon``) map on H3 hexagons
+(:mod:`roadgrip.mapping.hexgrid`) or on square cells of a local metric frame
+(:mod:`roadgrip.mapping.geo`, which also writes GeoJSON and GeoParquet files); many
+drives make one map on Dask (:mod:`roadgrip.mapping.fleet`).
 """
 
 from roadgrip.mapping.estimates import (
@@ -60,16 +65,21 @@ from roadgrip.mapping.estimates import (
     observations_from_estimates,
 )
 from roadgrip.mapping.grid import FrictionGrid, Observations, empty_grid, fuse, merge
+from roadgrip.mapping.hexgrid import HexGrid, empty_hexgrid, fuse_hex, merge_hex
 
 __all__ = [
     "FrictionGrid",
     "GridSummary",
+    "HexGrid",
     "Observations",
     "compare_grids",
     "empty_grid",
+    "empty_hexgrid",
     "fuse",
+    "fuse_hex",
     "grid_from_estimates",
     "grip_used_bound",
     "merge",
+    "merge_hex",
     "observations_from_estimates",
 ]
