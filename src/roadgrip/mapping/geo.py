@@ -162,7 +162,11 @@ def write_map(grid: FrictionGrid | HexGrid, path: str | Path, min_obs: int = 1) 
                          "(GeoParquet)")
     frame = map_frame(grid, min_obs)
     if suffix in (".geojson", ".json"):
-        frame.to_file(path, driver="GeoJSON")
+        import warnings
+
+        with warnings.catch_warnings():  # a local frame has no CRS: said in the module docstring
+            warnings.filterwarnings("ignore", message=".*crs.*was not provided", category=UserWarning)
+            frame.to_file(path, driver="GeoJSON")
     else:
         frame.to_parquet(path)
     return path
