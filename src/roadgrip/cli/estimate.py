@@ -18,6 +18,7 @@ from roadgrip.cli._common import (
     load_drive,
     progress_bar,
 )
+from roadgrip.cli.info import AlignOpt
 
 RESULT_SUFFIXES = (".parquet", ".pq", ".csv")
 """Suffixes of ``--output`` and ``--curves``: Parquet, or CSV (the table only)."""
@@ -46,6 +47,7 @@ def estimate(
     curve_times: Annotated[str | None, typer.Option(help="gpssm: comma-separated times [s].")] = None,
     plot: Annotated[Path | None, typer.Option(help="Write a PNG figure.")] = None,
     vss: Annotated[Path | None, typer.Option(help="Write VSS road friction (percent) as JSON lines.")] = None,
+    align: AlignOpt = False,
 ) -> None:
     """Run one estimator over a drive and write its estimates."""
     from roadgrip import estimators
@@ -75,6 +77,10 @@ def estimate(
         opt.check_gpssm_resources(options)
     est.Config.from_options(options)  # rejects options of other methods before reading the drive
     drive = load_drive(drive_path, fmt, vehicle, topics, channels)
+    if align:
+        from roadgrip.cli.info import apply_alignment, estimate_delays
+
+        drive = apply_alignment(drive, estimate_delays(drive))
     from roadgrip.io.presets import preset_options
 
     all_options = {**preset_options(method, drive), **options}

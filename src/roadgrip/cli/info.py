@@ -18,6 +18,9 @@ from roadgrip.cli._common import (
     load_drive,
 )
 
+AlignOpt = Annotated[bool, typer.Option(
+    "--align", help="Remove the estimated sensor delays (those reported reliable) before use.")]
+
 
 def render(sections) -> Group:
     """Rich tables of :func:`roadgrip.io.describe.describe_drive`'s sections."""
@@ -40,17 +43,78 @@ def info(
     vehicle: VehicleOpt = None,
     topics: TopicsOpt = None,
     channels: ChannelsOpt = None,
+    align: AlignOpt = False,
 ) -> None:
-    """Duration, rates, signal ranges and tire excitation of a drive."""
+    """Duration, rates, signal ranges, tire excitation and sensor delays of a drive."""
     from roadgrip.cli.options import check_drive_args
     from roadgrip.io import describe_drive
 
     check_drive_args(file, fmt, vehicle, topics, channels)
     drive = load_drive(file, fmt, vehicle, topics, channels)
+    delays = estimate_delays(drive)
+    if align:
+        drive = apply_alignment(drive, delays)
     console.print(render(describe_drive(drive)))
+    console.print(delay_table(delays))
     sources = source_table(drive.meta.extra)
     if sources is not None:
         console.print(sources)
+
+
+def estimate_delays(drive) -> list:
+    """:func:`roadgrip.sensor_delay.sensor_delays` of a drive."""
+    from roadgrip.sensor_delay import sensor_delays
+
+    return sensor_delays(drive)
+
+
+def apply_alignment(drive, delays):
+    """The drive with its reliable sensor delays removed (``--align``), a line saying which."""
+    from roadgrip.sensor_delay import align_drive
+
+    aligned, applied = align_drive(drive, delays)
+    if not applied:
+        console.print("--align: no reliable sensor delay to remove; the drive is used as recorded",
+                      highlight=False)
+        return drive
+    moved = ", ".join(f"{'/'.join(d.columns)} {1000 * d.delay:+.0f} ms" for d in applied)
+    console.print(f"--align: moved {moved} (against the {applied[0].reference}); "
+                  f"{drive.n - aligned.n} samples at the ends dropped", highlight=False)
+    return aligned
+
+
+def delay_table(delays) -> Table:
+    """Sensor delays (:func:`roadgrip.sensor_delay.sensor_delays`) as a rich table."""
+    from rich.markup import escape
+
+    table = Table(title="sensor delays (positive: the sensor's samples arrive late)")
+    for name, right in (("sensor", False), ("against", False), ("delay [ms]", True), ("± [ms]", True),
+                        ("peak corr.", True), ("windows", True), ("pairs [ms]", False), ("status", False)):
+        table.add_column(escape(name), justify="right" if right else "left")
+    for d in delays:
+        fits = d.fits
+        parts = ", ".join(f"{p} {1000 * f.delay:+.0f}" for p, f in zip(d.pairs, fits, strict=True))
+        windows = min(fits, key=lambda f: f.windows)
+        if not all(f.windows_total for f in fits):
+            status = "no data"
+        elif d.reliable:
+            status = "reliable"
+        elif any(f.at_edge for f in fits):
+            status = "peak at the search edge"
+        elif d.peak_corr < 0.5:
+            status = "weak correlation"
+        else:
+            status = "uncertain"
+        fmt = (lambda v: f"{1000 * v:+.0f}") if d.delay == d.delay else (lambda v: "-")
+        std = f"{1000 * d.std:.0f}" if d.std == d.std else "-"
+        table.add_row(d.sensor, d.reference, fmt(d.delay), std,
+                      f"{d.peak_corr:.2f}" if d.peak_corr == d.peak_corr else "-",
+                      f"{windows.windows}/{windows.windows_total}", parts, status)
+    table.caption = ("r: yaw rate; reliable: peak corr. >= 0.5, ± <= 20 ms, peak inside ±1 s; "
+                     "--align removes the reliable ones")
+    if not delays:
+        table.caption = "no pair of signals to correlate (needs ay, yaw_rate and a speed, or a pose)"
+    return table
 
 
 def source_table(extra: dict) -> Table | None:
