@@ -15,6 +15,7 @@ from roadgrip.cli import (  # noqa: F401  (importing a command module registers 
     bench,
     calibrate,
     estimate,
+    fleet,
     friction_map,
     info,
     report,
