@@ -113,3 +113,15 @@ def test_hexagon_map_is_the_precision_weighted_mean_and_merges_order_free():
         H.fuse_hex(g, [48.0, 91.0], [11.0, 11.0], [0.5, 0.5], [0.1, 0.1])
     with pytest.raises(ValueError, match="different resolution"):
         H.merge_hex(g, H.empty_hexgrid(13, overdispersion=False))
+
+
+def test_figures_of_far_apart_cells_and_hexagons(tmp_path):
+    """The PNG of a map whose cells lie 30 km apart (no dense image of 3.6e9 cells) and of an H3 map."""
+    pytest.importorskip("h3")
+    from roadgrip.plots.maps import plot_grid
+
+    g = M.fuse(M.empty_grid(0.5), [0.0, 30_000.0], [0.0, 30_000.0], [0.5, 0.6], [0.01, 0.01])
+    h = H.fuse_hex(H.empty_hexgrid(13), [48.1, 48.2], [11.5, 11.6], [0.5, 0.6], [0.01, 0.01])
+    for name, m in (("far.png", g), ("hex.png", h)):
+        plot_grid(m, tmp_path / name)
+        assert (tmp_path / name).stat().st_size > 10_000

@@ -8,13 +8,42 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import Normalize
 
-from roadgrip.mapping import FrictionGrid
+from roadgrip.mapping import FrictionGrid, HexGrid
 
 __all__ = ["plot_grid"]
 
+_MAX_IMAGE_CELLS = 4_000_000
+"""Largest bounding box [cells] drawn as an image; sparser maps are drawn as points."""
+
+
+def _too_sparse(grid: FrictionGrid) -> bool:
+    if grid.n_cells == 0:
+        return False
+    ix, iy = grid.cell_index()
+    return (int(ix.max()) - int(ix.min()) + 1) * (int(iy.max()) - int(iy.min()) + 1) > _MAX_IMAGE_CELLS
+
+
+def _plot_cells(grid: FrictionGrid | HexGrid, path: str | Path, title: str | None, min_obs: int) -> None:
+    """The observed cells as points (H3 maps, and grids whose cells lie far apart)."""
+    frame = grid.cells_frame(min_obs)
+    hexes = isinstance(grid, HexGrid)
+    x, y = (frame["lon"], frame["lat"]) if hexes else (frame["x"], frame["y"])
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5), constrained_layout=True)
+    for ax, col, cmap, label in ((axes[0], "mu_mean", "viridis", "friction coefficient mu [-] (posterior mean)"),
+                                 (axes[1], "mu_std", "magma_r", "std of mu [-]")):
+        sc = ax.scatter(x, y, c=frame[col], cmap=cmap, s=12, marker="h" if hexes else "s")
+        fig.colorbar(sc, ax=ax, label=label, shrink=0.85)
+        ax.set_xlabel("longitude [deg]" if hexes else "x [m]")
+        ax.set_ylabel("latitude [deg]" if hexes else "y [m]")
+    kind = f"H3 resolution {grid.resolution}" if hexes else f"{grid.cell:g} m cells"
+    axes[0].set_title(title or f"friction map, {kind}, {len(frame)} cells observed")
+    axes[1].set_title(f"uncertainty ({int(grid.cells.n_obs.sum())} excited observations)")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
 
 def plot_grid(
-    grid: FrictionGrid,
+    grid: FrictionGrid | HexGrid,
     path: str | Path,
     *,
     title: str | None = None,
@@ -30,7 +59,8 @@ def plot_grid(
 
     Parameters
     ----------
-    grid : FrictionGrid
+    grid : FrictionGrid or HexGrid
+        An H3 map, or a grid whose cells lie too far apart for an image, is drawn as points.
     path : str or Path
         Output ``.png``.
     title : str, optional
@@ -40,6 +70,9 @@ def plot_grid(
     min_obs : int
         Cells shown in the mean panel.
     """
+    if isinstance(grid, HexGrid) or _too_sparse(grid):
+        _plot_cells(grid, path, title, min_obs)
+        return
     mean, std = grid.posterior()
     visited = grid.n_obs >= max(min_obs, 1)
     fig, axes = plt.subplots(1, 2, figsize=(12, 5), constrained_layout=True)
