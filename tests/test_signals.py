@@ -78,6 +78,22 @@ def test_wheel_cg_speeds_recover_vx_from_free_rolling_wheels():
     assert np.isnan(signals.wheel_cg_speeds(omega, d, r, SEDAN, vy=vy)[:5, 1]).all()
 
 
+def test_rolling_speed_of_the_free_wheels():
+    rng = np.random.default_rng(3)
+    omega = rng.uniform(10.0, 40.0, (50, 4))
+    wheels = {f"omega_{w}": omega[:, i] for i, w in enumerate(signals.WHEELS)}
+    R = SEDAN.wheel_radius
+    for layout, idx in (("fwd", [2, 3]), ("rwd", [0, 1]), ("awd", [0, 1, 2, 3])):
+        assert np.flatnonzero(signals.speed_wheels(layout)).tolist() == idx
+        got, cols = signals.rolling_speed(_drive(SEDAN.replace(drive=layout), **wheels))
+        assert cols == tuple(f"omega_{signals.WHEELS[i]}" for i in idx)
+        # the plain mean of R omega over those wheels, by hand
+        np.testing.assert_allclose(got, R * sum(omega[:, i] for i in idx) / len(idx), rtol=1e-14)
+    rear_only = {k: v for k, v in wheels.items() if k.startswith("omega_r")}
+    with pytest.raises(DriveValidationError, match="omega_fl"):
+        signals.rolling_speed(_drive(SEDAN.replace(drive="rwd"), **rear_only))
+
+
 def test_wheel_speed_vx_sources():
     rng = np.random.default_rng(2)
     n = 300

@@ -11,6 +11,8 @@ function                          what
 ================================  ======================================================
 :func:`driven_wheels`             which wheels the drive layout (``'fwd'``, ...) drives
 :func:`undriven_wheels`           the free-rolling ones
+:func:`speed_wheels`              the wheels whose speed measures the ground speed
+:func:`rolling_speed`             mean rim speed ``R omega`` over those wheels
 :func:`wheel_centre_speeds`       wheel-centre speed along each wheel from the CG motion
 :func:`wheel_cg_speeds`           the inverse: CG speed ``vx`` seen by each wheel speed
 :func:`wheel_speed_vx`            ``vx`` of a drive from its wheels, ``vx`` column or pose
@@ -52,6 +54,8 @@ __all__ = [
     "driven_wheels",
     "level_accelerations",
     "pose_velocity",
+    "rolling_speed",
+    "speed_wheels",
     "sustained_grip",
     "sustained_grip_step",
     "undriven_wheels",
@@ -71,6 +75,34 @@ VX_SOURCES = ("auto", "wheels", "column", "pose")
 def undriven_wheels(drive: str) -> NDArray[np.bool_]:
     """The free-rolling wheels, ``~driven_wheels(drive)``: bool, shape (4,), all False for ``'awd'``."""
     return ~driven_wheels(drive)
+
+
+def speed_wheels(drive: str) -> NDArray[np.bool_]:
+    """The wheels whose speed measures the ground speed: bool, shape (4,).
+
+    The undriven wheels, which roll freely outside braking; all four on an
+    all-wheel-driven car, which has none (its wheel speeds then carry the
+    traction slip).
+    """
+    free = undriven_wheels(drive)
+    return free if free.any() else np.ones(len(WHEELS), bool)
+
+
+def rolling_speed(drive: Drive) -> tuple[NDArray[np.float64], tuple[str, ...]]:
+    """Mean rim speed ``R omega`` [m/s] over :func:`speed_wheels`, and the columns used.
+
+    The raw measurement, without :func:`wheel_cg_speeds`' steering and yaw
+    corrections, for estimators that model the wheel speed themselves.
+
+    Raises
+    ------
+    DriveValidationError
+        A column it needs is missing (named in the message).
+    """
+    use = speed_wheels(drive.vehicle.drive)
+    cols = tuple(f"omega_{w}" for w, u in zip(WHEELS, use, strict=True) if u)
+    drive.require(*cols, why="the speed from the free-rolling wheels")
+    return np.mean([drive.col(c) for c in cols], axis=0) * drive.vehicle.wheel_radius, cols
 
 
 def wheel_cg_speeds(
@@ -170,7 +202,7 @@ def wheel_speed_vx(
         raise ValueError(f"vx source must be one of {VX_SOURCES}, got {source!r}")
     veh = drive.vehicle
     free = undriven_wheels(veh.drive)
-    use = free if free.any() else np.ones(4, bool)
+    use = speed_wheels(veh.drive)
     wheel_cols = [f"omega_{w}" for w, u in zip(WHEELS, use, strict=True) if u]
     if source == "auto":
         if free.any() and drive.has(*wheel_cols):

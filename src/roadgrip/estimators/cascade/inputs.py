@@ -25,10 +25,9 @@ from roadgrip.drive import Drive, DriveValidationError
 from roadgrip.estimators.cascade.config import CascadeConfig
 from roadgrip.estimators.cascade.kernel import Inputs
 from roadgrip.signals import (
-    WHEELS,
     level_accelerations,
     pose_velocity,
-    undriven_wheels,
+    rolling_speed,
     white_noise_std,
 )
 
@@ -140,7 +139,7 @@ def measured_speed(drive: Drive, source: str = "auto") -> tuple[NDArray[np.float
     """The stage-1 speed measurement (eq. 5) [m/s], a description, the share of front wheels.
 
     ``'wheels'``: mean of ``omega R`` over the undriven wheels
-    (:func:`roadgrip.signals.undriven_wheels`; all four on a four-wheel-driven
+    (:func:`roadgrip.signals.rolling_speed`; all four on a four-wheel-driven
     car). ``'motor_rpm'``: motor speed [rev/min] through the gear ratio,
     ``rpm 2 pi R / (60 i)``. ``'vx_motor'`` and ``'vx'``: those columns.
     ``'auto'`` takes the first available of wheels, vx, vx_motor, motor_rpm, but
@@ -163,12 +162,9 @@ def measured_speed(drive: Drive, source: str = "auto") -> tuple[NDArray[np.float
         order = (source,)
     for src in order:
         if src == "wheels" and drive.has_wheel_speeds:
-            free = undriven_wheels(veh.drive)
-            use = free if free.any() else np.ones(len(WHEELS), bool)
-            cols = tuple(f"omega_{w}" for w, u in zip(WHEELS, use, strict=True) if u)
-            w = np.mean([drive.col(c) for c in cols], axis=0)
+            speed, cols = rolling_speed(drive)
             share = sum(c.startswith("omega_f") for c in cols) / len(cols)
-            return w * veh.wheel_radius, f"wheel speeds {'+'.join(cols)} x R", share
+            return speed, f"wheel speeds {'+'.join(cols)} x R", share
         if src in ("vx", "vx_motor") and drive.has(src):
             return drive.col(src), f"column {src}", 0.0
         if src == "motor_rpm" and drive.has("motor_rpm"):
