@@ -455,25 +455,25 @@ def test_writing_the_pending_updates_out_mid_run_does_not_change_the_filter(snow
 def test_step_and_run_hold_blas_to_one_thread(snow20, monkeypatch, two_blas_threads, blas_threads):
     """The kernel and the curves see one BLAS thread however the filter is driven, and the
     caller's setting is back afterwards."""
-    from roadgrip.estimators.gpssm import stepping as gk
+    from roadgrip.estimators.gpssm import block
 
     d = snow20.slice_time(0.0, 1.0)
     cfg = _cfg(d)
     seen = []
-    real = gk.peak_summary
+    real = block.run_steps
 
     def spy(*args):
-        seen.append(max(blas_threads().values()))
+        seen.append((max(blas_threads().values()), len(args[4].t)))
         return real(*args)
 
-    monkeypatch.setattr(gk, "peak_summary", spy)
+    monkeypatch.setattr(block, "run_steps", spy)
     run_filter(d.slice_time(0.0, 0.3), cfg, seed=0)
     f = GPSSM(cfg, d.vehicle, seed=0)
     f.step(_samples(d)[0])
     filter_step(Context(cfg, d.vehicle), None, _samples(d)[0])
     assert blas_threads() == two_blas_threads
-    assert len(seen) == len(_samples(d.slice_time(0.0, 0.3))) + 2
-    assert set(seen) == {1}
+    # the run in one compiled call, then two single steps
+    assert seen == [(1, len(_samples(d.slice_time(0.0, 0.3)))), (1, 1), (1, 1)]
 
 
 def test_curve_is_held_flat_beyond_the_slip_limit(snow20):
@@ -575,3 +575,27 @@ def test_progress_counts_every_output_row(snow20):
     res = run(d, _cfg(d, "separable:5", n=12), seed=0, progress=calls.append)
     assert sum(calls) == len(res.table) == d.n and max(calls) == 50
 
+
+
+@pytest.mark.parametrize("linalg", ["exact", "fast"])
+def test_a_run_in_blocks_equals_stepping_bit_for_bit(snow20, linalg):
+    # run_filter hands the compiled step blocks of samples (split where curves are read
+    # and where progress is reported); stepping hands it one sample at a time, through
+    # states copied in between (the protocol's step): the same numbers, to the last bit,
+    # across refactorisations (every 80 steps) and resampling
+    d = snow20.slice_time(0.0, 9.0)
+    cfg = _cfg(d, "separable-odd:6", n=24, linalg=linalg)
+    calls = []
+    table, _ = run_filter(d, cfg, seed=2, curve_times=(3.0,), progress=calls.append)
+    from roadgrip.estimators.gpssm import ESTIMATOR
+
+    prepared = ESTIMATOR.prepare(d, cfg)
+    fs = ESTIMATOR.init(prepared.info, cfg, 2)
+    rows = []
+    for s in prepared.samples:
+        fs, row = ESTIMATOR.step(fs, s)
+        rows.append(row)
+    stepped = pd.DataFrame(rows)
+    assert len(calls) > 2 and table["resampled"].sum() > 5
+    for col in stepped.columns:
+        np.testing.assert_array_equal(table[col].to_numpy(), stepped[col].to_numpy(), err_msg=col)

@@ -18,14 +18,15 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from roadgrip.blas_threads import one_blas_thread
-from roadgrip.estimators.base import EstimateResult, ProgressCallback
+from roadgrip.estimators.base import EstimateResult, ProgressCallback, conform
+from roadgrip.estimators.gpssm.compiled import BOOL_COLUMNS, ROW_FIELDS, advance, sample_array
 from roadgrip.estimators.gpssm.config import GPSSMConfig
 from roadgrip.estimators.gpssm.inputs import Sample, drive_inputs, upsample_inputs
 from roadgrip.estimators.gpssm.posterior import CurvePosterior, curves_frame, posterior_curves
 from roadgrip.estimators.gpssm.state import Context, GPSSMEstimate, GPSSMState, copy_state
 from roadgrip.estimators.gpssm.stepping import step as filter_step
 from roadgrip.estimators.gpssm.stepping import step_unthreaded
-from roadgrip.estimators.protocol import DriveInfo, Prepared, rows_to_table
+from roadgrip.estimators.protocol import DriveInfo, Prepared
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = ["GPSSM", "FilterState", "init", "prepare", "prior_band", "run", "run_filter", "step"]
@@ -114,29 +115,58 @@ def run_filter(
     fs = init(prepared.info, config, seed)
     ctx = fs.ctx
     times = sorted(config.curve_times if curve_times is None else curve_times)
-    t0 = prepared.info.t0
-    pending = [t0 + t for t in times]
     if curve_alpha is None:
         curve_alpha = np.linspace(-config.peak_range, config.peak_range, 161)
-    rows = []
+    data = sample_array(prepared.samples)
+    recorded = data[:, 7] != 0.0
+    # where the curves are read: the first recorded sample at or after each time (the last
+    # one for times beyond the end)
+    rec = np.flatnonzero(recorded)
+    t_rec = data[rec, 0]
+    t0 = prepared.info.t0
+    at = [int(rec[min(int(np.searchsorted(t_rec, t0 + t)), len(rec) - 1)]) for t in times]
+    ends = set(at)
+    if progress is not None:  # the callback every PROGRESS_EVERY rows
+        ends.update(int(i) for i in rec[PROGRESS_EVERY - 1::PROGRESS_EVERY])
+    ends.add(len(data) - 1)
     curves: dict[float, CurvePosterior] = {}
     state = None
-    done = 0
-    last = len(prepared.samples) - 1
+    blocks = []
+    start = 0
     with one_blas_thread():
-        for i, sample in enumerate(prepared.samples):
-            state, est = step_unthreaded(ctx, state, sample, seed)
-            if not sample.recorded:
-                continue
-            rows.append(_row(est))
-            while pending and (sample.t >= pending[0] or i == last):
-                curves[pending.pop(0) - t0] = posterior_curves(ctx, state, curve_alpha)
-            done += 1
-            if progress is not None and done % PROGRESS_EVERY == 0:
-                progress(PROGRESS_EVERY)
-    if progress is not None and done % PROGRESS_EVERY:
-        progress(done % PROGRESS_EVERY)
-    return rows_to_table(rows), curves
+        for end in sorted(ends):
+            if config.linalg == "direct":
+                state, out = _stepped(ctx, state, data[start:end + 1], seed)
+            else:
+                state, out = advance(ctx, state, data[start:end + 1], seed)
+            blocks.append(out)
+            for t, i in zip(times, at, strict=True):
+                if i == end:
+                    curves[(t0 + t) - t0] = posterior_curves(ctx, state, curve_alpha)
+            if progress is not None:
+                done = int(recorded[start:end + 1].sum())
+                if done:
+                    progress(done)
+            start = end + 1
+    out = np.concatenate(blocks)[recorded]
+    return _table(out), curves
+
+
+def _stepped(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int) -> tuple[GPSSMState, NDArray]:
+    """The NumPy reference step (``linalg='direct'``) over samples, rows as :func:`advance`'s."""
+    out = np.empty((len(data), len(ROW_FIELDS)))
+    for i, row in enumerate(data):
+        state, est = step_unthreaded(ctx, state, Sample(*row), seed)
+        out[i] = est
+    return state, out
+
+
+def _table(out: NDArray) -> pd.DataFrame:
+    """The table of the rows of :func:`advance` (as :func:`_row` gives them)."""
+    cols = {("yaw_rate_est" if k == "yaw_rate" else k): out[:, i] for i, k in enumerate(ROW_FIELDS)}
+    for k in BOOL_COLUMNS:
+        cols[k] = cols[k] != 0.0
+    return conform(pd.DataFrame(cols))
 
 
 def run(
