@@ -25,10 +25,11 @@ its error against the truth, beside the exact mode's).
 With ``--accuracy --multibody`` the acceptance figures on the multi-body snow slaloms of
 both vehicles (seeds 0-4; ``--option KEY=VALUE`` sets filter options), with ``--accuracy
 --realdata`` the honesty figures on every recording in ``../shared/data``
-(docs/gpssm.md).
+(docs/gpssm.md). With ``--accuracy --fast-vs-truth`` the fast mode against the truth beside
+the exact mode, seeds 0-4, on the paper study and the multi-body snow slaloms.
 
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_gpssm.py [--quick | --accuracy
-[--seeds 0,1,2,3,4] [--multibody | --realdata]]``
+[--seeds 0,1,2,3,4] [--multibody | --realdata | --fast-vs-truth]]``
 (one core).
 """
 
@@ -230,6 +231,48 @@ def realdata(seeds=(0, 1, 2)) -> None:
             f"{ax} {bands_overlap(b)}" for ax, b in bands.items()))
 
 
+def fast_vs_truth(seeds=(0, 1, 2, 3, 4)) -> None:
+    """The fast mode judged against the truth: per seed, the exact and the fast mode's
+    curve MAE and band coverage at the end (the 0.5-deg bins the truth visited 20 times),
+    on the paper study (the project's snow slalom, ``tensor:10x10``, drive and filter
+    seeded alike) and on the multi-body snow slaloms of both vehicles (the command's
+    defaults); then, per case and axle, whether the fast mode's MAE of every seed lies
+    within the exact mode's seed-to-seed range (at most its largest) and its coverage is no
+    worse than the exact mode's worst seed."""
+    alpha = np.radians(np.linspace(-20, 20, 161))
+    cases = [("paper study snow-slalom tensor:10x10", None, {"basis": "tensor:10x10"})]
+    cases += [(f"multi-body snow-slalom {veh}", veh, {}) for veh in MB_VEHICLES]
+    for label, veh, options in cases:
+        figs = {mode: {"front": [], "rear": []} for mode in ("exact", "fast")}
+        for seed in seeds:
+            if veh is None:
+                drive = simulate_scenario("snow-slalom", seed=seed)
+            else:
+                drive = simulate_scenario("snow-slalom", seed=seed, engine="multibody", vehicle=veh, cache=True)
+            line = []
+            for mode in ("exact", "fast"):
+                cfg = GPSSMConfig.from_options({"particles": 200, "linalg": mode, **options})
+                t0 = time.perf_counter()
+                _, cv = run_filter(drive, cfg, seed=seed, curve_times=(1e9,), curve_alpha=alpha)
+                wall = time.perf_counter() - t0
+                acc = curve_accuracy(next(iter(cv.values())), drive)
+                for axle in ("front", "rear"):
+                    figs[mode][axle].append((acc[axle]["mae"], acc[axle]["coverage"]))
+                line.append(f"{mode} " + " ".join(
+                    f"{axle} MAE {acc[axle]['mae']:.4f} cov {acc[axle]['coverage']:.2f}" for axle in ("front", "rear"))
+                    + f" ({wall:.0f} s)")
+            print(f"{label} seed {seed}: " + "; ".join(line), flush=True)
+        for axle in ("front", "rear"):
+            ex = np.array(figs["exact"][axle])
+            fa = np.array(figs["fast"][axle])
+            within = bool(fa[:, 0].max() <= ex[:, 0].max())
+            cover = bool(fa[:, 1].min() >= ex[:, 1].min())
+            print(f"  {label} {axle}: exact MAE {ex[:, 0].min():.4f}-{ex[:, 0].max():.4f}, coverage worst "
+                  f"{ex[:, 1].min():.2f}; fast MAE {fa[:, 0].min():.4f}-{fa[:, 0].max():.4f}, coverage worst "
+                  f"{fa[:, 1].min():.2f}: MAE within the exact range {within}, coverage no worse {cover}",
+                  flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="shorter drives and fewer points")
@@ -238,11 +281,16 @@ def main() -> None:
                     help="with --accuracy: the multi-body snow slaloms (both vehicles, seeds 0-4 by default)")
     ap.add_argument("--realdata", action="store_true",
                     help="with --accuracy: every recording in ../shared/data (seeds 0,1,2 by default)")
+    ap.add_argument("--fast-vs-truth", action="store_true",
+                    help="with --accuracy: the fast and exact modes against the truth, seeds 0-4")
     ap.add_argument("--option", action="append", default=[], help="KEY=VALUE filter option (--multibody)")
     ap.add_argument("--seeds", default=None, help="drives and filter seeds of --accuracy (e.g. 0,1,2,3,4)")
     args = ap.parse_args()
     if args.accuracy and args.realdata:
         realdata(tuple(int(v) for v in (args.seeds or "0,1,2").split(",")))
+        return
+    if args.accuracy and args.fast_vs_truth:
+        fast_vs_truth(tuple(int(v) for v in (args.seeds or "0,1,2,3,4").split(",")))
         return
     if args.accuracy and args.multibody:
         seeds = tuple(int(v) for v in (args.seeds or "0,1,2,3,4").split(","))
