@@ -125,3 +125,12 @@ def test_figures_of_far_apart_cells_and_hexagons(tmp_path):
     for name, m in (("far.png", g), ("hex.png", h)):
         plot_grid(m, tmp_path / name)
         assert (tmp_path / name).stat().st_size > 10_000
+
+
+def test_compact_batches_summed_in_a_window_equal_the_sorted_sums():
+    """The compiled window pass (compact batch) and the sort by key (scattered batch) give one table."""
+    rng = np.random.default_rng(4)
+    for spread in (3, 30, 3000):  # 6x6 .. 6000x6000 cells for 2000 observations: window, window, sort
+        ix, iy = rng.integers(-spread, spread, 2000), rng.integers(-spread, spread, 2000)
+        w, mu, b = rng.uniform(1, 100, 2000), rng.normal(0.6, 0.1, 2000), rng.uniform(0, 0.05, 2000)
+        _same(C.cells_from_squares(ix, iy, w, mu, b), C.cells_from_observations(C.square_keys(ix, iy), w, mu, b))

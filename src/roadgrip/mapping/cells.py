@@ -25,6 +25,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
@@ -34,6 +35,7 @@ __all__ = [
     "add_cells",
     "cell_posterior",
     "cells_from_observations",
+    "cells_from_squares",
     "empty_cells",
     "lookup",
     "scale_cells",
@@ -133,6 +135,49 @@ def cells_from_observations(key: ArrayLike, w: ArrayLike, mu: ArrayLike, b: Arra
     w, mu, b = (np.asarray(a, dtype=float).ravel() for a in (w, mu, b))
     wm = w * mu
     return _reduce(key, (w, wm, wm * mu, w * b), np.ones(key.size, np.int64))
+
+
+_WINDOW_PER_OBS = 8
+"""A batch whose cells span at most this many cells per observation (or 65,536) is summed in a
+temporary window of its bounding box, which then costs no more than the observations; a
+sparser batch is sorted by key."""
+
+
+def cells_from_squares(ix: NDArray[np.int64], iy: NDArray[np.int64], w: NDArray[np.float64],
+                       mu: NDArray[np.float64], b: NDArray[np.float64]) -> CellSums:
+    """Table of observations in square cells ``(ix, iy)`` (as :func:`cells_from_observations`).
+
+    A compact batch (a road, a track) is accumulated by a compiled pass over a temporary
+    window of its bounding box, bounded by ``8 n`` cells; a scattered one is sorted by key.
+    """
+    n = ix.size
+    if n == 0:
+        return empty_cells()
+    x0, x1, y0, y1 = int(ix.min()), int(ix.max()), int(iy.min()), int(iy.max())
+    nx, ny = x1 - x0 + 1, y1 - y0 + 1
+    if nx * ny > max(_WINDOW_PER_OBS * n, 65_536):
+        return cells_from_observations(square_keys(ix, iy), w, mu, b)
+    square_keys(np.array([x0, x1]), np.array([y0, y1]))  # the range check
+    sums = np.zeros((4, ny * nx))
+    counts = np.zeros(ny * nx, np.int64)
+    _window_sums(ix, iy, np.ascontiguousarray(w, dtype=float), np.ascontiguousarray(mu, dtype=float),
+                 np.ascontiguousarray(b, dtype=float), x0, y0, nx, sums, counts)
+    idx = np.flatnonzero(counts)  # row-major: sorted by (iy, ix), the key order
+    return CellSums(square_keys(idx % nx + x0, idx // nx + y0), sums[0, idx], sums[1, idx], sums[2, idx],
+                    sums[3, idx], counts[idx])
+
+
+@njit(cache=True)
+def _window_sums(ix, iy, w, mu, b, x0, y0, nx, sums, counts):  # pragma: no cover - compiled
+    """Add ``w, w mu, w mu², w b`` and a count of each observation to its cell of the window."""
+    for i in range(ix.shape[0]):
+        j = (iy[i] - y0) * nx + (ix[i] - x0)
+        wm = w[i] * mu[i]
+        sums[0, j] += w[i]
+        sums[1, j] += wm
+        sums[2, j] += wm * mu[i]
+        sums[3, j] += w[i] * b[i]
+        counts[j] += 1
 
 
 def add_cells(*tables: CellSums) -> CellSums:

@@ -26,7 +26,7 @@ from roadgrip.mapping.cells import (
     add_cells,
     birge_ratio,
     cell_posterior,
-    cells_from_observations,
+    cells_from_squares,
     empty_cells,
     lookup,
     scale_cells,
@@ -467,8 +467,9 @@ def fuse(
 
     Notes
     -----
-    The observations' cells are sorted by key and summed (``np.add.reduceat``), then added
-    to the grid's table: memory and time follow the observations and the observed cells.
+    The observations are summed per cell (:func:`roadgrip.mapping.cells.cells_from_squares`:
+    a compiled pass over a temporary window of at most ``8 n`` cells, else a sort by key), then
+    added to the grid's table: memory and time follow the observations and the observed cells.
     """
     x, y, mu, var = (np.asarray(a, dtype=float).ravel() for a in (x, y, mu, var))
     n = x.size
@@ -491,8 +492,7 @@ def fuse(
         g = _decay(grid, float(t.max()))
         if np.isfinite(g.tau):
             w = w * np.exp(-(g.t_ref - t) / g.tau)
-    key = square_keys(np.floor(x / g.cell).astype(np.int64), np.floor(y / g.cell).astype(np.int64))
-    new = cells_from_observations(key, w, mu, b)
+    new = cells_from_squares(np.floor(x / g.cell).astype(np.int64), np.floor(y / g.cell).astype(np.int64), w, mu, b)
     return dataclasses.replace(g, cells=add_cells(g.cells, new), path=new_path)
 
 
