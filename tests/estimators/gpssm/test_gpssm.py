@@ -599,3 +599,19 @@ def test_a_run_in_blocks_equals_stepping_bit_for_bit(snow20, linalg):
     assert len(calls) > 2 and table["resampled"].sum() > 5
     for col in stepped.columns:
         np.testing.assert_array_equal(table[col].to_numpy(), stepped[col].to_numpy(), err_msg=col)
+
+
+def test_run_many_equals_runs_one_after_another(snow20):
+    from roadgrip.estimators.gpssm import run_many
+
+    drives = [snow20.slice_time(0.0, 3.0), snow20.slice_time(5.0, 8.0), snow20.slice_time(10.0, 12.0)]
+    cfg = _cfg(drives[0], "separable-odd:6", n=24, curve_times=(1.0,))
+    seeds = [0, 5, 7]
+    together = run_many(drives, cfg, seeds, workers=2)
+    for d, s, res in zip(drives, seeds, together, strict=True):
+        alone = run(d, cfg, seed=s)
+        pd.testing.assert_frame_equal(res.table, alone.table, check_exact=True)
+        pd.testing.assert_frame_equal(res.curves, alone.curves, check_exact=True)
+        assert res.meta["seed"] == s
+    with pytest.raises(ValueError, match="one seed per drive"):
+        run_many(drives, cfg, [0, 1])

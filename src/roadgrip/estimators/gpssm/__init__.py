@@ -77,13 +77,16 @@ config         :class:`GPSSMConfig` (the protocol ``Config``, ``method = 'gpssm'
 inputs         the filter's input samples from a drive, sub-steps for slow data
 model          the lateral single-track equations, one copy for NumPy and the compiled kernel
 state          filter state, its per-run :class:`Context`, resampling
-stepping       one step (compiled kernel, or the NumPy reference)
+stepping       one step (the compiled whole step, or the NumPy reference)
 reference      the NumPy reference step
+block          the whole step compiled, one call per block of steps (block_ops: its parts;
+               compiled: the state handed to it)
 kernel         the compiled per-particle pass; kernel_ops: its building blocks, the peak
 linalg         per-particle solves with ``Sigma + I``
 posterior      posterior curves and the peak per axle
 guard          honesty checks after every step: divergence, the physics floor, the vy band
 estimator      ``prepare`` / ``init`` / ``step`` / ``run``; the online :class:`GPSSM`
+batch          ``run_many``: many drives, one process per core
 presets        data-set options (DART)
 accuracy       curve accuracy against the truth (evaluation)
 =============  =============================================================================
@@ -101,6 +104,7 @@ group (2 tensor, 1 separable), ``m`` features per group.
 
 from __future__ import annotations
 
+from roadgrip.estimators.gpssm.batch import run_many
 from roadgrip.estimators.gpssm.config import AXLES, DEFAULT_BASIS, DEFAULT_PRIOR_TIRE, GPSSMConfig
 from roadgrip.estimators.gpssm.estimator import (
     GPSSM,
@@ -159,6 +163,7 @@ __all__ = [
     "resample",
     "run",
     "run_filter",
+    "run_many",
     "step",
     "step_reference",
     "upsample_inputs",
