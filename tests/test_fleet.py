@@ -141,3 +141,17 @@ def test_fleet_options_are_checked():
         FleetConfig(h3_resolution=16)
     with pytest.raises(ValueError, match="no drives"):
         fleet_map([])
+
+
+def test_square_cells_of_gnss_drives_in_a_given_frame_equal_the_pose_grid():
+    """GNSS made from the pose about ORIGIN, square cells about ORIGIN: the pose's cells, in WGS84."""
+    origin = (48.137, 11.575)
+    d = _drives()[2]
+    part = drive_part(_with_gnss(d, origin), FleetConfig(cells="square", origin=origin), start_time=0.0)
+    ref = drive_part(d, FleetConfig(cells="square"), start_time=0.0)
+    assert part.map.origin == origin and ref.map.origin is None
+    np.testing.assert_array_equal(part.map.cells.key, ref.map.cells.key)
+    np.testing.assert_array_equal(part.map.cells.n_obs, ref.map.cells.n_obs)
+    np.testing.assert_allclose(part.map.cell_posterior()[0], ref.map.cell_posterior()[0], rtol=1e-12)
+    with pytest.raises(ValueError, match="origin must be"):
+        FleetConfig(origin=(91.0, 0.0))

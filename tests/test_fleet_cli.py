@@ -76,3 +76,12 @@ def test_fleet_command_on_simulated_drives(tmp_path):
     cells = gpd.read_parquet(out)
     assert cells["n_obs"].sum() == n_obs and cells.crs is None
     assert (tmp_path / "fleet.html").stat().st_size > 100_000
+
+
+def test_origin_option():
+    from roadgrip.cli.fleet import _origin
+
+    assert _origin("48.1, 11.5") == (48.1, 11.5) and _origin(None) is None
+    for bad in ("48.1", "x,y", "95,0"):
+        with pytest.raises(ValueError, match="--origin must be"):
+            _origin(bad)

@@ -52,6 +52,19 @@ def _check(output: Path, html: Path | None, png: Path | None, cell: float, tau_h
         raise ValueError(f"--workers must be within [1, 256], got {workers}")
 
 
+def _origin(text: str | None) -> tuple[float, float] | None:
+    """``'LAT,LON'`` to a tuple, refused in one line otherwise."""
+    if text is None:
+        return None
+    try:
+        lat, lon = (float(v) for v in text.split(","))
+    except ValueError:
+        raise ValueError(f"--origin must be LAT,LON in degrees, got {text!r}") from None
+    if not (abs(lat) <= 90 and abs(lon) <= 180):
+        raise ValueError(f"--origin must be within +-90 deg latitude and +-180 deg longitude, got {text!r}")
+    return lat, lon
+
+
 def write_fleet_outputs(part: Any, output: Path, html: Path | None = None, png: Path | None = None) -> None:
     """The fleet map as GeoParquet / GeoJSON (or NPZ for square cells), and optionally its page and PNG."""
     from roadgrip.mapping import FrictionGrid
@@ -89,6 +102,8 @@ def fleet_cmd(
     decay_hours: Annotated[float, typer.Option(help="Age-decay time constant [h]: an observation this much "
                                                     "older than the newest counts exp(-1).")] = 24.0,
     cells: Annotated[str, typer.Option(help="auto (H3 where drives have lat/lon), square or h3.")] = "auto",
+    origin: Annotated[str | None, typer.Option(help="LAT,LON [deg]: square cells of drives with lat/lon in "
+                                                    "the local frame about it, written in WGS84.")] = None,
     html: Annotated[Path | None, typer.Option(help="Also write the interactive map page.")] = None,
     png: Annotated[Path | None, typer.Option(help="Also write a PNG heat map.")] = None,
 ) -> None:
@@ -99,7 +114,7 @@ def fleet_cmd(
     _check(output, html, png, cell, decay_hours, workers)
     get(method)  # an unknown method is refused before the cluster starts
     config = FleetConfig(method=method, cell=cell, h3_resolution=h3_resolution, tau=decay_hours * 3600.0,
-                         cells=cells)
+                         cells=cells, origin=_origin(origin))
     paths = expand_drives(drives)
     t0 = time.perf_counter()
     part = fleet_map(paths, config, scheduler=scheduler, n_workers=workers)

@@ -69,6 +69,10 @@ class FleetConfig:
         ``'auto'``: H3 where a drive has ``lat, lon``, square otherwise.
     seed : int
         Estimator seed.
+    origin : (float, float), optional
+        ``(lat, lon)`` [deg] of the local frame of square cells for drives with GNSS: their
+        observations are placed by GNSS in that frame and the map is written in WGS84
+        (:mod:`roadgrip.mapping.geo`); without it square cells use the drives' pose ``x, y``.
     """
 
     method: str = "cascade"
@@ -80,8 +84,12 @@ class FleetConfig:
     prior_std: float = 0.4
     cells: str = "auto"
     seed: int = 0
+    origin: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
+        if self.origin is not None and not (len(self.origin) == 2 and abs(self.origin[0]) <= 90
+                                            and abs(self.origin[1]) <= 180):
+            raise ValueError(f"origin must be (lat, lon) within +-90, +-180 deg, got {self.origin!r}")
         if not (np.isfinite(self.cell) and self.cell > 0):
             raise ValueError(f"cell size must be positive and finite [m], got {self.cell!r}")
         if not (isinstance(self.h3_resolution, int) and 0 <= self.h3_resolution <= 15):
@@ -147,6 +155,14 @@ def drive_part(source: Any, config: FleetConfig, start_time: float | None = None
         obs, lat, lon = geo_observations(table, drive.t, drive.col("lat"), drive.col("lon"), None)
         m = fuse_hex(empty_hexgrid(config.h3_resolution, config.prior_mean, config.prior_std, config.tau),
                      lat, lon, obs.mu, obs.var, t=obs.t + start, sys=obs.sys)
+    elif geo and config.origin is not None:
+        from roadgrip.mapping.geo import geo_observations, to_local
+
+        obs, lat, lon = geo_observations(table, drive.t, drive.col("lat"), drive.col("lon"), config.cell)
+        x, y = to_local(lat, lon, config.origin)
+        m = fuse(empty_grid(config.cell, config.prior_mean, config.prior_std, config.tau,
+                            origin=tuple(map(float, config.origin))), x, y, obs.mu, obs.var, t=obs.t + start,
+                 sys=obs.sys)
     else:
         obs = observations_from_estimates(table, config.cell)
         m = fuse(empty_grid(config.cell, config.prior_mean, config.prior_std, config.tau),
