@@ -198,7 +198,8 @@ def sequential_fleet_map(sources: list[Any], config: FleetConfig | None = None,
 
 
 def _part_list(items: list[tuple[int, Any]], config: FleetConfig, start_times: dict[int, float]) -> FleetPart:
-    return merge_parts([drive_part(s, config, start_times.get(i)) for i, s in items])
+    parts = [drive_part(s, config, start_times.get(i)) for i, s in items]
+    return merge_parts([p._replace(drives=p.drives.assign(_i=i)) for p, (i, _) in zip(parts, items, strict=True)])
 
 
 def fleet_map(
@@ -267,6 +268,5 @@ def fleet_map(
             own.close()
             if cluster is not None:
                 cluster.close()
-    order = {str(s) if isinstance(s, str | os.PathLike) else str(s.meta.source): i for i, s in items}
-    drives = part.drives.assign(_o=part.drives["source"].map(order)).sort_values("_o", kind="stable")
-    return FleetPart(part.map, drives.drop(columns="_o").reset_index(drop=True))
+    drives = part.drives.sort_values("_i", kind="stable").drop(columns="_i").reset_index(drop=True)
+    return FleetPart(part.map, drives)
