@@ -134,3 +134,24 @@ def test_compact_batches_summed_in_a_window_equal_the_sorted_sums():
         ix, iy = rng.integers(-spread, spread, 2000), rng.integers(-spread, spread, 2000)
         w, mu, b = rng.uniform(1, 100, 2000), rng.normal(0.6, 0.1, 2000), rng.uniform(0, 0.05, 2000)
         _same(C.cells_from_squares(ix, iy, w, mu, b), C.cells_from_observations(C.square_keys(ix, iy), w, mu, b))
+
+
+_LAT = st.floats(-90, 90) | st.sampled_from([-90.0, 90.0, 0.0, 1e-300, float("nan"), 91.0, float("inf")])
+_LON = st.floats(-180, 180) | st.sampled_from([-180.0, 180.0, 179.9999999, float("nan"), -181.0])
+
+
+@_SETTINGS
+@given(st.lists(st.tuples(_LAT, _LON, st.floats(-1, 3), st.floats(-1, 1)), min_size=1, max_size=6),
+       st.integers(0, 15))
+def test_hexagon_map_fuses_anywhere_on_the_globe_or_refuses_naming_the_observation(obs, res):
+    lat, lon, mu, var = (np.array(v, float) for v in zip(*obs, strict=True))
+    try:
+        g = H.fuse_hex(H.empty_hexgrid(res), lat, lon, mu, var)
+    except ValueError as exc:
+        assert "observation" in str(exc), exc
+        return
+    assert int(g.cells.n_obs.sum()) == len(lat) and g.n_cells <= len(lat)
+    m, s = g.cell_posterior()
+    assert np.all(np.isfinite(m)) and np.all(np.isfinite(s))
+    qm, _ = g.query(lat, lon)
+    assert set(np.round(qm, 12)) <= set(np.round(m, 12))
