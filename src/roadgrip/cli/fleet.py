@@ -10,7 +10,7 @@ from typing import Annotated, Any
 
 import typer
 
-from roadgrip.cli._common import app, console
+from roadgrip.cli._common import VehicleOpt, app, console
 
 _MAP_SUFFIXES = (".parquet", ".geoparquet", ".geojson", ".json", ".npz")
 
@@ -104,6 +104,7 @@ def fleet_cmd(
     cells: Annotated[str, typer.Option(help="auto (H3 where drives have lat/lon), square or h3.")] = "auto",
     origin: Annotated[str | None, typer.Option(help="LAT,LON [deg]: square cells of drives with lat/lon in "
                                                     "the local frame about it, written in WGS84.")] = None,
+    vehicle: VehicleOpt = None,
     html: Annotated[Path | None, typer.Option(help="Also write the interactive map page.")] = None,
     png: Annotated[Path | None, typer.Option(help="Also write a PNG heat map.")] = None,
 ) -> None:
@@ -114,7 +115,7 @@ def fleet_cmd(
     _check(output, html, png, cell, decay_hours, workers)
     get(method)  # an unknown method is refused before the cluster starts
     config = FleetConfig(method=method, cell=cell, h3_resolution=h3_resolution, tau=decay_hours * 3600.0,
-                         cells=cells, origin=_origin(origin))
+                         cells=cells, origin=_origin(origin), vehicle=vehicle)
     paths = expand_drives(drives)
     t0 = time.perf_counter()
     part = fleet_map(paths, config, scheduler=scheduler, n_workers=workers)

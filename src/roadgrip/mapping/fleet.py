@@ -73,6 +73,8 @@ class FleetConfig:
         ``(lat, lon)`` [deg] of the local frame of square cells for drives with GNSS: their
         observations are placed by GNSS in that frame and the map is written in WGS84
         (:mod:`roadgrip.mapping.geo`); without it square cells use the drives' pose ``x, y``.
+    vehicle : str, optional
+        Vehicle preset or YAML file of drive files that carry none (:func:`roadgrip.io.read_drive`).
     """
 
     method: str = "cascade"
@@ -85,6 +87,7 @@ class FleetConfig:
     cells: str = "auto"
     seed: int = 0
     origin: tuple[float, float] | None = None
+    vehicle: str | None = None
 
     def __post_init__(self) -> None:
         if self.origin is not None and not (len(self.origin) == 2 and abs(self.origin[0]) <= 90
@@ -137,12 +140,15 @@ def drive_part(source: Any, config: FleetConfig, start_time: float | None = None
     if isinstance(source, str | os.PathLike):
         from roadgrip.io import read_drive
 
-        drive = read_drive(source)
+        drive = read_drive(source, vehicle=config.vehicle)
         name = str(source)
     else:
         drive, name = source, str(source.meta.source)
     start = _start_time(drive, source) if start_time is None else float(start_time)
-    table = run_estimator(config.method, drive, dict(config.options), seed=config.seed).table
+    try:
+        table = run_estimator(config.method, drive, dict(config.options), seed=config.seed).table
+    except Exception as exc:  # a fleet of thousands: say which drive
+        raise ValueError(f"{name}: {config.method} failed: {exc}") from exc
     geo = drive.has("lat", "lon") and bool(np.isfinite(drive.col("lat")).any())
     kind = "h3" if (config.cells == "h3" or (config.cells == "auto" and geo)) else "square"
     if not {"x", "y"} <= set(table.columns) and drive.has("x", "y"):
