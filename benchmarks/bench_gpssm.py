@@ -49,8 +49,10 @@ import numba
 import numpy as np
 
 from roadgrip.estimators.gpssm import GPSSMConfig, run_filter
+from roadgrip.estimators.gpssm import kernel as gk
 from roadgrip.estimators.gpssm import linalg as la
 from roadgrip.estimators.gpssm.accuracy import curve_accuracy
+from roadgrip.estimators.gpssm.kernel_ops import peak_summary, slot_plan
 from roadgrip.sim.scenarios import simulate_scenario
 
 
@@ -273,6 +275,195 @@ def fast_vs_truth(seeds=(0, 1, 2, 3, 4)) -> None:
                   flush=True)
 
 
+@numba.njit
+def _repeat_pass(k, p, lin, wk, blk, cst, basis, scal):  # pragma: no cover - compiled
+    """The particle pass of the block's first sample ``k`` times (as block._step calls it);
+    ``scal`` = (nu, p_scale, c)."""
+    N, G, _, m = p.Psi.shape
+    for _ in range(k):
+        par = 0
+        pdst, order = slot_plan(lin.panc)
+        gk.particle_pass(
+            p,
+            gk.Slots(lin.pinv.reshape(N * G, m, m), lin.panc, pdst, order, lin.pend2[par], lin.pgain2[par],
+                     lin.pend2[1 - par], lin.pgain2[1 - par], lin.hist, 0),
+            gk.StepInput(True, 0.04, blk.steer[0], blk.vx[0], blk.steer[0], blk.vx[0], blk.ay[0],
+                         blk.yaw_rate[0], False, 0.0, True),
+            cst.veh,
+            gk.Params(cst.mf, cst.lam, scal[0], cst.Lambda0, cst.sigma_ay, cst.sigma_r, -1.0, scal[1],
+                      0.0 if cst.carry else 1.0 - scal[2], cst.tol, cst.max_terms, cst.conditional, cst.carry),
+            basis,
+            gk.PeakColumns(wk.fpk, lin.pkw2[par], lin.pkw2[1 - par], wk.fresh),
+            gk.Draws(wk.gdraw, wk.zdraw, wk.gwalk),
+            gk.Outputs(wk.alpha, wk.M, wk.Lam, wk.vpk, wk.munow, wk.e),
+        )
+
+
+@numba.njit
+def _repeat_peak(k, post, pg, a_vis, prm, out):  # pragma: no cover - compiled
+    for _ in range(k):
+        peak_summary(post, pg, a_vis, prm, out)
+
+
+@numba.njit
+def _repeat_draws(k, rng, gdraw, zdraw, dof):  # pragma: no cover - compiled
+    N, G = gdraw.shape
+    for _ in range(k):
+        for n in range(N):
+            for g in range(G):
+                gdraw[n, g] = rng.chisquare(dof)
+        for n in range(N):
+            for j in range(2):
+                zdraw[n, 0, j] = rng.standard_normal()
+
+
+def parts(steps: int = 1500) -> None:
+    """Where the time of a compiled step goes, ms per step (N = 200): the whole step (a run
+    over ``steps`` samples in blocks), and on the state at its end the particle pass (its
+    cost per call, with the exact mode's Neumann series at a mid-period prior weight), the
+    peak summary, the draws of the conditional proposal, resampling (one per step; the
+    run's rate is printed) and the refactorisation spread over its period."""
+    from roadgrip.estimators.gpssm import block as bk
+    from roadgrip.estimators.gpssm.compiled import _consts, _pair, _work, advance, sample_array
+    from roadgrip.estimators.gpssm.inputs import drive_inputs
+    from roadgrip.estimators.gpssm.kernel_ops import PeakGrid, PeakParams, PeakPosterior
+    from roadgrip.estimators.gpssm.state import Context
+
+    drive = simulate_scenario("snow-slalom", seed=0)
+    d = drive.slice_time(drive.t[0], drive.t[0] + steps / 25.0 - 1e-9)
+    data = sample_array([(*r, 1.0) for r in drive_inputs(d)])
+    print(f"{'basis':17s} {'mode':5s} {'step':>6s} {'pass':>6s} {'peak':>6s} {'draws':>6s} {'resmp':>6s} "
+          f"{'refac':>6s} {'rest':>6s}  [ms per step; resampling rate]")
+    for basis, mode in (("separable:10", "exact"), ("separable:10", "fast"), ("separable-odd:20", "exact"),
+                        ("tensor:10x10", "exact"), ("tensor:10x10", "fast")):
+        cfg = GPSSMConfig(basis=basis, particles=200, linalg=mode)
+        k = steps if "separable" in basis else steps // 3
+        ctx = Context(cfg, d.vehicle)
+        advance(ctx, None, data[:10])
+        ctx = Context(cfg, d.vehicle)
+        t0 = time.perf_counter()
+        state, out = advance(ctx, None, data[:k])
+        whole = (time.perf_counter() - t0) / k
+        rate = float(out[:, bk.OUT.RESAMPLED].mean())
+        cst, btab, tables = _consts(ctx)
+        wk = _work(ctx)
+        if mode == "fast":
+            wk = wk._replace(M=state.M, Lam=state.Lam)
+        lin = state.lin
+        la.settle(lin)
+        pend2, _ = _pair(lin.pend, lin.pend.shape)
+        pgain2, _ = _pair(lin.pgain, lin.pgain.shape)
+        pkw2, _ = _pair(lin.pkw, lin.pkw.shape)
+        lb = bk.LinBuffers(None, lin.pinv, lin.hist, lin.hcoef, lin.hanc, pend2, pgain2, lin.panc.copy(),
+                           lin.sanc, pkw2, lin.pkf)
+        blk = bk.Block(*(data[k - 1:k, j] for j in range(6)), data[k - 1:k, 7] != 0, np.full(1, ctx.veh.fz_front),
+                       np.full(1, ctx.veh.fz_rear))
+        p = gk.Particles(state.x.copy(), state.mu.copy(), state.logw.copy(), state.Psi.copy(), state.Phi.copy())
+        reps = 200 if "separable" in basis else 40
+        scal = (state.nu, lin.p_scale, lin.c)
+        _repeat_pass(1, p, lb._replace(sigma2=np.zeros(1)), wk, blk, cst, btab, scal)
+        t0 = time.perf_counter()
+        _repeat_pass(reps, p, lb._replace(sigma2=np.zeros(1)), wk, blk, cst, btab, scal)
+        t_pass = (time.perf_counter() - t0) / reps
+        post = PeakPosterior(wk.M, wk.Lam, state.logw, wk.vpk)
+        pg = PeakGrid(wk.feats, tables.prior, tables.grid, tables.where, tables.col)
+        prm = PeakParams(10.0, cfg.peak_margin, 1.96, 1e-4, 2.0, 0.05)
+        a_vis = np.radians([3.0, 3.0])
+        pk = np.zeros((2, 7))
+        _repeat_peak(1, post, pg, a_vis, prm, pk)
+        t0 = time.perf_counter()
+        _repeat_peak(reps * 5, post, pg, a_vis, prm, pk)
+        t_peak = (time.perf_counter() - t0) / (reps * 5)
+        rng = np.random.default_rng(0)
+        _repeat_draws(1, rng, wk.gdraw, wk.zdraw, 50.0)
+        t0 = time.perf_counter()
+        _repeat_draws(reps * 5, rng, wk.gdraw, wk.zdraw, 50.0)
+        t_draw = (time.perf_counter() - t0) / (reps * 5)
+        from roadgrip.estimators.gpssm.block_ops import _resample
+        sc = np.zeros(bk.SC.SIZE)
+        _resample(p, lb, wk, sc, rng, mode == "fast")
+        t0 = time.perf_counter()
+        for _ in range(reps):
+            _resample(p, lb, wk, sc, rng, mode == "fast")
+        t_res = (time.perf_counter() - t0) / reps
+        st = la.init(mode, 200, cfg.basis.groups, cfg.basis.m, history=80)
+        st.hist[:] = np.random.default_rng(0).standard_normal(st.hist.shape) * 0.3
+        st.hcoef[:] = 1.0
+        st = la.refactor(st._replace(nhist=80), 1.0)
+        t0 = time.perf_counter()
+        la.refactor(st._replace(nhist=80), 1.0)
+        t_ref = (time.perf_counter() - t0) / 80
+        rest = whole - t_pass - t_peak - t_draw - rate * t_res - t_ref
+        print(f"{basis:17s} {mode:5s} " + " ".join(f"{1e3 * v:6.3f}" for v in (
+            whole, t_pass, t_peak, t_draw, rate * t_res, t_ref, rest)) + f"  {rate:.2f}", flush=True)
+
+
+SPEED_CASES = (
+    ("m = 20 (separable:10)", "separable:10", "exact", 2000),
+    ("m = 20 (separable:10)", "separable:10", "fast", 2000),
+    ("default (separable-odd:20, m = 2 x 20)", "separable-odd:20", "exact", 2000),
+    ("m = 100 (tensor:10x10)", "tensor:10x10", "exact", 600),
+    ("m = 100 (tensor:10x10)", "tensor:10x10", "fast", 600),
+)
+"""The speed table: label, basis, mode and steps (N = 200, snow-slalom from its start)."""
+
+
+def speed_once(drive) -> list[float]:
+    """Steps per second of every case of :data:`SPEED_CASES`, once."""
+    out = []
+    for _, basis, mode, steps in SPEED_CASES:
+        d, _, _, wall = timed_run(drive, basis, 200, mode, steps)
+        out.append(d.n / wall)
+    return out
+
+
+def _baseline_once(src: str) -> list[float]:
+    """:func:`speed_once` of the package in ``src`` (another version's ``src`` tree), in a
+    subprocess."""
+    import json
+    import subprocess
+    import sys
+
+    env = dict(os.environ, PYTHONPATH=src, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    res = subprocess.run([sys.executable, __file__, "--speed-json"], env=env, capture_output=True, text=True,
+                         check=True, cwd="/")
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def speed(reps: int, baseline: str | None) -> None:
+    """The median of ``reps`` runs of every case of :data:`SPEED_CASES`, beside the same
+    cases of the version ``baseline`` (a git revision) measured in the same run, the two
+    alternating (this machine's speed drifts with its host and the other jobs on it)."""
+    import subprocess
+    import tempfile
+
+    drive = simulate_scenario("snow-slalom", seed=0)
+    src = None
+    if baseline is not None:
+        root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+        tmp = tempfile.mkdtemp(prefix="gpssm-baseline-")
+        archive = subprocess.run(["git", "-C", root, "archive", baseline, "src"], capture_output=True, check=True)
+        subprocess.run(["tar", "-x", "-C", tmp], input=archive.stdout, check=True)
+        src = os.path.join(tmp, "src")
+        _baseline_once(src)  # compiles the baseline's kernels into its own cache
+    speed_once(drive.slice_time(drive.t[0], drive.t[0] + 2.0))
+    now, before = [], []
+    for _ in range(reps):
+        now.append(speed_once(drive))
+        if src is not None:
+            before.append(_baseline_once(src))
+    load = os.getloadavg()
+    print(f"N = 200, snow-slalom, median of {reps} runs, load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f}")
+    print(f"{'case':42s} {'mode':5s} {'steps/s':>9s}" + (f" {baseline:>12s} {'ratio':>6s}" if src else ""))
+    for k, (label, _, mode, _) in enumerate(SPEED_CASES):
+        a = float(np.median([r[k] for r in now]))
+        line = f"{label:42s} {mode:5s} {a:9.0f}"
+        if src is not None:
+            b = float(np.median([r[k] for r in before]))
+            line += f" {b:12.0f} {a / b:6.2f}"
+        print(line, flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="shorter drives and fewer points")
@@ -281,11 +472,29 @@ def main() -> None:
                     help="with --accuracy: the multi-body snow slaloms (both vehicles, seeds 0-4 by default)")
     ap.add_argument("--realdata", action="store_true",
                     help="with --accuracy: every recording in ../shared/data (seeds 0,1,2 by default)")
+    ap.add_argument("--speed", action="store_true", help="the speed table (median of --reps runs)")
+    ap.add_argument("--parts", action="store_true", help="where the time of a compiled step goes")
+    ap.add_argument("--reps", type=int, default=5, help="runs of --speed")
+    ap.add_argument("--baseline", default=None, help="with --speed: a git revision measured beside, e.g. HEAD~3")
+    ap.add_argument("--speed-json", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--fast-vs-truth", action="store_true",
                     help="with --accuracy: the fast and exact modes against the truth, seeds 0-4")
     ap.add_argument("--option", action="append", default=[], help="KEY=VALUE filter option (--multibody)")
     ap.add_argument("--seeds", default=None, help="drives and filter seeds of --accuracy (e.g. 0,1,2,3,4)")
     args = ap.parse_args()
+    if args.speed_json:
+        import json
+
+        drive = simulate_scenario("snow-slalom", seed=0)
+        speed_once(drive.slice_time(drive.t[0], drive.t[0] + 2.0))
+        print(json.dumps(speed_once(drive)))
+        return
+    if args.speed:
+        speed(args.reps, args.baseline)
+        return
+    if args.parts:
+        parts()
+        return
     if args.accuracy and args.realdata:
         realdata(tuple(int(v) for v in (args.seeds or "0,1,2").split(",")))
         return
