@@ -48,6 +48,9 @@ def estimate(
     plot: Annotated[Path | None, typer.Option(help="Write a PNG figure.")] = None,
     vss: Annotated[Path | None, typer.Option(help="Write VSS road friction (percent) as JSON lines.")] = None,
     align: AlignOpt = False,
+    stream: Annotated[bool, typer.Option(
+        "--stream", help="Long drives: read, estimate and write in chunks of 10 min with bounded "
+        "memory (cascade, canonical Parquet drive).")] = False,
 ) -> None:
     """Run one estimator over a drive and write its estimates."""
     from roadgrip import estimators
@@ -76,6 +79,10 @@ def estimate(
     if method == "gpssm":
         opt.check_gpssm_resources(options)
     est.Config.from_options(options)  # rejects options of other methods before reading the drive
+    if stream:
+        _stream(drive_path, output, method, vehicle, fmt, options, seed,
+                {"--plot": plot, "--vss": vss, "--curves": curves, "--align": align or None})
+        return
     drive = load_drive(drive_path, fmt, vehicle, topics, channels)
     if align:
         from roadgrip.cli.info import apply_alignment, estimate_delays
@@ -110,6 +117,33 @@ def estimate(
 
     console.print(summary_table(result))
     console.print(f"wrote {', '.join(str(p) for p in written)}")
+
+
+def _stream(drive_path: str, output: Path, method: str, vehicle: str | None, fmt: str | None,
+            options: dict[str, Any], seed: int, others: dict[str, Any]) -> None:
+    """``--stream``: the drive in chunks (:func:`roadgrip.cli.stream.stream_estimate`)."""
+    from roadgrip.cli.stream import STREAM_METHODS, drive_chunks, stream_estimate
+
+    if method not in STREAM_METHODS:
+        raise ValueError(f"--stream runs {', '.join(STREAM_METHODS)}, not {method!r} (its batch kernel "
+                         "cannot continue from a state); run the whole drive without --stream")
+    given = [k for k, v in others.items() if v is not None]
+    if given:
+        raise ValueError(f"--stream writes the estimates only: {', '.join(given)} need the whole drive")
+    if fmt not in (None, "canonical") or Path(drive_path).suffix.lower() not in (".parquet", ".pq"):
+        raise ValueError(f"--stream reads canonical Parquet drives, not {Path(drive_path).name!r}")
+    n_rows, _ = drive_chunks(drive_path, vehicle)
+    with progress_bar(f"{method} (streamed)", n_rows) as advance:
+        stats = stream_estimate(drive_path, output, method, vehicle=vehicle, options=options, seed=seed,
+                                progress=advance)
+    last = stats["last"]
+    for axle in ("front", "rear"):
+        console.print(f"peak friction {axle} (final): {last[f'mu_{axle}']:.3f}  "
+                      f"[{last[f'mu_{axle}_lower']:.3f}, {last[f'mu_{axle}_upper']:.3f}]", highlight=False)
+    console.print(f"{stats['rows']} samples ({stats['duration_s'] / 3600:.2f} h) in {stats['wall_s']:.1f} s: "
+                  f"{stats['samples_per_s']:.0f} samples/s, peak memory "
+                  f"{stats['peak_rss_bytes'] / 2**20:.0f} MiB", highlight=False)
+    console.print(f"wrote {output}")
 
 
 def write_table(table, path: Path) -> None:

@@ -1,0 +1,213 @@
+"""A day of driving: peak memory and throughput of each estimator over a 24-hour drive.
+
+Run: ``.venv/bin/python benchmarks/bench_long_drive.py [--hours 24] [--methods cascade,brls]``.
+
+The drive repeats the sedan's planar scenarios (``dry-gravel-dry`` with three seeds and
+``straight-cruise``, all at 100 Hz; 24 h are 8.64 M samples), written to a Parquet file
+hour by hour (the builder's memory does not grow with the length). The pose is left
+out (a repeated pose jumps back at every seam); the seams themselves jump in speed and
+yaw rate by what the scenarios' ends differ, as a logger restart would.
+
+Each method runs in its own process, so that its peak resident memory is its own:
+
+- ``cascade`` is streamed (:func:`roadgrip.cli.stream.stream_estimate`, 10-minute chunks,
+  estimates written as they come); after each chunk the three stages' covariances are
+  checked positive definite, and every output row's standard deviations finite and
+  positive;
+- the other methods cannot continue from a state over a block of samples
+  (:mod:`roadgrip.cli.stream`), so they run over the whole drive held in memory, as
+  ``roadgrip estimate`` without ``--stream`` does; ``gpssm`` at a few hundred samples per
+  second would need hours for one day and is only run when named, on ``--gpssm-hours``.
+
+Throughput is compared with the same method on the first ten minutes of the drive, in
+the same process after a warm-up run (compilation excluded from both; the median of three
+runs). Streamed, the drive's chunks are as long as the short drive: the median chunk rate
+and those of the first and last third of the chunks show whether anything slows down
+with the drive's length (the overall rate also carries the machine's other load).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+SCENARIOS = (("dry-gravel-dry", 0), ("straight-cruise", 0), ("dry-gravel-dry", 1), ("dry-gravel-dry", 2))
+"""The pieces of the long drive, repeated in this order (all the sedan at 100 Hz)."""
+
+SHORT_S = 600.0
+"""The short drive the throughput is compared with [s]."""
+
+
+def write_long_drive(path: str | Path, hours: float) -> int:
+    """Write a drive of ``hours`` [h] repeating :data:`SCENARIOS`; returns its rows."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from roadgrip.drive import SIGNAL_COLUMNS, Drive
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    pieces = []
+    for name, seed in SCENARIOS:
+        d = simulate_scenario(name, seed=seed)
+        cols = [c for c in SIGNAL_COLUMNS if c in d.data.columns and c not in ("x", "y", "psi")]
+        pieces.append(d.data[cols].reset_index(drop=True))
+    vehicle = simulate_scenario(SCENARIOS[0][0], seed=0, duration=1.0).vehicle
+    dt = 0.01
+    total = round(hours * 3600.0 / dt)
+    meta_drive = Drive.from_frame(pieces[0].iloc[:10], vehicle, source=f"long drive ({hours:g} h)")
+    md = {b"roadgrip": meta_drive.meta.to_json().encode()}
+    writer = None
+    written, k, t_next = 0, 0, 0.0
+    hour_rows = round(3600.0 / dt)
+    buffer, size = [], 0
+    try:
+        while written < total:
+            piece = pieces[k % len(pieces)].copy()
+            k += 1
+            piece["t"] = t_next + dt * np.arange(len(piece))
+            piece = piece.iloc[: total - written - size]
+            t_next = float(piece["t"].iloc[-1]) + dt
+            buffer.append(piece)
+            size += len(piece)
+            if size >= hour_rows or written + size >= total:
+                table = pa.Table.from_pandas(
+                    __import__("pandas").concat(buffer, ignore_index=True), preserve_index=False)
+                if writer is None:
+                    schema = table.schema.with_metadata(md)
+                    writer = pq.ParquetWriter(str(path), schema)
+                writer.write_table(table.cast(schema), row_group_size=hour_rows)
+                written += size
+                buffer, size = [], 0
+    finally:
+        if writer is not None:
+            writer.close()
+    return written
+
+
+def min_active_eig(cov: np.ndarray) -> float:
+    """Smallest eigenvalue of a covariance over its estimated states (a state switched off
+    by the configuration, e.g. the accelerometer biases without a standstill, keeps a zero
+    row and column)."""
+    active = np.diag(cov) > 0
+    return float(np.linalg.eigvalsh(cov[np.ix_(active, active)]).min()) if active.any() else np.inf
+
+
+def _run_one(method: str, path: str, short_path: str) -> dict:
+    """In this process: warm up on the short drive, time it, then the long drive."""
+    from roadgrip.cli.stream import peak_rss_bytes, stream_estimate
+
+    out = tempfile.mkdtemp(prefix="roadgrip-long-")
+    checks = {"chunks": 0, "min_cov_eig": np.inf, "bad_std_rows": 0, "nan_mu_rows": 0}
+    rates: list[float] = []
+    clock = [time.perf_counter()]
+
+    def check(res) -> None:
+        now = time.perf_counter()
+        rates.append(len(res.table) / (now - clock[0]))  # read, estimate and write of one chunk
+        st = res.state
+        for cov in (st.velocity_cov, st.force_cov, st.friction_cov):
+            checks["min_cov_eig"] = min(checks["min_cov_eig"], min_active_eig(cov))
+        tab = res.table
+        std = tab[["mu_front_std", "mu_rear_std"]].to_numpy()
+        checks["bad_std_rows"] += int((~(np.isfinite(std) & (std > 0))).any(axis=1).sum())
+        checks["nan_mu_rows"] += int(tab[["mu_front", "mu_rear"]].isna().any(axis=1).sum())
+        checks["chunks"] += 1
+        clock[0] = time.perf_counter()
+
+    if method == "cascade":
+        stream_estimate(short_path, f"{out}/warm.parquet", method)
+        # the short drive is one chunk: its rate against the median chunk of the long drive
+        short = float(np.median([stream_estimate(short_path, f"{out}/short.parquet", method)["samples_per_s"]
+                                 for _ in range(3)]))
+        rss_short = peak_rss_bytes()
+        clock[0] = time.perf_counter()
+        long = stream_estimate(path, f"{out}/long.parquet", method, on_chunk=check)
+        third = max(len(rates) // 3, 1)
+        return {"method": method, "mode": "streamed", "rows": long["rows"], "hours": long["duration_s"] / 3600,
+                "samples_per_s": long["samples_per_s"], "short_samples_per_s": short,
+                "median_chunk_samples_per_s": float(np.median(rates)),
+                "first_third_samples_per_s": float(np.median(rates[:third])),
+                "last_third_samples_per_s": float(np.median(rates[-third:])),
+                "peak_rss_mib": long["peak_rss_bytes"] / 2**20, "rss_after_short_mib": rss_short / 2**20,
+                "wall_s": long["wall_s"], **checks}
+    from roadgrip.estimators import run_estimator
+    from roadgrip.io import read_drive
+
+    short_drive = read_drive(short_path)
+    run_estimator(method, short_drive)
+    t0 = time.perf_counter()
+    run_estimator(method, short_drive)
+    short_rate = short_drive.n / (time.perf_counter() - t0)
+    rss_short = peak_rss_bytes()
+    drive = read_drive(path)
+    t0 = time.perf_counter()
+    res = run_estimator(method, drive)
+    wall = time.perf_counter() - t0
+    # the classifiers report a grip class (mu only with a calibrated friction)
+    missing = res.table["grip_class"].isna() if "grip_class" in res.table else res.table["mu_front"].isna()
+    return {"method": method, "mode": "whole drive", "rows": drive.n, "hours": drive.duration / 3600,
+            "samples_per_s": drive.n / wall, "short_samples_per_s": short_rate,
+            "peak_rss_mib": peak_rss_bytes() / 2**20, "rss_after_short_mib": rss_short / 2**20,
+            "wall_s": wall, "missing_output_rows": int(missing.sum())}
+
+
+def _short_copy(path: str, short_path: str) -> None:
+    import pyarrow.parquet as pq
+
+    pf = pq.ParquetFile(path)
+    n = int(SHORT_S / 0.01)
+    table = pf.read_row_group(0).slice(0, n)
+    pq.write_table(table.replace_schema_metadata(pf.schema_arrow.metadata), short_path)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--hours", type=float, default=24.0, help="length of the drive [h]")
+    ap.add_argument("--methods", default="cascade,brls,slipmap",
+                    help="comma-separated methods (gpssm only when named)")
+    ap.add_argument("--gpssm-hours", type=float, default=0.5, help="length of gpssm's drive [h]")
+    ap.add_argument("--dir", default=None, help="folder for the drive files (default: a temporary one)")
+    ap.add_argument("--one", nargs=3, metavar=("METHOD", "DRIVE", "SHORT"), help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.one:
+        print(json.dumps(_run_one(*args.one)))
+        return
+    folder = Path(args.dir or tempfile.mkdtemp(prefix="roadgrip-long-"))
+    files: dict[float, tuple[str, str]] = {}
+    print(f"{'method':<8} {'mode':<12} {'hours':>6} {'rows':>10} {'samples/s':>10} {'short s/s':>10} "
+          f"{'ratio':>6} {'peak MiB':>9} {'wall [s]':>9}  checks", flush=True)
+    for method in args.methods.split(","):
+        hours = args.gpssm_hours if method == "gpssm" else args.hours
+        if hours not in files:
+            path, short = str(folder / f"long_{hours:g}h.parquet"), str(folder / f"short_{hours:g}h.parquet")
+            t0 = time.perf_counter()
+            rows = write_long_drive(path, hours)
+            _short_copy(path, short)
+            print(f"# wrote {path}: {rows} rows in {time.perf_counter() - t0:.0f} s", flush=True)
+            files[hours] = (path, short)
+        path, short = files[hours]
+        proc = subprocess.run([sys.executable, __file__, "--one", method, path, short],
+                              capture_output=True, text=True)
+        if proc.returncode != 0:
+            tail = (proc.stderr.strip().splitlines() or ["?"])[-1]
+            print(f"{method:<8} failed: {tail}", flush=True)
+            continue
+        r = json.loads(proc.stdout.strip().splitlines()[-1])
+        checks = {k: (round(r[k]) if k.endswith("samples_per_s") else r[k])
+                  for k in ("chunks", "min_cov_eig", "bad_std_rows", "nan_mu_rows", "missing_output_rows",
+                            "median_chunk_samples_per_s", "first_third_samples_per_s",
+                            "last_third_samples_per_s") if k in r}
+        print(f"{method:<8} {r['mode']:<12} {r['hours']:>6.2f} {r['rows']:>10} {r['samples_per_s']:>10.0f} "
+              f"{r['short_samples_per_s']:>10.0f} {r['samples_per_s'] / r['short_samples_per_s']:>6.2f} "
+              f"{r['peak_rss_mib']:>9.0f} {r['wall_s']:>9.0f}  {checks}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
