@@ -88,16 +88,19 @@ def test_calibrated_detects_within_a_second_without_false_switches(runs):
 
 
 @pytest.mark.slow
-def test_calibrated_accuracy_at_high_utilisation(runs, request):
+@pytest.mark.parametrize("method", METHODS)
+def test_calibrated_accuracy_at_high_utilisation(runs, method, request):
     vehicle, scores, _ = runs
-    if vehicle == "vw-vanagon":
+    if vehicle == "vw-vanagon" and method == "slipmap":
         request.applymarker(pytest.mark.xfail(strict=True, reason=(
-            "measured 94.4-97.8 % (bRLS) and 94.9-98.2 % (slip map) over seeds 0-4: the "
-            "van's braking on dry asphalt reaches utilisation 0.6 (11-27 samples per drive) "
-            "where braking carries no class evidence and the 'high' claim has expired")))
-    accs = {(seed, method): s.accuracy_util for (seed, method, label), s in scores.items()
-            if label == "calibrated"}
-    print(vehicle, {k: round(v, 3) for k, v in accs.items()})
+            "measured 94.9-98.2 % over seeds 0-4: the van's braking on dry asphalt reaches "
+            "utilisation 0.6 (11-27 samples per drive) after the 'high' claim has expired, and "
+            "the slip map's per-sample vote takes no braking evidence (its residual is biased "
+            "late in a stop); the bRLS, which weighs braking samples by their class "
+            "separation, reaches 97.7-98.6 % there")))
+    accs = {seed: s.accuracy_util for (seed, m, label), s in scores.items()
+            if label == "calibrated" and m == method}
+    print(vehicle, method, {k: round(v, 3) for k, v in accs.items()})
     assert min(accs.values()) >= 0.95, accs
 
 

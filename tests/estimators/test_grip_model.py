@@ -127,3 +127,41 @@ def test_calibrate_time_windows():
     for bad in ("a.parquet@20-10", "a.parquet@x-1", "a.parquet@5"):
         with pytest.raises(ValueError, match="time window"):
             split_window(bad)
+
+
+def test_braking_onset_separates_dry_from_gravel_on_the_multibody_van():
+    """Braking slips against the coasting speed carry the class: at the onset of each
+    0.5 g stop of a multi-body dry -> gravel -> dry drive, the class position of the
+    longitudinal channel (weighted by its separation) lies on the high class's side on
+    dry asphalt and on the low class's on gravel; coasting, neither braking nor traction,
+    carries nothing."""
+    from roadgrip.estimators.classify.grip_model import braking_samples, channels
+    from roadgrip.inference.kinematic import estimate_kinematics
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    drive = simulate_scenario("dry-gravel-dry", seed=1, engine="multibody", vehicle="vw-vanagon")
+    veh = drive.vehicle
+    # the tire's normalised slip stiffness and the accelerometer's pitch gain, not fitted
+    model = GripModel(c_long=22.0, c_lat=13.0, mu_high=1.0, mu_low=0.5, model_error_x=0.05,
+                      gain_x=1.0 + GRAVITY * veh.pitch_gradient)
+    kin = estimate_kinematics(drive)
+    ax = drive.col("ax")
+    ch, _ = channels(kin, ax, drive.col("ay"), drive.col("steer"), veh, model)
+    brake = braking_samples(kin, ax)
+    t, mu = drive.t, drive.col("mu_true")
+    hard = brake & (ax < -3.0)
+    onsets = np.flatnonzero(hard & ~np.r_[False, hard[:-1]])
+    positions = {}
+    for i in onsets:
+        sel = hard & (t >= t[i]) & (t < t[i] + 0.5)
+        info = np.sum(ch.phi_long[sel] ** 2)
+        if info > 1.0:  # the classes predict different decelerations (near saturation)
+            theta = np.sum(ch.phi_long[sel] * ch.y_long[sel]) / info
+            positions.setdefault(float(mu[i]), []).append(theta)
+    assert set(positions) == {0.5, 1.0}, positions
+    assert min(positions[1.0]) > 0.7 and max(positions[0.5]) < 0.3, positions
+    # without braking evidence, and while coasting, the channel is silent
+    quiet, _ = channels(kin, ax, drive.col("ay"), drive.col("steer"), veh, model, braking=False)
+    assert not quiet.phi_long[brake].any()
+    coast = (np.abs(ax) < 0.3) & (np.abs(drive.col("ay")) < 0.3)
+    assert not ch.phi_long[coast & ~brake].any() or np.all(ax[coast & (ch.phi_long != 0)] > 0)

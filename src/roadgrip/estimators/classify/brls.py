@@ -100,7 +100,12 @@ from roadgrip.estimators.classify.frontend import (
     front_step,
     prepare_classifier,
 )
-from roadgrip.estimators.classify.grip_model import GripModel, channels, default_grip_model
+from roadgrip.estimators.classify.grip_model import (
+    GripModel,
+    braking_samples,
+    channels,
+    default_grip_model,
+)
 from roadgrip.estimators.classify.slipmap_evidence import (
     BRAKING_MEMORY_MAX,
     PREFILTER_SIZE,
@@ -209,7 +214,9 @@ def model_regressors(
     enters both the regressor and the output through the model: unfiltered it
     biases the position towards the low class where the classes differ little),
     the longitudinal channel waiting after braking
-    (:data:`~roadgrip.estimators.classify.slipmap_evidence.BRAKING_MEMORY_MAX`).
+    (:data:`~roadgrip.estimators.classify.slipmap_evidence.BRAKING_MEMORY_MAX`) except
+    on the braking samples themselves
+    (:func:`~roadgrip.estimators.classify.grip_model.braking_samples`).
     ``t`` [s] (shape (T,)), ``dt0`` and ``filtered`` (shape (PREFILTER_SIZE,),
     default zeros) drive that filter.
     """
@@ -218,7 +225,7 @@ def model_regressors(
         tt = np.zeros(np.shape(np.atleast_1d(ax))) if t is None else np.atleast_1d(t)
         kin_f, ax_f, ay_f, braking, state = prefilter(kin, ax, ay, tt, config.slip_filter_tau_s, dt0, state)
         ch, _ = channels(kin_f, ax_f, ay_f, steer, params, grip_of(config, params), config.min_speed)
-        settled = braking < BRAKING_MEMORY_MAX
+        settled = (braking < BRAKING_MEMORY_MAX) | braking_samples(kin_f, ax_f)
         return (np.where(settled, ch.phi_long, 0.0), np.where(settled, ch.y_long, 0.0),
                 ch.phi_lat, ch.y_lat), state
     phi_long, phi_lat = regressors(kin, np.asarray(steer), config.min_speed, config.lateral_regressor,

@@ -182,9 +182,11 @@ def saturation_evidence(
     channel counts only with ``config.lateral`` (the longitudinal one with
     ``config.longitudinal``); the longitudinal one only where
     the low-passed braking indicator ``braking`` (from :func:`prefilter`) is below
-    :data:`BRAKING_MEMORY_MAX`.
+    :data:`BRAKING_MEMORY_MAX`. Braking samples carry no evidence here: the
+    direction of a vote ignores the class separation that discounts their biased
+    residual (:func:`~roadgrip.estimators.classify.grip_model.channels`).
     """
-    ch, cp = channels(kin, ax, ay, steer, params, grip, config.min_speed)
+    ch, cp = channels(kin, ax, ay, steer, params, grip, config.min_speed, braking=False)
     if braking is not None:
         settled = np.atleast_1d(np.asarray(braking, float)) < BRAKING_MEMORY_MAX
         ch = ch._replace(phi_long=np.where(settled, ch.phi_long, 0.0),
