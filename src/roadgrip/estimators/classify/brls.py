@@ -214,8 +214,8 @@ def model_regressors(
     enters both the regressor and the output through the model: unfiltered it
     biases the position towards the low class where the classes differ little),
     the longitudinal channel waiting after braking
-    (:data:`~roadgrip.estimators.classify.slipmap_evidence.BRAKING_MEMORY_MAX`) except
-    on the braking samples themselves
+    (:data:`~roadgrip.estimators.classify.slipmap_evidence.BRAKING_MEMORY_MAX`) except,
+    with a fitted model (``config.grip``), on the braking samples themselves
     (:func:`~roadgrip.estimators.classify.grip_model.braking_samples`).
     ``t`` [s] (shape (T,)), ``dt0`` and ``filtered`` (shape (PREFILTER_SIZE,),
     default zeros) drive that filter.
@@ -224,8 +224,15 @@ def model_regressors(
     if config.model == "saturation":
         tt = np.zeros(np.shape(np.atleast_1d(ax))) if t is None else np.atleast_1d(t)
         kin_f, ax_f, ay_f, braking, state = prefilter(kin, ax, ay, tt, config.slip_filter_tau_s, dt0, state)
-        ch, _ = channels(kin_f, ax_f, ay_f, steer, params, grip_of(config, params), config.min_speed)
-        settled = (braking < BRAKING_MEMORY_MAX) | braking_samples(kin_f, ax_f)
+        # braking slips only with a fitted model: the vehicle's default takes the slip
+        # stiffness from the cornering stiffness, and its braking residuals called the dry
+        # asphalt after a wet patch 'low' for 3.7 s on the multi-body figure-eight
+        fitted = config.grip is not None
+        ch, _ = channels(kin_f, ax_f, ay_f, steer, params, grip_of(config, params), config.min_speed,
+                         braking=fitted)
+        settled = braking < BRAKING_MEMORY_MAX
+        if fitted:
+            settled = settled | braking_samples(kin_f, ax_f)
         return (np.where(settled, ch.phi_long, 0.0), np.where(settled, ch.y_long, 0.0),
                 ch.phi_lat, ch.y_lat), state
     phi_long, phi_lat = regressors(kin, np.asarray(steer), config.min_speed, config.lateral_regressor,
