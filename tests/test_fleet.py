@@ -124,7 +124,8 @@ def test_gnss_drives_map_on_h3_hexagons_at_their_observations():
     part = drive_part(d, FleetConfig(h3_resolution=15))
     assert isinstance(part.map, M.HexGrid) and part.drives["cells"].iloc[0] == "h3"
     table = _table_cached(1)
-    obs, lat, lon = geo_observations(table, d.t, d.col("lat"), d.col("lon"))
+    obs, lat, lon = geo_observations(table, d.t, d.col("lat"), d.col("lon"), 0.5)
+    assert len(obs.mu) == len(M.observations_from_estimates(table, 0.5).mu)  # every one has a fix
     # the observations land where the pose put them (the GNSS track was made from it)
     x, y = to_local(lat, lon, (48.137, 11.575))
     np.testing.assert_allclose(x, obs.x, atol=1e-6)

@@ -158,7 +158,8 @@ def drive_part(source: Any, config: FleetConfig, start_time: float | None = None
 
         if not geo:
             raise ValueError(f"{name}: H3 cells need GNSS positions (columns lat, lon)")
-        obs, lat, lon = geo_observations(table, drive.t, drive.col("lat"), drive.col("lon"), None)
+        # the grip-used check in square cells of the pose frame (a check within the drive)
+        obs, lat, lon = geo_observations(table, drive.t, drive.col("lat"), drive.col("lon"), config.cell)
         m = fuse_hex(empty_hexgrid(config.h3_resolution, config.prior_mean, config.prior_std, config.tau),
                      lat, lon, obs.mu, obs.var, t=obs.t + start, sys=obs.sys)
     elif geo and config.origin is not None:
