@@ -275,4 +275,4 @@ def test_command_line_simulates_on_the_multibody_engine(tmp_path):
     assert "multibody" in rows["figure-eight"] and "lateral, multibody" in rows["snow-slalom"]
     assert "multibody" not in rows["f1tenth-patches"]
     bad = _roadgrip("simulate", "f1tenth-patches", "--engine", "multibody", "-o", str(out))
-    assert bad.returncode == 2 and "runs on engine" in bad.stderr
+    assert bad.returncode == 2 and "--engine must be one of planar" in bad.stderr
