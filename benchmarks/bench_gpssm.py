@@ -28,7 +28,14 @@ both vehicles (seeds 0-4; ``--option KEY=VALUE`` sets filter options), with ``--
 (docs/gpssm.md). With ``--accuracy --fast-vs-truth`` the fast mode against the truth beside
 the exact mode, seeds 0-4, on the paper study and the multi-body snow slaloms.
 
-Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_gpssm.py [--quick | --accuracy
+With ``--speed`` the speed table of the compiled step (N = 200; m = 20, the default
+basis and m = 100; exact and fast; the median of ``--reps`` runs), beside the same cases
+of another revision (``--baseline REV``, its ``src`` tree from git) measured alternately
+in the same run; ``--parts`` where the time of a step goes (ms per step); ``--many``
+``run_many`` over 10 drives against the same runs one after another (on a quiet machine).
+
+Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_gpssm.py [--quick | --speed
+[--reps 5] [--baseline REV] | --parts | --many | --accuracy
 [--seeds 0,1,2,3,4] [--multibody | --realdata | --fast-vs-truth]]``
 (one core).
 """
@@ -398,6 +405,33 @@ def parts(steps: int = 1500) -> None:
             whole, t_pass, t_peak, t_draw, rate * t_res, t_ref, rest)) + f"  {rate:.2f}", flush=True)
 
 
+def many(n_drives: int = 10, duration: float = 60.0) -> None:
+    """Throughput of :func:`~roadgrip.estimators.gpssm.run_many` over ``n_drives`` drives
+    (snow-slalom seeds 0..n-1, ``duration`` s each, the command's defaults with N = 200)
+    against the same runs one after another in this process, with the load average
+    before and after (the figure means something only on a quiet machine), and whether
+    every table equals its sequential run."""
+    from roadgrip.estimators.gpssm import run, run_many
+
+    drives = [simulate_scenario("snow-slalom", seed=s, duration=duration) for s in range(n_drives)]
+    cfg = GPSSMConfig(particles=200)
+    seeds = list(range(n_drives))
+    run(drives[0].slice_time(0.0, 1.0), cfg)
+    load0 = os.getloadavg()
+    t0 = time.perf_counter()
+    alone = [run(d, cfg, seed=s) for d, s in zip(drives, seeds, strict=True)]
+    t_seq = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    together = run_many(drives, cfg, seeds)
+    t_par = time.perf_counter() - t0
+    load1 = os.getloadavg()
+    same = all(a.table.equals(b.table) for a, b in zip(alone, together, strict=True))
+    steps = sum(d.n for d in drives)
+    print(f"{n_drives} drives of {duration:.0f} s ({steps} steps), {os.cpu_count()} cores, load average "
+          f"{load0[0]:.2f} before, {load1[0]:.2f} after: one after another {t_seq:.1f} s ({steps / t_seq:.0f} "
+          f"steps/s), run_many {t_par:.1f} s ({steps / t_par:.0f} steps/s): x{t_seq / t_par:.2f}; tables equal {same}")
+
+
 SPEED_CASES = (
     ("m = 20 (separable:10)", "separable:10", "exact", 2000),
     ("m = 20 (separable:10)", "separable:10", "fast", 2000),
@@ -474,6 +508,7 @@ def main() -> None:
                     help="with --accuracy: every recording in ../shared/data (seeds 0,1,2 by default)")
     ap.add_argument("--speed", action="store_true", help="the speed table (median of --reps runs)")
     ap.add_argument("--parts", action="store_true", help="where the time of a compiled step goes")
+    ap.add_argument("--many", action="store_true", help="run_many over 10 drives against one after another")
     ap.add_argument("--reps", type=int, default=5, help="runs of --speed")
     ap.add_argument("--baseline", default=None, help="with --speed: a git revision measured beside, e.g. HEAD~3")
     ap.add_argument("--speed-json", action="store_true", help=argparse.SUPPRESS)
@@ -494,6 +529,9 @@ def main() -> None:
         return
     if args.parts:
         parts()
+        return
+    if args.many:
+        many()
         return
     if args.accuracy and args.realdata:
         realdata(tuple(int(v) for v in (args.seeds or "0,1,2").split(",")))
