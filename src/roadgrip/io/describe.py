@@ -37,6 +37,9 @@ a fraction of samples is a fraction of time.
 
 from __future__ import annotations
 
+import math
+from collections import Counter
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,6 +55,7 @@ __all__ = [
     "Excitation",
     "Section",
     "UtilisationShare",
+    "describe_chunks",
     "describe_drive",
     "format_text",
     "linear_yaw_rate",
@@ -182,11 +186,14 @@ class Excitation:
         ``'truth'``, ``'ay'`` or ``'yaw'``.
     detail : str
         The threshold used, in words.
+    samples : int
+        Samples the fraction is taken over (its denominator).
     """
 
     fraction: float
     method: str
     detail: str
+    samples: int = 0
 
 
 def _smooth(v: np.ndarray, t: np.ndarray, window: float = 0.2) -> np.ndarray:
@@ -244,6 +251,7 @@ def nonlinear_fraction(
                 float(np.mean(alpha > thresh)),
                 "truth",
                 "|alpha_f_true| beyond the slip of 80 % of the true front peak (" + ", ".join(parts) + ")",
+                len(alpha),
             )
         )
     elif drive.has_truth and not parametric and ("surfaces" in truth or "truth_curve" in truth):
@@ -261,7 +269,7 @@ def nonlinear_fraction(
             out.append(Excitation(
                 frac, "truth",
                 f"front friction utilisation |F| / (mu Fz) > 80 % ({_UTIL_FROM[src]('f')}; "
-                f"{why}, so no slip of 80 % of its peak)"))
+                f"{why}, so no slip of 80 % of its peak)", int(ok.sum())))
     t = drive.t
     if "ay" in data.columns:
         mu = 1.0 if mu_peak is None else float(mu_peak)
@@ -273,6 +281,7 @@ def nonlinear_fraction(
                 float(np.mean(np.abs(ay) > thr)),
                 "ay",
                 f"|ay| > {level:.0%} of {assumed} peak mu = {mu:g} ({thr:.2f} m/s²)",
+                len(ay),
             )
         )
     if drive.has("yaw_rate", "steer", "vx"):
@@ -285,12 +294,15 @@ def nonlinear_fraction(
             Excitation(
                 frac,
                 "yaw",
-                f"|yaw_rate - linear model| > 25 % (over {sel.mean():.0%} of samples: "
-                "vx > 1 m/s, |r_model| > 0.1 rad/s)",
+                YAW_DETAIL.format(share=sel.mean()),
+                int(sel.sum()),
             )
         )
     return out
 
+
+YAW_DETAIL = ("|yaw_rate - linear model| > 25 % (over {share:.0%} of samples: "
+              "vx > 1 m/s, |r_model| > 0.1 rad/s)")
 
 _UTIL_FROM = {
     "column": lambda a: f"util_{a}_true",
@@ -397,66 +409,170 @@ def describe_drive(drive: Drive, *, mu_peak: float | None = None) -> list[Sectio
         table and, when the drive carries it, the friction utilisation table
         (:func:`utilisation_shares`). :func:`format_text` renders them as text.
     """
-    t = drive.t
-    dt = np.diff(t)
-    over: list[tuple[str, ...]] = [
-        ("vehicle", str(drive.vehicle.name)),
-        ("samples", str(drive.n)),
-        ("duration", f"{drive.duration:.2f} s"),
-    ]
-    if len(dt):
-        med = float(np.median(dt))
-        jitter = float(np.std(dt)) / med
-        over.append((
-            "sample rate",
-            f"{1.0 / med:.2f} Hz (dt median {med * 1e3:.2f} ms, jitter std/median {jitter:.1%}, "
-            f"min {dt.min() * 1e3:.2f} ms, max {dt.max() * 1e3:.2f} ms)",
-        ))
-    over.append(("truth", "yes" if drive.has_truth else "no"))
-    over.append(("pose", "yes" if drive.has_pose else "no"))
-    over.append(("wheel speeds", "yes" if drive.has_wheel_speeds else "no"))
-    extra_cols = drive.extra_columns
-    over.append(("extra columns", ", ".join(extra_cols) if extra_cols else "none"))
-    fmt = drive.meta.extra.get("format") if isinstance(drive.meta.extra, dict) else None
-    if fmt:
-        over.append(("format", str(fmt)))
+    return describe_chunks([drive], mu_peak=mu_peak)
 
-    sig: list[tuple[str, ...]] = []
-    known = [c for c in (*SIGNAL_COLUMNS, *TRUTH_COLUMNS) if c in drive.data.columns and c != "surface"]
-    for c in known:
-        v = drive.col(c)
-        sig.append((c, UNITS.get(c, ""), _fmt(v.min()), _fmt(v.max()), _fmt(v.mean())))
-    if "surface" in drive.data.columns:
-        counts = drive.data["surface"].astype(str).value_counts(normalize=True)
-        sig.append(("surface", "-", ", ".join(f"{k} {p:.0%}" for k, p in counts.items()), "", ""))
-    for c in extra_cols:
-        col = drive.data[c]
-        if col.dtype.kind in "fiub":
-            v = col.to_numpy(float)
-            sig.append((f"{c} (extra)", "", _fmt(np.nanmin(v)), _fmt(np.nanmax(v)), _fmt(np.nanmean(v))))
 
-    exc = [(e.method, "n/a" if not np.isfinite(e.fraction) else f"{e.fraction:.1%}", e.detail)
-           for e in nonlinear_fraction(drive, mu_peak=mu_peak)]
-    sections = [
-        Section(f"drive: {drive.meta.source}", ("item", "value"), tuple(over), header=False),
-        Section("signals", ("column", "unit", "min", "max", "mean"), tuple(sig),
-                right=frozenset({"min", "max", "mean"})),
-        Section("nonlinear tire excitation", ("measure", "time fraction", "definition"), tuple(exc),
-                right=frozenset({"time fraction"})),
-    ]
-    shares = utilisation_shares(drive)
-    if shares:
-        levels = tuple(f"time > {lv:.0%}" for lv in UTILISATION_LEVELS)
+def describe_chunks(chunks: Iterable[Drive], *, mu_peak: float | None = None) -> list[Section]:
+    """:func:`describe_drive` of a drive given as consecutive chunks (a long file read piece
+    by piece), in memory of one chunk.
+
+    Counts, extremes, means and fractions are those of the whole drive; the median step is
+    the median of the chunks' medians (exact for one chunk), and the ``yaw`` proxy's linear
+    model starts afresh in each chunk (a transient of about a second per chunk).
+    """
+    acc = _Summary(mu_peak)
+    for chunk in chunks:
+        acc.add(chunk)
+    if acc.first is None:
+        raise ValueError("no samples to describe")
+    return acc.sections()
+
+
+def _merge_details(details: list[str]) -> str:
+    """``'text (a: 1, b: 2)'`` details of chunks joined into one, their listed items united
+    (sorted, as one drive lists its surfaces); unlike texts are joined by ``'; '``."""
+    heads = {d.partition(" (")[0] for d in details}
+    if len(heads) != 1 or not all(d.endswith(")") for d in details):
+        return "; ".join(details)
+    items = sorted({item for d in details for item in d.partition(" (")[2][:-1].split(", ")})
+    return f"{heads.pop()} ({', '.join(items)})"
+
+
+class _Summary:
+    """Running aggregates of :func:`describe_chunks`."""
+
+    def __init__(self, mu_peak: float | None) -> None:
+        self.mu_peak = mu_peak
+        self.first: Drive | None = None
+        self.n = 0
+        self.t0 = self.t1 = math.nan
+        self.dt_med: list[float] = []
+        self.dt_w: list[int] = []
+        self.dt_sum = self.dt_sq = 0.0
+        self.dt_min, self.dt_max = math.inf, -math.inf
+        self.cols: dict[str, list[float]] = {}  # min, max, sum, count
+        self.surface: Counter[str] = Counter()
+        self.exc: dict[str, list] = {}  # method -> [hits, samples, details]
+        self.util: dict[str, list] = {}  # axle -> [source, hits per level, defined, total]
+
+    def add(self, drive: Drive) -> None:
+        if drive.n == 0:
+            return
+        t = drive.t
+        if self.first is None:
+            self.first, self.t0 = drive, float(t[0])
+            dt = np.diff(t)
+        else:
+            dt = np.diff(np.concatenate([[self.t1], t]))
+        self.t1 = float(t[-1])
+        self.n += drive.n
+        if len(dt):
+            self.dt_med.append(float(np.median(dt)))
+            self.dt_w.append(len(dt))
+            self.dt_sum += float(dt.sum())
+            self.dt_sq += float(np.sum(dt * dt))
+            self.dt_min, self.dt_max = min(self.dt_min, dt.min()), max(self.dt_max, dt.max())
+        known = [c for c in (*SIGNAL_COLUMNS, *TRUTH_COLUMNS) if c in drive.data.columns and c != "surface"]
+        extra = [c for c in drive.extra_columns if drive.data[c].dtype.kind in "fiub"]
+        for c in (*known, *extra):
+            v = drive.col(c)
+            v = v[np.isfinite(v)] if c in extra else v
+            if not len(v):
+                continue
+            agg = self.cols.setdefault(c, [math.inf, -math.inf, 0.0, 0])
+            agg[0], agg[1] = min(agg[0], float(v.min())), max(agg[1], float(v.max()))
+            agg[2] += float(v.sum())
+            agg[3] += len(v)
+        if "surface" in drive.data.columns:
+            self.surface.update(drive.data["surface"].astype(str).to_numpy().tolist())
+        for e in nonlinear_fraction(drive, mu_peak=self.mu_peak):
+            rec = self.exc.setdefault(e.method, [0.0, 0, []])
+            if np.isfinite(e.fraction):
+                rec[0] += e.fraction * e.samples
+                rec[1] += e.samples
+            if e.detail not in rec[2]:
+                rec[2].append(e.detail)
+        for sh in utilisation_shares(drive):
+            rec = self.util.setdefault(sh.axle, [sh.source, dict.fromkeys(sh.above, 0.0), 0.0, 0])
+            defined = sh.defined * drive.n
+            for lv, f in sh.above.items():
+                if np.isfinite(f):
+                    rec[1][lv] += f * defined
+            rec[2] += defined
+            rec[3] += drive.n
+
+    def _excitation_rows(self) -> list[tuple[str, ...]]:
         rows = []
-        for sh in shares:
-            src = _UTIL_FROM[sh.source](sh.axle[0])
-            if sh.defined < 1.0:
-                src += f" (defined at {sh.defined:.1%} of the samples)"
-            rows.append((sh.axle, *("n/a" if not np.isfinite(f) else f"{f:.1%}"
-                                    for f in sh.above.values()), src))
-        sections.append(Section("friction utilisation |F| / (mu Fz) (truth)",
-                                ("axle", *levels, "from"), tuple(rows), right=frozenset(levels)))
-    return sections
+        for method, (hits, samples, details) in self.exc.items():
+            frac = hits / samples if samples else math.nan
+            if method == "yaw":
+                detail = YAW_DETAIL.format(share=samples / self.n)
+            elif len(details) == 1:
+                detail = details[0]
+            else:  # the chunks name different surfaces: one list of them all
+                detail = _merge_details(details)
+            rows.append((method, "n/a" if not np.isfinite(frac) else f"{frac:.1%}", detail))
+        return rows
+
+    def sections(self) -> list[Section]:
+        drive = self.first
+        assert drive is not None
+        over: list[tuple[str, ...]] = [
+            ("vehicle", str(drive.vehicle.name)),
+            ("samples", str(self.n)),
+            ("duration", f"{self.t1 - self.t0:.2f} s"),
+        ]
+        if self.dt_w:
+            order = np.argsort(self.dt_med)
+            cum = np.cumsum(np.asarray(self.dt_w)[order])
+            med = float(np.asarray(self.dt_med)[order][np.searchsorted(cum, cum[-1] / 2.0)])
+            m = int(cum[-1])
+            jitter = math.sqrt(max(self.dt_sq / m - (self.dt_sum / m) ** 2, 0.0)) / med
+            over.append((
+                "sample rate",
+                f"{1.0 / med:.2f} Hz (dt median {med * 1e3:.2f} ms, jitter std/median {jitter:.1%}, "
+                f"min {self.dt_min * 1e3:.2f} ms, max {self.dt_max * 1e3:.2f} ms)",
+            ))
+        over.append(("truth", "yes" if drive.has_truth else "no"))
+        over.append(("pose", "yes" if drive.has_pose else "no"))
+        over.append(("wheel speeds", "yes" if drive.has_wheel_speeds else "no"))
+        extra_cols = drive.extra_columns
+        over.append(("extra columns", ", ".join(extra_cols) if extra_cols else "none"))
+        fmt = drive.meta.extra.get("format") if isinstance(drive.meta.extra, dict) else None
+        if fmt:
+            over.append(("format", str(fmt)))
+        sig: list[tuple[str, ...]] = []
+        for c in (*SIGNAL_COLUMNS, *TRUTH_COLUMNS):
+            if c in self.cols and c not in extra_cols:
+                lo, hi, total, count = self.cols[c]
+                sig.append((c, UNITS.get(c, ""), _fmt(lo), _fmt(hi), _fmt(total / count)))
+        if self.surface:
+            total = sum(self.surface.values())
+            sig.append(("surface", "-", ", ".join(f"{k} {v / total:.0%}" for k, v in self.surface.most_common()),
+                        "", ""))
+        for c in extra_cols:
+            if c in self.cols:
+                lo, hi, total, count = self.cols[c]
+                sig.append((f"{c} (extra)", "", _fmt(lo), _fmt(hi), _fmt(total / count)))
+        sections = [
+            Section(f"drive: {drive.meta.source}", ("item", "value"), tuple(over), header=False),
+            Section("signals", ("column", "unit", "min", "max", "mean"), tuple(sig),
+                    right=frozenset({"min", "max", "mean"})),
+            Section("nonlinear tire excitation", ("measure", "time fraction", "definition"),
+                    tuple(self._excitation_rows()), right=frozenset({"time fraction"})),
+        ]
+        if self.util:
+            levels = tuple(f"time > {lv:.0%}" for lv in UTILISATION_LEVELS)
+            rows = []
+            for axle, (source, hits, defined, total) in self.util.items():
+                src = _UTIL_FROM[source](axle[0])
+                if defined < total:
+                    src += f" (defined at {defined / total:.1%} of the samples)"
+                rows.append((axle, *("n/a" if not defined else f"{hits[lv] / defined:.1%}"
+                                     for lv in UTILISATION_LEVELS), src))
+            sections.append(Section("friction utilisation |F| / (mu Fz) (truth)",
+                                    ("axle", *levels, "from"), tuple(rows), right=frozenset(levels)))
+        return sections
 
 
 def format_text(sections: list[Section]) -> str:
