@@ -5,6 +5,7 @@ by the library and by `roadgrip info`; `--align` removes them."""
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -202,3 +203,22 @@ def test_figure_eight_biases_the_accelerometer_by_its_roll_but_keeps_inserted_de
     for tau in (0.1, 0.6):
         acc = _by_sensor(sensor_delays(_delay_by(drive, ("ax", "ay"), tau)))["accelerometer"]
         assert abs(acc.delay - base["accelerometer"].delay - tau) < TOL, (tau, acc)
+
+
+DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
+
+
+@pytest.mark.realdata
+@pytest.mark.skipif(not (DATA / "frictionmaps").is_dir(), reason="shared data not found")
+def test_frictionmaps_recordings_gyro_ahead_of_the_pose_accelerometer_behind():
+    """The five F1TENTH recordings: the gyro leads the particle-filter pose by 8-29 ms and
+    the accelerometer trails the pose by 0-100 ms, every delay reliable (peak correlation
+    >= 0.86, standard error <= 15 ms)."""
+    from roadgrip.io import read_drive
+
+    for ds in ("DS1", "DS2", "DS3", "DS4", "DS5"):
+        delays = _by_sensor(sensor_delays(read_drive(DATA / "frictionmaps" / ds)))
+        gyro, acc = delays["gyro"], delays["accelerometer"]
+        assert gyro.reliable and acc.reliable, (ds, gyro, acc)
+        assert -0.04 < gyro.delay < 0.0, (ds, gyro)
+        assert -0.01 < acc.delay < 0.12, (ds, acc)

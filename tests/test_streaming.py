@@ -150,3 +150,39 @@ chunk of its length), and no slower at the end than at the start."""
     # one chunk is as long as the short drive; medians, against the shared machine's load
     assert r["median_chunk_samples_per_s"] >= 0.9 * r["short_samples_per_s"], r
     assert r["last_third_samples_per_s"] >= 0.9 * r["first_third_samples_per_s"], r
+
+
+def test_describe_chunks_equals_the_whole_description(dgd):
+    """Counts, extremes, means, the truth and ay fractions as over the whole drive; the yaw
+    proxy's linear model restarts per chunk (within a point of the whole drive's)."""
+    from roadgrip.io.describe import describe_chunks, describe_drive
+
+    whole = describe_drive(dgd)
+    parts = describe_chunks(_pieces(dgd, [0, 1500, 3000, 4500, dgd.n]))
+    assert [s.title for s in parts] == [s.title for s in whole]
+    for a, b in zip(parts, whole, strict=True):
+        if a.title != "nonlinear tire excitation":
+            assert a.rows == b.rows, a.title
+            continue
+        for ra, rb in zip(a.rows, b.rows, strict=True):
+            if ra[0] == "yaw":
+                assert abs(float(ra[1].rstrip("%")) - float(rb[1].rstrip("%"))) <= 1.0, (ra, rb)
+            else:
+                assert ra == rb
+
+
+def test_info_reads_a_long_drive_in_chunks(dgd, tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    import roadgrip.cli.info as info
+    from roadgrip.cli import app
+
+    src = tmp_path / "d.parquet"
+    dgd.save(src)
+    monkeypatch.setattr(info, "LONG_ROWS", 1000)
+    monkeypatch.setattr(info, "INFO_CHUNK_ROWS", 2000)
+    monkeypatch.setenv("COLUMNS", "200")
+    res = CliRunner().invoke(app, ["info", str(src)])
+    assert res.exit_code == 0, res.output
+    assert "read in chunks" in res.output and "from the first 20 s of 6001 rows" in res.output
+    assert "6001" in res.output and "nonlinear tire excitation" in res.output

@@ -50,6 +50,9 @@ def info(
     from roadgrip.io import describe_drive
 
     check_drive_args(file, fmt, vehicle, topics, channels)
+    if _is_long_parquet(file, fmt):
+        _long_info(file, vehicle, align)
+        return
     drive = load_drive(file, fmt, vehicle, topics, channels)
     delays = estimate_delays(drive)
     if align:
@@ -59,6 +62,55 @@ def info(
     sources = source_table(drive.meta.extra)
     if sources is not None:
         console.print(sources)
+
+
+LONG_ROWS = 2_000_000
+"""Canonical Parquet drives longer than this are described chunk by chunk (5.6 h at 100 Hz)."""
+
+INFO_CHUNK_ROWS = 360_000
+"""Rows per chunk of a long drive (1 h at 100 Hz); its sensor delays come from the first."""
+
+
+def _is_long_parquet(file: str, fmt: str | None) -> bool:
+    from pathlib import Path
+
+    if fmt not in (None, "canonical") or Path(file).suffix.lower() not in (".parquet", ".pq"):
+        return False
+    import pyarrow.parquet as pq
+
+    try:
+        return pq.ParquetFile(file).metadata.num_rows > LONG_ROWS
+    except Exception:  # not readable as Parquet: the reader says why
+        return False
+
+
+def _long_info(file: str, vehicle: str | None, align: bool) -> None:
+    """A long canonical Parquet drive described chunk by chunk (memory of one chunk)."""
+    from roadgrip.cli.stream import drive_chunks
+    from roadgrip.io.describe import describe_chunks
+
+    n_rows, chunks = drive_chunks(file, vehicle, INFO_CHUNK_ROWS, truth=True)
+    state: dict = {}
+
+    def described():
+        for chunk in chunks:
+            if "delays" not in state:
+                state["delays"] = estimate_delays(chunk)
+                state["span"] = chunk.duration
+            if align:
+                from roadgrip.sensor_delay import align_drive
+
+                chunk = align_drive(chunk, state["delays"])[0]
+            yield chunk
+
+    sections = describe_chunks(described())
+    console.print(render(sections))
+    table = delay_table(state["delays"])
+    table.caption = (f"from the first {state['span']:.0f} s of {n_rows} rows (read in chunks); "
+                     + (table.caption or ""))
+    console.print(table)
+    if align:
+        console.print("--align: each chunk aligned by these delays", highlight=False)
 
 
 def estimate_delays(drive) -> list:

@@ -41,8 +41,8 @@ def _estimator_columns(names: list[str]) -> list[str]:
     return [c for c in names if c not in truth and not c.endswith("_true")]
 
 
-def drive_chunks(path: str | Path, vehicle: str | None = None, rows: int = CHUNK_ROWS,
-                 ) -> tuple[int, Iterator[Any]]:
+def drive_chunks(path: str | Path, vehicle: str | None = None, rows: int = CHUNK_ROWS, *,
+                 truth: bool = False) -> tuple[int, Iterator[Any]]:
     """A canonical Parquet drive as consecutive :class:`~roadgrip.drive.Drive` chunks.
 
     Parameters
@@ -53,6 +53,8 @@ def drive_chunks(path: str | Path, vehicle: str | None = None, rows: int = CHUNK
         Preset or YAML overriding the file's vehicle.
     rows : int
         Rows per chunk (the last chunk may hold up to twice as many, never fewer than two).
+    truth : bool
+        Read the truth columns too (``roadgrip info``); the estimators never need them.
 
     Returns
     -------
@@ -84,7 +86,7 @@ def drive_chunks(path: str | Path, vehicle: str | None = None, rows: int = CHUNK
     veh = load_vehicle(vehicle) if vehicle is not None else meta.vehicle
     extra = dict(meta.extra) if meta is not None else {}
     source = meta.source if meta is not None else p.name
-    columns = _estimator_columns(pf.schema_arrow.names)
+    columns = list(pf.schema_arrow.names) if truth else _estimator_columns(pf.schema_arrow.names)
 
     def frames() -> Iterator[pd.DataFrame]:
         pending: list[pd.DataFrame] = []
