@@ -31,11 +31,12 @@ the exact mode, seeds 0-4, on the paper study and the multi-body snow slaloms.
 With ``--speed`` the speed table of the compiled step (N = 200; m = 20, the default
 basis and m = 100; exact and fast; the median of ``--reps`` runs), beside the same cases
 of another revision (``--baseline REV``, its ``src`` tree from git) measured alternately
-in the same run; ``--parts`` where the time of a step goes (ms per step); ``--many``
+in the same run; ``--parts`` where the time of a step goes (ms per step); ``--layout`` the
+particles-innermost layout against the present one; ``--many``
 ``run_many`` over 10 drives against the same runs one after another (on a quiet machine).
 
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_gpssm.py [--quick | --speed
-[--reps 5] [--baseline REV] | --parts | --many | --accuracy
+[--reps 5] [--baseline REV] | --parts | --layout | --many | --accuracy
 [--seeds 0,1,2,3,4] [--multibody | --realdata | --fast-vs-truth]]``
 (one core).
 """
@@ -59,7 +60,7 @@ from roadgrip.estimators.gpssm import GPSSMConfig, run_filter
 from roadgrip.estimators.gpssm import kernel as gk
 from roadgrip.estimators.gpssm import linalg as la
 from roadgrip.estimators.gpssm.accuracy import curve_accuracy
-from roadgrip.estimators.gpssm.kernel_ops import peak_summary, slot_plan
+from roadgrip.estimators.gpssm.kernel_ops import neumann_solve, peak_summary, slot_plan
 from roadgrip.sim.scenarios import simulate_scenario
 
 
@@ -432,6 +433,87 @@ def many(n_drives: int = 10, duration: float = 60.0) -> None:
           f"steps/s), run_many {t_par:.1f} s ({steps / t_par:.0f} steps/s): x{t_seq / t_par:.2f}; tables equal {same}")
 
 
+@numba.njit(fastmath=True)
+def _product_particle_major(P, R, X, reps):  # pragma: no cover - compiled
+    """``X[n, r] = P[n] R[n, r]`` (two right-hand sides), each particle's matrix contiguous."""
+    N, m, _ = P.shape
+    for _ in range(reps):
+        for n in range(N):
+            for i in range(m):
+                a0 = 0.0
+                a1 = 0.0
+                for j in range(m):
+                    p = P[n, i, j]
+                    a0 += p * R[n, 0, j]
+                    a1 += p * R[n, 1, j]
+                X[n, 0, i] = a0
+                X[n, 1, i] = a1
+
+
+@numba.njit(fastmath=True)
+def _product_particles_innermost(P, R, X, reps):  # pragma: no cover - compiled
+    """The same product with the particle index innermost (``P`` (m, m, N))."""
+    m, _, N = P.shape
+    for _ in range(reps):
+        for i in range(m):
+            for n in range(N):
+                X[0, i, n] = 0.0
+                X[1, i, n] = 0.0
+            for j in range(m):
+                for n in range(N):
+                    p = P[i, j, n]
+                    X[0, i, n] += p * R[0, j, n]
+                    X[1, i, n] += p * R[1, j, n]
+
+
+@numba.njit(fastmath=True)
+def _neumann_sweep(P, R, X, pb, cur, nxt, delta, reps, terms):  # pragma: no cover - compiled
+    """The exact mode's solve on every matrix with ``terms`` terms of the series."""
+    for _ in range(reps):
+        for b in range(P.shape[0]):
+            neumann_solve(P[b], 1.0, delta, R[b], 2, 2, 0.0, terms, X[b], pb[b], cur, nxt)
+
+
+def layout() -> None:
+    """The particles-innermost layout measured against the present one on the product at
+    the heart of the pass (N = 200, two right-hand sides, best of 5), and the cost of a
+    term of the exact mode's Neumann series on 400 matrices of 10 x 10 (m = 20 separable)."""
+    rng = np.random.default_rng(0)
+    for m in (10, 20, 50):
+        P = rng.standard_normal((200, m, m))
+        R = rng.standard_normal((200, 2, m))
+        X = np.zeros((200, 2, m))
+        Pt, Rt = np.ascontiguousarray(P.transpose(1, 2, 0)), np.ascontiguousarray(R.transpose(1, 2, 0))
+        Xt = np.zeros((2, m, 200))
+        best = []
+        for f, args in ((_product_particle_major, (P, R, X)), (_product_particles_innermost, (Pt, Rt, Xt))):
+            f(*args, 1)
+            b = np.inf
+            for _ in range(5):
+                t0 = time.perf_counter()
+                f(*args, 500)
+                b = min(b, (time.perf_counter() - t0) / 500)
+            best.append(b)
+        assert np.allclose(X, Xt.transpose(2, 0, 1))
+        print(f"m = {m:3d}: product over N = 200, particle-major {1e6 * best[0]:6.1f} us, particles innermost "
+              f"{1e6 * best[1]:6.1f} us (x{best[0] / best[1]:.2f})")
+    A = rng.standard_normal((400, 10, 30))
+    P = np.linalg.inv(A @ A.transpose(0, 2, 1) * 0.01 + np.eye(10))
+    R = rng.standard_normal((400, 2, 10))
+    X, pb, cur, nxt = np.zeros((400, 2, 10)), np.zeros((400, 10)), np.zeros((2, 10)), np.zeros((2, 10))
+    times = []
+    for terms in (0, 6):
+        _neumann_sweep(P, R, X, pb, cur, nxt, 0.004, 1, terms)
+        b = np.inf
+        for _ in range(5):
+            t0 = time.perf_counter()
+            _neumann_sweep(P, R, X, pb, cur, nxt, 0.004, 100, terms)
+            b = min(b, (time.perf_counter() - t0) / 100)
+        times.append(b)
+    print(f"exact solve of 400 matrices 10 x 10, two right-hand sides: the first product {1e3 * times[0]:.3f} ms, "
+          f"each further term of the series {1e3 * (times[1] - times[0]) / 6:.3f} ms")
+
+
 SPEED_CASES = (
     ("m = 20 (separable:10)", "separable:10", "exact", 2000),
     ("m = 20 (separable:10)", "separable:10", "fast", 2000),
@@ -508,6 +590,7 @@ def main() -> None:
                     help="with --accuracy: every recording in ../shared/data (seeds 0,1,2 by default)")
     ap.add_argument("--speed", action="store_true", help="the speed table (median of --reps runs)")
     ap.add_argument("--parts", action="store_true", help="where the time of a compiled step goes")
+    ap.add_argument("--layout", action="store_true", help="particles-innermost layout against the present one")
     ap.add_argument("--many", action="store_true", help="run_many over 10 drives against one after another")
     ap.add_argument("--reps", type=int, default=5, help="runs of --speed")
     ap.add_argument("--baseline", default=None, help="with --speed: a git revision measured beside, e.g. HEAD~3")
@@ -532,6 +615,9 @@ def main() -> None:
         return
     if args.many:
         many()
+        return
+    if args.layout:
+        layout()
         return
     if args.accuracy and args.realdata:
         realdata(tuple(int(v) for v in (args.seeds or "0,1,2").split(",")))
