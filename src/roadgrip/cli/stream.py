@@ -45,6 +45,9 @@ def drive_chunks(path: str | Path, vehicle: str | None = None, rows: int = CHUNK
                  truth: bool = False) -> tuple[int, Iterator[Any]]:
     """A canonical Parquet drive as consecutive :class:`~roadgrip.drive.Drive` chunks.
 
+    The file is read one row group at a time: memory follows the larger of a row group
+    and a chunk, not the file.
+
     Parameters
     ----------
     path : str or Path
@@ -91,12 +94,17 @@ def drive_chunks(path: str | Path, vehicle: str | None = None, rows: int = CHUNK
     def frames() -> Iterator[pd.DataFrame]:
         pending: list[pd.DataFrame] = []
         size = 0
-        for batch in pf.iter_batches(batch_size=rows, columns=columns):
-            pending.append(batch.to_pandas())
-            size += batch.num_rows
-            if size >= rows:
-                yield pd.concat(pending, ignore_index=True)
-                pending, size = [], 0
+        # one row group at a time, released before the next (pyarrow's iter_batches kept
+        # about 15 MiB per row group read: 700 MiB after a day at 100 Hz instead of 450)
+        for i in range(pf.num_row_groups):
+            group = pf.read_row_group(i, columns=columns)
+            for batch in group.to_batches(max_chunksize=rows):
+                pending.append(batch.to_pandas())
+                size += batch.num_rows
+                if size >= rows:
+                    yield pd.concat(pending, ignore_index=True)
+                    pending, size = [], 0
+            del group
         if pending:
             yield pd.concat(pending, ignore_index=True)
 
