@@ -142,3 +142,13 @@ def test_page_renders_the_cells_in_headless_chromium(page, tmp_path):
     b_minus_g = img[..., 2] - img[..., 1]
     assert b_minus_g[:, west][cells[:, west]].mean() > 0.1
     assert b_minus_g[:, east][cells[:, east]].mean() < -0.3
+
+
+def test_page_draws_the_driven_path_split_between_drives(tmp_path):
+    from roadgrip.plots.maps_web import write_map_page
+
+    x, y, mu, var = _obs(50)
+    path = np.array([[0.0, 0.0], [1.0, 0.5], [2.0, 1.0], [np.nan, np.nan], [5.0, 5.0], [6.0, 5.0]])
+    g = M.fuse(M.empty_grid(0.5), x, y, mu, var, path=path)
+    text = write_map_page(g, tmp_path / "p.html").read_text()
+    assert text.count("L.polyline(") == 2 and "[0.5, 1.0]" in text  # [lat = y, lng = x] in CRS.Simple

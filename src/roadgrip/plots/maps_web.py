@@ -1,7 +1,7 @@
 """Interactive friction-map page (Folium / Leaflet), written beside the PNG heat map.
 
 One polygon per observed cell, coloured by the posterior mean friction, with a
-tooltip of ``mu_mean``, ``mu_std`` and ``n_obs``. Maps in WGS84 (H3 maps, grids with a
+tooltip of ``mu_mean``, ``mu_std`` and ``n_obs``, over the driven path the grid keeps. Maps in WGS84 (H3 maps, grids with a
 GNSS origin) are drawn in Web Mercator, over OpenStreetMap tiles when ``basemap`` is set;
 maps in a local frame are drawn in metres (Leaflet's ``CRS.Simple``, x east, y north).
 Leaflet's script and style are inlined from the ``xstatic-leaflet`` package, and no other
@@ -41,6 +41,26 @@ def _legend(lo: float, hi: float, cmap: str) -> str:
         f'linear-gradient(to right, {stops});"></div>'
         f'<span>{lo:.2f}</span><span style="float: right;">{hi:.2f}</span></div>'
     )
+
+
+def _add_path(m, grid: FrictionGrid | HexGrid) -> None:
+    """The driven path a grid keeps (rows of NaN separate drives), as grey lines."""
+    import folium
+
+    path = getattr(grid, "path", np.zeros((0, 2)))
+    if not path.size:
+        return
+    x, y = path[:, 0], path[:, 1]
+    if grid.origin is not None:
+        from roadgrip.mapping.geo import from_local
+
+        y, x = from_local(x, y, grid.origin)
+    gap = ~(np.isfinite(x) & np.isfinite(y))
+    for seg in np.split(np.arange(len(x)), np.flatnonzero(gap)):
+        seg = seg[~gap[seg]]
+        if len(seg) > 1:
+            folium.PolyLine(np.column_stack([y[seg], x[seg]]).tolist(), color="#777777", weight=1,
+                            opacity=0.7).add_to(m)
 
 
 def write_map_page(
@@ -111,6 +131,7 @@ def write_map_page(
         tooltip=folium.GeoJsonTooltip(fields=["mu_mean", "mu_std", "n_obs"],
                                       aliases=["mu mean [-]", "mu std [-]", "observations"]),
     ).add_to(m)
+    _add_path(m, grid)
     m.fit_bounds([[y0, x0], [y1, x1]])
     head = html.escape(title or f"friction map: {len(frame)} cells")
     link = f' &middot; <a href="{html.escape(Path(png).name)}">static map (PNG)</a>' if png else ""
