@@ -53,6 +53,13 @@ def test_local_cluster_of_two_workers_gives_the_sequential_merge():
     seq = sequential_fleet_map(drives, FleetConfig(), starts)
     par = fleet_map(drives, FleetConfig(), n_workers=2, processes=False, start_times=starts)
     _same(par.map, seq.map)
+    # the same cluster, the drives split into 1 or 3 tasks: the same map
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cl, \
+            Client(cl) as client:
+        for k in (1, 3):
+            _same(fleet_map(drives, FleetConfig(), client=client, partitions=k, start_times=starts).map, seq.map)
     # no observation lost: the map's counts are the drives' observations
     n = [len(M.observations_from_estimates(_table(d), 0.5).mu) for d in drives]
     assert list(par.drives["observations"]) == n
