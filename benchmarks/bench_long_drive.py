@@ -92,6 +92,14 @@ def write_long_drive(path: str | Path, hours: float) -> int:
     return written
 
 
+def current_rss_bytes() -> int:
+    """Resident memory of this process now [B] (Linux ``/proc/self/statm``)."""
+    import os
+
+    with open("/proc/self/statm") as fh:
+        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
 def min_active_eig(cov: np.ndarray) -> float:
     """Smallest eigenvalue of a covariance over its estimated states (a state switched off
     by the configuration, e.g. the accelerometer biases without a standstill, keeps a zero
@@ -107,6 +115,7 @@ def _run_one(method: str, path: str, short_path: str) -> dict:
     out = tempfile.mkdtemp(prefix="roadgrip-long-")
     checks = {"chunks": 0, "min_cov_eig": np.inf, "bad_std_rows": 0, "nan_mu_rows": 0}
     rates: list[float] = []
+    rss: list[float] = []
     clock = [time.process_time()]
 
     def check(res) -> None:
@@ -120,6 +129,7 @@ def _run_one(method: str, path: str, short_path: str) -> dict:
         checks["bad_std_rows"] += int((~(np.isfinite(std) & (std > 0))).any(axis=1).sum())
         checks["nan_mu_rows"] += int(tab[["mu_front", "mu_rear"]].isna().any(axis=1).sum())
         checks["chunks"] += 1
+        rss.append(current_rss_bytes() / 2**20)
         clock[0] = time.process_time()
 
     if method == "cascade":
@@ -140,7 +150,8 @@ def _run_one(method: str, path: str, short_path: str) -> dict:
         return {"method": method, "mode": "streamed", "rows": long["rows"], "hours": long["duration_s"] / 3600,
                 "samples_per_s": long["samples_per_s"], "short_samples_per_s": short,
                 "cpu_samples_per_s": long["rows"] / cpu, "short_cpu_samples_per_s": float(np.median(short_cpu)),
-                "median_chunk_samples_per_s": float(np.median(rates)),
+                "median_chunk_samples_per_s": float(np.median(rates)), "chunk_rates": [round(x) for x in rates],
+                "rss_first_half_mib": max(rss[: len(rss) // 2]), "rss_second_half_mib": max(rss[len(rss) // 2:]),
                 "first_third_samples_per_s": float(np.median(rates[:third])),
                 "last_third_samples_per_s": float(np.median(rates[-third:])),
                 "peak_rss_mib": long["peak_rss_bytes"] / 2**20, "rss_after_short_mib": rss_short / 2**20,
