@@ -219,156 +219,157 @@ def run_steps(p, lin, st, wk, blk, cst, basis, pt, rng, out):  # pragma: no cove
     ``pt`` :class:`PeakTables`, ``rng`` the filter's ``numpy.random.Generator``.
     """
     for i in range(blk.t.shape[0]):
-        _step(p, lin, st, wk, blk, i, cst, basis, pt, rng, out[i])
+        sc = st.sc
+        N, G, d, m = p.Psi.shape
+        lam = cst.lam
+        t, vx, steer = blk.t[i], blk.vx[i], blk.steer[i]
+        vy_meas = blk.vy[i]
+        # 1. time update of the statistics (eq. 29): linalg.forget, refactor
+        propagate = sc[_K] > 0
+        dt = 0.0
+        if propagate:
+            dt = t - sc[_T]
+            c_forgotten = sc[_C] * lam
+            sc[_SS] *= lam
+            sc[_PS] /= lam
+            sc[_C] *= lam
+            sc[_SINCE] += 1.0
+            if sc[_SINCE] >= cst.refactor_every:
+                _refactor(lin, sc, cst.c0)
+            sc[_NU] = lam * sc[_NU]
+            if cst.carry and sc[_SINCE] == 0.0:
+                _refactored_posterior(wk.M, wk.Lam, lam, lin.pinv, sc[_PS], sc[_C] - c_forgotten)
+        learn = vx >= cst.min_speed
+        if learn and sc[_NHIST] >= lin.hist.shape[0]:
+            _flush(lin, sc)
+        # 2. random numbers, in the reference's order
+        if propagate and cst.gain_walk != 0.0:
+            _normals(rng, wk.gwalk)
+            f = cst.gain_walk * math.sqrt(dt)
+            for n in range(N):
+                wk.gwalk[n] = f * wk.gwalk[n]
+        else:
+            wk.gwalk[:] = 0.0
+        sxx, sxy = st.moments[0], st.moments[1]
+        ratio = 1.0 if sxx <= 1e-10 else min(max(sxy / sxx, 0.2), 5.0)
+        r_key = round(ratio, 2) if basis.tensor else 1.0
+        _peak_rhs(basis, r_key, st.peak_alpha, wk)
+        dof = sc[_NU] - d + 1.0
+        if cst.conditional:
+            _chisquares(rng, dof, wk.gdraw.reshape(-1))
+            _normals(rng, wk.zdraw.reshape(-1))
+        else:
+            _normals(rng, wk.zdraw.reshape(-1))
+            _chisquares(rng, dof, wk.gdraw.reshape(-1))
+        vy_max = -1.0
+        if cst.tan_sideslip >= 0.0:
+            vy_max = cst.tan_sideslip * max(vx, 0.0)
+        # 3. the per-particle pass (kernel.particle_pass)
+        npk = wk.fpk.shape[2]
+        for g in range(G):
+            for q in range(npk):
+                fr = sc[_PKV] == 0.0
+                if not fr:
+                    for k in range(m):
+                        if lin.pkf[g, k, q] != wk.fpk[g, k, q]:
+                            fr = True
+                            break
+                wk.fresh[g, q] = fr
+        par = int(sc[_PAR])
+        pdst, order = slot_plan(lin.panc)
+        veh = cst.veh
+        veh_k = VehicleConstants(veh.mass, blk.fz_front[i], blk.fz_rear[i], veh.lf, veh.lr, veh.yaw_inertia, veh.v_eps)
+        has_vy = not math.isnan(vy_meas)
+        gk.particle_pass(
+            p,
+            gk.Slots(lin.pinv.reshape(N * G, m, m), lin.panc, pdst, order, lin.pend2[par], lin.pgain2[par],
+                     lin.pend2[1 - par], lin.pgain2[1 - par], lin.hist, int(sc[_NHIST])),
+            gk.StepInput(propagate, dt, sc[_STEER], sc[_VX], steer, vx, blk.ay[i], blk.yaw_rate[i], has_vy,
+                         vy_meas if has_vy else 0.0, learn),
+            veh_k,
+            gk.Params(cst.mf, lam, sc[_NU], cst.Lambda0, cst.sigma_ay, cst.sigma_r, vy_max, sc[_PS],
+                      0.0 if cst.carry else 1.0 - sc[_C], cst.tol, cst.max_terms, cst.conditional, cst.carry),
+            basis,
+            gk.PeakColumns(wk.fpk, lin.pkw2[par], lin.pkw2[1 - par], wk.fresh),
+            gk.Draws(wk.gdraw, wk.zdraw, wk.gwalk),
+            gk.Outputs(wk.alpha, wk.M, wk.Lam, wk.vpk, wk.munow, wk.e),
+        )
+        sc[_PAR] = 1 - par
+        lin.panc[:] = pdst
+        lin.pkf[:] = wk.fpk
+        sc[_PKV] = 1.0
+        if learn:
+            nh = int(sc[_NHIST])
+            lin.hcoef[nh] = 1.0 / sc[_SS]
+            for n in range(N):
+                lin.hanc[nh, n] = n
+            sc[_NHIST] += 1.0
+            sc[_NU] += 1.0
+        # 4. slip statistics (state.slip_statistics)
+        e = wk.e
+        af, ar = e[_E_AF], e[_E_AR]
+        nb = st.visits.shape[1]
+        if learn:
+            st.visits[0, min(int(abs(af) / cst.bin_width), nb - 1)] += 1
+            st.visits[1, min(int(abs(ar) / cst.bin_width), nb - 1)] += 1
+            st.moments[0] += af * af
+            st.moments[1] += af * ar
+        excited = learn and max(abs(af), abs(ar)) > cst.excitation_slip
+        # 5. the peak per axle (posterior.peak_grid, state.visited_range, kernel_ops.peak_summary)
+        if wk.fkey[0] != r_key:
+            _grid_features(basis, r_key, pt.grid, wk)
+            wk.fkey[0] = r_key
+        for ax in range(2):
+            wk.a_vis[ax] = 0.0
+            for j in range(nb - 1, -1, -1):
+                if st.visits[ax, j] >= cst.peak_visits:
+                    wk.a_vis[ax] = (j + 1) * cst.bin_width
+                    break
+        peak_summary(PeakPosterior(wk.M, wk.Lam, p.logw, wk.vpk), PeakGrid(wk.feats, pt.prior, pt.grid, pt.where, pt.col),
+                     wk.a_vis, PeakParams(max(sc[_NU] - d - 1.0, 1.0), cst.margin, _Z95, cst.floor2, cst.peak_max,
+                                          cst.narrow), wk.pk)
+        pk = wk.pk
+        ess = e[_E_ESS]
+        resampled = ess <= cst.ess_threshold * N
+        for ax in range(2):
+            st.peak_alpha[0, ax] = pk[ax, _PK_ALPHA]
+            st.peak_alpha[1, ax] = pk[ax, _PK_BAND]
+        sc[_K] += 1.0
+        sc[_T] = t
+        sc[_STEER] = steer
+        sc[_VX] = vx
+        if resampled:
+            _resample(p, lin, wk, sc, rng, cst.carry)
+        # 6. the estimate and the honesty checks (guard.guard_step)
+        out[i, 0] = t
+        out[i, 1] = e[_E_VY]
+        out[i, 3] = e[_E_YR]
+        out[i, 4] = e[_E_YR_STD]
+        out[i, 5] = e[_E_GAIN]
+        out[i, 6] = af
+        out[i, 7] = ar
+        out[i, 8] = e[_E_MU_F]
+        out[i, 9] = e[_E_MU_R]
+        out[i, 16] = pk[0, _PK_ALPHA]
+        out[i, 17] = pk[1, _PK_ALPHA]
+        out[i, 20] = 1.0 if excited else 0.0
+        out[i, 21] = ess
+        out[i, 22] = 1.0 if resampled else 0.0
+        _guard(p, st, wk, blk, i, dt, cst, rng, out[i])
 
 
 @numba.njit(cache=True)
-def _step(p, lin, st, wk, blk, i, cst, basis, pt, rng, row):  # pragma: no cover - compiled
-    sc = st.sc
-    N, G, d, m = p.Psi.shape
-    lam = cst.lam
-    t, vx, steer = blk.t[i], blk.vx[i], blk.steer[i]
-    vy_meas = blk.vy[i]
-    # 1. time update of the statistics (eq. 29): linalg.forget, refactor
-    propagate = sc[_K] > 0
-    dt = 0.0
-    if propagate:
-        dt = t - sc[_T]
-        c_forgotten = sc[_C] * lam
-        sc[_SS] *= lam
-        sc[_PS] /= lam
-        sc[_C] *= lam
-        sc[_SINCE] += 1.0
-        if sc[_SINCE] >= cst.refactor_every:
-            _refactor(lin, sc, cst.c0)
-        sc[_NU] = lam * sc[_NU]
-        if cst.carry and sc[_SINCE] == 0.0:
-            _refactored_posterior(wk.M, wk.Lam, lam, lin.pinv, sc[_PS], sc[_C] - c_forgotten)
-    learn = vx >= cst.min_speed
-    if learn and sc[_NHIST] >= lin.hist.shape[0]:
-        _flush(lin, sc)
-    # 2. random numbers, in the reference's order
-    if propagate and cst.gain_walk != 0.0:
-        f = cst.gain_walk * math.sqrt(dt)
-        for n in range(N):
-            wk.gwalk[n] = f * rng.standard_normal()
-    else:
-        wk.gwalk[:] = 0.0
-    sxx, sxy = st.moments[0], st.moments[1]
-    ratio = 1.0 if sxx <= 1e-10 else min(max(sxy / sxx, 0.2), 5.0)
-    r_key = round(ratio, 2) if basis.tensor else 1.0
-    _peak_rhs(basis, r_key, st.peak_alpha, wk)
-    dof = sc[_NU] - d + 1.0
-    if cst.conditional:
-        for n in range(N):
-            for g in range(G):
-                wk.gdraw[n, g] = rng.chisquare(dof)
-        for n in range(N):
-            for j in range(2):
-                wk.zdraw[n, 0, j] = rng.standard_normal()
-    else:
-        for n in range(N):
-            for g in range(G):
-                for a in range(d):
-                    wk.zdraw[n, g, a] = rng.standard_normal()
-        for n in range(N):
-            for g in range(G):
-                wk.gdraw[n, g] = rng.chisquare(dof)
-    vy_max = -1.0
-    if cst.tan_sideslip >= 0.0:
-        vy_max = cst.tan_sideslip * max(vx, 0.0)
-    # 3. the per-particle pass (kernel.particle_pass)
-    npk = wk.fpk.shape[2]
-    for g in range(G):
-        for q in range(npk):
-            fr = sc[_PKV] == 0.0
-            if not fr:
-                for k in range(m):
-                    if lin.pkf[g, k, q] != wk.fpk[g, k, q]:
-                        fr = True
-                        break
-            wk.fresh[g, q] = fr
-    par = int(sc[_PAR])
-    pdst, order = slot_plan(lin.panc)
-    veh = cst.veh
-    veh_k = VehicleConstants(veh.mass, blk.fz_front[i], blk.fz_rear[i], veh.lf, veh.lr, veh.yaw_inertia, veh.v_eps)
-    has_vy = not math.isnan(vy_meas)
-    gk.particle_pass(
-        p,
-        gk.Slots(lin.pinv.reshape(N * G, m, m), lin.panc, pdst, order, lin.pend2[par], lin.pgain2[par],
-                 lin.pend2[1 - par], lin.pgain2[1 - par], lin.hist, int(sc[_NHIST])),
-        gk.StepInput(propagate, dt, sc[_STEER], sc[_VX], steer, vx, blk.ay[i], blk.yaw_rate[i], has_vy,
-                     vy_meas if has_vy else 0.0, learn),
-        veh_k,
-        gk.Params(cst.mf, lam, sc[_NU], cst.Lambda0, cst.sigma_ay, cst.sigma_r, vy_max, sc[_PS],
-                  0.0 if cst.carry else 1.0 - sc[_C], cst.tol, cst.max_terms, cst.conditional, cst.carry),
-        basis,
-        gk.PeakColumns(wk.fpk, lin.pkw2[par], lin.pkw2[1 - par], wk.fresh),
-        gk.Draws(wk.gdraw, wk.zdraw, wk.gwalk),
-        gk.Outputs(wk.alpha, wk.M, wk.Lam, wk.vpk, wk.munow, wk.e),
-    )
-    sc[_PAR] = 1 - par
-    lin.panc[:] = pdst
-    lin.pkf[:] = wk.fpk
-    sc[_PKV] = 1.0
-    if learn:
-        nh = int(sc[_NHIST])
-        lin.hcoef[nh] = 1.0 / sc[_SS]
-        for n in range(N):
-            lin.hanc[nh, n] = n
-        sc[_NHIST] += 1.0
-        sc[_NU] += 1.0
-    # 4. slip statistics (state.slip_statistics)
-    e = wk.e
-    af, ar = e[_E_AF], e[_E_AR]
-    nb = st.visits.shape[1]
-    if learn:
-        st.visits[0, min(int(abs(af) / cst.bin_width), nb - 1)] += 1
-        st.visits[1, min(int(abs(ar) / cst.bin_width), nb - 1)] += 1
-        st.moments[0] += af * af
-        st.moments[1] += af * ar
-    excited = learn and max(abs(af), abs(ar)) > cst.excitation_slip
-    # 5. the peak per axle (posterior.peak_grid, state.visited_range, kernel_ops.peak_summary)
-    if wk.fkey[0] != r_key:
-        _grid_features(basis, r_key, pt.grid, wk)
-        wk.fkey[0] = r_key
-    for ax in range(2):
-        wk.a_vis[ax] = 0.0
-        for j in range(nb - 1, -1, -1):
-            if st.visits[ax, j] >= cst.peak_visits:
-                wk.a_vis[ax] = (j + 1) * cst.bin_width
-                break
-    peak_summary(PeakPosterior(wk.M, wk.Lam, p.logw, wk.vpk), PeakGrid(wk.feats, pt.prior, pt.grid, pt.where, pt.col),
-                 wk.a_vis, PeakParams(max(sc[_NU] - d - 1.0, 1.0), cst.margin, _Z95, cst.floor2, cst.peak_max,
-                                      cst.narrow), wk.pk)
-    pk = wk.pk
-    ess = e[_E_ESS]
-    resampled = ess <= cst.ess_threshold * N
-    for ax in range(2):
-        st.peak_alpha[0, ax] = pk[ax, _PK_ALPHA]
-        st.peak_alpha[1, ax] = pk[ax, _PK_BAND]
-    sc[_K] += 1.0
-    sc[_T] = t
-    sc[_STEER] = steer
-    sc[_VX] = vx
-    if resampled:
-        _resample(p, lin, wk, sc, rng, cst.carry)
-    # 6. the estimate and the honesty checks (guard.guard_step)
-    row[0] = t
-    row[1] = e[_E_VY]
-    row[3] = e[_E_YR]
-    row[4] = e[_E_YR_STD]
-    row[5] = e[_E_GAIN]
-    row[6] = af
-    row[7] = ar
-    row[8] = e[_E_MU_F]
-    row[9] = e[_E_MU_R]
-    row[16] = pk[0, _PK_ALPHA]
-    row[17] = pk[1, _PK_ALPHA]
-    row[20] = 1.0 if excited else 0.0
-    row[21] = ess
-    row[22] = 1.0 if resampled else 0.0
-    _guard(p, st, wk, blk, i, dt, cst, rng, row)
+def _normals(rng, out):  # pragma: no cover - compiled
+    """``out[:] = rng.standard_normal(len(out))`` (one copy of the sampler's code)."""
+    for n in range(out.shape[0]):
+        out[n] = rng.standard_normal()
+
+
+@numba.njit(cache=True)
+def _chisquares(rng, dof, out):  # pragma: no cover - compiled
+    """``out[:] = rng.chisquare(dof, len(out))``."""
+    for n in range(out.shape[0]):
+        out[n] = rng.chisquare(dof)
 
 
 @numba.njit(cache=True)
@@ -413,14 +414,17 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
     lost = not math.isnan(sc[_BAD]) and t - sc[_BAD] >= cst.diverge_time
     if runaway or lost:
         # re-initialise the lateral state as at the start (guard._reinitialise)
+        z = wk.gwalk  # free after the particle pass
+        _normals(rng, z)
         for n in range(N):
-            p.x[n, 0] = cst.sigma_vy0 * rng.standard_normal()
+            p.x[n, 0] = cst.sigma_vy0 * z[n]
         if cst.tan_sideslip >= 0.0:
             lim = cst.tan_sideslip * max(vx, 0.0)
             for n in range(N):
                 p.x[n, 0] = min(max(p.x[n, 0], -lim), lim)
+        _normals(rng, z)
         for n in range(N):
-            p.x[n, 1] = yaw_meas + cst.sigma_r * rng.standard_normal()
+            p.x[n, 1] = yaw_meas + cst.sigma_r * z[n]
         p.logw[:] = -math.log(N)
         sc[_RESETS] += 1.0
         sc[_BAD] = np.nan
