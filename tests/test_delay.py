@@ -168,9 +168,9 @@ def _row(output: str, sensor: str) -> list[str]:
 def test_info_reports_the_delays_and_align_removes_them(delayed_file, tmp_path, monkeypatch):
     from typer.testing import CliRunner
 
-    from roadgrip.cli import app
+    from roadgrip.cli import _common, app
 
-    monkeypatch.setenv("COLUMNS", "200")
+    monkeypatch.setattr(_common.console, "width", 200)  # one table row per line
     res = CliRunner().invoke(app, ["info", str(delayed_file)])
     assert res.exit_code == 0, res.output
     acc, gyro = _row(res.output, "accelerometer"), _row(res.output, "gyro")

@@ -184,7 +184,9 @@ def test_info_reads_a_long_drive_in_chunks(dgd, tmp_path, monkeypatch):
     dgd.save(src)
     monkeypatch.setattr(info, "LONG_ROWS", 1000)
     monkeypatch.setattr(info, "INFO_CHUNK_ROWS", 2000)
-    monkeypatch.setenv("COLUMNS", "200")
+    from roadgrip.cli import _common
+
+    monkeypatch.setattr(_common.console, "width", 200)
     res = CliRunner().invoke(app, ["info", str(src)])
     assert res.exit_code == 0, res.output
     assert "read in chunks" in res.output and "from the first 20 s of 6001 rows" in res.output
