@@ -236,8 +236,10 @@ def fleet_map(
     processes : bool
         Local workers as processes (``False``: threads of this process).
     partitions : int, optional
-        Number of tasks the drives are split into (default one per drive); each task
-        merges its drives, then the task maps are merged in a tree.
+        Number of tasks the drives are split into (default four per worker thread, at most one
+        per drive: fewer, longer tasks spend less on scheduling, and four per thread keep the
+        workers evenly loaded); each task merges its drives, then the task maps are merged in
+        a tree.
     start_times : dict, optional
         Start time [s] by position in ``sources`` (overrides the drives' own).
 
@@ -251,8 +253,6 @@ def fleet_map(
         raise ValueError("no drives given")
     st = dict(start_times or {})
     items = list(enumerate(sources))
-    k = len(items) if partitions is None else max(1, min(int(partitions), len(items)))
-    chunks = [c.tolist() for c in np.array_split(np.arange(len(items)), k)]
     own = None
     if client is None:
         from distributed import Client, LocalCluster
@@ -264,6 +264,9 @@ def fleet_map(
                                    dashboard_address=None)
             own = client = Client(cluster)
     try:
+        threads = sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()) or 1
+        k = 4 * threads if partitions is None else int(partitions)
+        chunks = [c.tolist() for c in np.array_split(np.arange(len(items)), max(1, min(k, len(items))))]
         futures = [client.submit(_part_list, [items[i] for i in c], config, st, pure=False) for c in chunks]
         while len(futures) > 1:  # tree reduction, pairs of partial maps
             futures = [client.submit(merge_parts, futures[i:i + 2], pure=False) if i + 1 < len(futures)
