@@ -138,20 +138,24 @@ def main() -> None:
         part, wall, cores = run(paths, w, a.repeats)
         d = part.drives
         n_obs, n_samp = int(d["observations"].sum()), int(d["samples"].sum())
-        results[w] = (part, wall)
+        results[w] = (part, wall, cores[0])
         print(f"{w} worker(s): {wall:6.1f} s, {60 * len(d) / wall:6.1f} drives/min, {n_obs / wall:8.0f} "
               f"observations/s, {n_samp / wall:8.0f} samples/s ({n_obs} observations in {part.map.n_cells} "
               f"cells); cores used on average: workers {cores[0]:.2f}, scheduler and client {cores[1]:.2f}; "
               f"before the run: {load}")
     if 1 in results and 2 in results:
-        (p1, w1), (p2, w2) = results[1], results[2]
+        (p1, w1, c1), (p2, w2, c2) = results[1], results[2]
         same = np.array_equal(p1.map.cells.key, p2.map.cells.key) and np.array_equal(p1.map.cells.n_obs,
                                                                                       p2.map.cells.n_obs)
         rel = max(float(np.max(np.abs(getattr(p1.map.cells, f) - getattr(p2.map.cells, f))
                                / np.maximum(np.abs(getattr(p1.map.cells, f)), 1e-300))) for f in ("s0", "s1", "s2"))
         print(f"speed-up of 2 workers over 1: {w1 / w2:.2f} (target >= 1.7); maps equal: cells and counts "
               f"{same}, largest relative difference of the sums {rel:.1e}")
-    grid = next(iter(results.values()))[0].map
+        print(f"per core the workers got: {60 * a.drives / (w1 * c1):.0f} and {60 * a.drives / (w2 * c2):.0f} "
+              f"drives/min (1 and 2 workers): 2 workers keep {100 * (w1 * c1) / (w2 * c2):.0f} % of one "
+              "worker's efficiency, so on two free cores they would give about "
+              f"{2 * (w1 * c1) / (w2 * c2):.2f} x")
+    grid = next(iter(results.values()))[0].map  # (part, wall, cores)
     s = score(grid, truth_of_cells(paths, grid.cell))
     ok = s["within_0.1"] >= 0.9 and s["calibrated_95"] >= 0.9
     print(f"fleet map, cells with >= 10 observations: {s['cells']}, MAE {s['mae']:.3f}, within 0.1 "
