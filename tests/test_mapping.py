@@ -211,6 +211,32 @@ def test_files_and_command_line(tmp_path):
         M.FrictionGrid.from_npz(tmp_path / "other.npz")
 
 
+def test_command_line_summary_of_drives_far_apart(tmp_path):
+    """Two drives 42 km apart: the command's summary counts the observed cells, it never
+    views the bounding box between them (60,000 x 60,000 cells of 0.5 m, which the dense
+    view refuses)."""
+    from rich.console import Console
+
+    from roadgrip.cli.friction_map import map_files
+    from roadgrip.estimators.base import EstimateResult
+
+    tab = _estimates_table()
+    far = tab.copy()
+    for c in ("x", "x_front", "x_rear", "y", "y_front", "y_rear"):
+        far[c] = far[c] + 30_000.0
+    paths = []
+    for name, t in (("near", tab), ("far", far)):
+        paths.append(tmp_path / f"{name}.parquet")
+        EstimateResult("cascade", t, {}).to_parquet(paths[-1])
+    console = Console(record=True, width=200)
+    g = map_files([str(p) for p in paths], tmp_path / "map.npz", cell=0.5, console=console)
+    text = console.export_text()
+    n_cells = int((g.cells.n_obs > 0).sum())
+    assert n_cells == 2 * int((M.grid_from_estimates(tab, 0.5).cells.n_obs > 0).sum())
+    assert f"map: {n_cells} cells of 0.5 m" in text, text
+    assert g.nbytes < 1_000_000
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2, 3, 4, 5, 6, 7])
 def test_acceptance_f1tenth_patches_two_laps(seed):
     """Cascade + grid on the simulated patch track after two laps (the issue's acceptance)."""

@@ -73,8 +73,9 @@ def map_files(
         g = grid_from_estimates(table, cell)
         grids.append(g)
         if console is not None:
-            console.print(f"{path}: {kind}, {int(g.n_obs.sum())} excited observations in "
-                          f"{int((g.n_obs > 0).sum())} cells")
+            n = g.cells.n_obs
+            console.print(f"{path}: {kind}, {int(n.sum())} excited observations in "
+                          f"{int((n > 0).sum())} cells")
     grid = merge(*grids)
     grid.to_npz(output)
     if csv:
@@ -84,8 +85,9 @@ def map_files(
 
         plot_grid(grid, png)
     if console is not None:
-        visited = grid.n_obs > 0
-        mean, std = grid.posterior()
+        # the observed cells only: the map's bounding box may be far too large to view
+        visited = grid.cells.n_obs > 0
+        mean, std = grid.cell_posterior()
         if visited.any():
             console.print(f"map: {int(visited.sum())} cells of {grid.cell} m, mu {mean[visited].min():.2f}"
                           f"..{mean[visited].max():.2f}, median std {np.median(std[visited]):.3f}")
