@@ -31,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 __all__ = [
     "BYTES_PER_CELL",
     "MAX_INDEX",
+    "CellMap",
     "CellSums",
     "add_cells",
     "cell_posterior",
@@ -228,3 +229,47 @@ def cell_posterior(c: CellSums, prior_mean: float, prior_std: float,
     mean = (prior_mean * p0 + c.s1 / b) / prec
     sys = c.sb / b / prec
     return mean, np.sqrt(1.0 / prec + sys * sys)
+
+
+class CellMap:
+    """What the square and the hexagon maps share: their cell table, prior and forgetting.
+
+    A mixin of the frozen dataclasses :class:`~roadgrip.mapping.grid.FrictionGrid` and
+    :class:`~roadgrip.mapping.hexgrid.HexGrid`, which hold the attributes below.
+
+    Attributes
+    ----------
+    cells : CellSums
+    prior_mean, prior_std : float
+        Prior friction of an unvisited cell [-].
+    tau : float
+        Forgetting (age decay) time constant [s] (``inf``: none).
+    overdispersion : bool
+        Inflate cell variances by the Birge ratio.
+    """
+
+    cells: CellSums
+    prior_mean: float
+    prior_std: float
+    tau: float
+    overdispersion: bool
+
+    def _check_prior(self) -> None:
+        if not (np.isfinite(self.prior_std) and self.prior_std > 0 and np.isfinite(self.prior_mean)):
+            raise ValueError("prior_mean must be finite and prior_std positive")
+        if not self.tau > 0:
+            raise ValueError(f"forgetting time constant tau must be positive (inf: none), got {self.tau!r}")
+
+    @property
+    def n_cells(self) -> int:
+        """Number of observed cells."""
+        return self.cells.size
+
+    @property
+    def nbytes(self) -> int:
+        """Memory of the cell table [bytes] (:data:`BYTES_PER_CELL` a cell)."""
+        return self.cells.nbytes
+
+    def cell_posterior(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Posterior mean and standard deviation [-] of the observed cells, each shape ``(k,)``."""
+        return cell_posterior(self.cells, self.prior_mean, self.prior_std, self.overdispersion)

@@ -22,10 +22,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from roadgrip.mapping.cells import (
     MAX_INDEX,
+    CellMap,
     CellSums,
     add_cells,
     birge_ratio,
-    cell_posterior,
     cells_from_squares,
     empty_cells,
     lookup,
@@ -90,7 +90,7 @@ class _Dense(NamedTuple):
 
 
 @dataclass(frozen=True)
-class FrictionGrid:
+class FrictionGrid(CellMap):
     """A sparse friction grid (immutable; :func:`fuse` and :func:`merge` return new grids).
 
     Attributes
@@ -127,10 +127,7 @@ class FrictionGrid:
     def __post_init__(self) -> None:
         if not (np.isfinite(self.cell) and self.cell > 0):
             raise ValueError(f"cell size must be positive and finite, got {self.cell!r}")
-        if not (np.isfinite(self.prior_std) and self.prior_std > 0 and np.isfinite(self.prior_mean)):
-            raise ValueError("prior_mean must be finite and prior_std positive")
-        if not self.tau > 0:
-            raise ValueError(f"forgetting time constant tau must be positive (inf: none), got {self.tau!r}")
+        self._check_prior()
         c = self.cells
         if not isinstance(c, CellSums) or len({a.shape for a in c}) != 1 or c.key.ndim != 1:
             raise ValueError("grid cells must be a CellSums table of one length")
@@ -140,17 +137,7 @@ class FrictionGrid:
         if c.size and max(np.abs(ix).max(), np.abs(iy).max()) * self.cell > MAX_COORD + self.cell:
             raise ValueError(f"grid cells lie beyond +-{MAX_COORD:g} m of the map origin")
 
-    # -- the sparse table ------------------------------------------------------------
-    @property
-    def n_cells(self) -> int:
-        """Number of observed cells."""
-        return self.cells.size
-
-    @property
-    def nbytes(self) -> int:
-        """Memory of the cell table [bytes] (:data:`roadgrip.mapping.cells.BYTES_PER_CELL` a cell)."""
-        return self.cells.nbytes
-
+    # -- the sparse table (n_cells, nbytes, cell_posterior: CellMap) ------------------
     def cell_index(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         """Global indices ``(ix, iy)`` of the observed cells, each shape ``(k,)``."""
         return square_index(self.cells.key)
@@ -159,10 +146,6 @@ class FrictionGrid:
         """Centres ``(x, y)`` [m] of the observed cells, each shape ``(k,)``."""
         ix, iy = self.cell_index()
         return (ix + 0.5) * self.cell, (iy + 0.5) * self.cell
-
-    def cell_posterior(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Posterior mean and standard deviation [-] of the observed cells, each shape ``(k,)``."""
-        return cell_posterior(self.cells, self.prior_mean, self.prior_std, self.overdispersion)
 
     # -- dense views over the bounding box of the observed cells ----------------------
     @cached_property

@@ -19,9 +19,9 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from roadgrip.mapping.cells import (
+    CellMap,
     CellSums,
     add_cells,
-    cell_posterior,
     cells_from_observations,
     empty_cells,
     lookup,
@@ -43,7 +43,7 @@ def h3_keys(lat: ArrayLike, lon: ArrayLike, resolution: int) -> NDArray[np.int64
 
 
 @dataclass(frozen=True)
-class HexGrid:
+class HexGrid(CellMap):
     """A friction map on H3 hexagons (immutable; :func:`fuse_hex`, :func:`merge_hex` return new maps).
 
     Attributes
@@ -73,24 +73,7 @@ class HexGrid:
     def __post_init__(self) -> None:
         if not (isinstance(self.resolution, int | np.integer) and 0 <= self.resolution <= 15):
             raise ValueError(f"H3 resolution must be an integer 0-15, got {self.resolution!r}")
-        if not (np.isfinite(self.prior_std) and self.prior_std > 0 and np.isfinite(self.prior_mean)):
-            raise ValueError("prior_mean must be finite and prior_std positive")
-        if not self.tau > 0:
-            raise ValueError(f"forgetting time constant tau must be positive (inf: none), got {self.tau!r}")
-
-    @property
-    def n_cells(self) -> int:
-        """Number of observed cells."""
-        return self.cells.size
-
-    @property
-    def nbytes(self) -> int:
-        """Memory of the cell table [bytes]."""
-        return self.cells.nbytes
-
-    def cell_posterior(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Posterior mean and standard deviation [-] of the observed cells, each shape ``(k,)``."""
-        return cell_posterior(self.cells, self.prior_mean, self.prior_std, self.overdispersion)
+        self._check_prior()
 
     def cell_centres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Centres ``(lat, lon)`` [deg] of the observed cells."""
