@@ -80,6 +80,17 @@ def test_drive_chunks_read_the_rows_without_truth(dgd, tmp_path):
     assert [c.n for c in chunks] == [3000, 3001]
 
 
+def test_drive_chunks_name_unreadable_metadata(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.table({"t": [0.0, 0.01], "ax": [0.0, 0.0]})
+    path = tmp_path / "broken.parquet"
+    pq.write_table(table.replace_schema_metadata({b"roadgrip": b'{"vehicle": 3'}), path)
+    with pytest.raises(ValueError, match=r"broken.parquet: unreadable roadgrip metadata"):
+        drive_chunks(path)
+
+
 def test_stream_command_writes_what_the_whole_run_writes(dgd, tmp_path):
     from typer.testing import CliRunner
 

@@ -74,7 +74,8 @@ def drive_chunks(path: str | Path, vehicle: str | None = None, rows: int = CHUNK
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from roadgrip.drive import Drive, DriveMeta
+    from roadgrip.drive import Drive
+    from roadgrip.io.canonical import parquet_meta
     from roadgrip.vehicle.params import load_vehicle
 
     p = Path(path)
@@ -82,8 +83,7 @@ def drive_chunks(path: str | Path, vehicle: str | None = None, rows: int = CHUNK
         pf = pq.ParquetFile(str(p))
     except (pa.ArrowInvalid, OSError) as exc:
         raise ValueError(f"{p.name}: --stream needs a canonical Parquet drive ({exc})") from None
-    md = pf.schema_arrow.metadata or {}
-    meta = DriveMeta.from_json(md[b"roadgrip"].decode()) if b"roadgrip" in md else None
+    meta = parquet_meta(pf.schema_arrow.metadata, p)
     if meta is None and vehicle is None:
         raise ValueError(f"{p.name} has no roadgrip metadata: pass the vehicle (--vehicle)")
     veh = load_vehicle(vehicle) if vehicle is not None else meta.vehicle

@@ -43,7 +43,7 @@ from roadgrip.drive import (
 from roadgrip.io._csv import read_table, read_text
 from roadgrip.vehicle.params import VehicleParams
 
-__all__ = ["META_PREFIX", "read_canonical_csv", "read_canonical_parquet"]
+__all__ = ["META_PREFIX", "parquet_meta", "read_canonical_csv", "read_canonical_parquet"]
 
 META_PREFIX = "# roadgrip-meta "
 """First line of a canonical CSV, followed by the metadata as JSON."""
@@ -164,15 +164,27 @@ def read_canonical_parquet(path: str | Path, vehicle: VehicleParams | None = Non
         table = pq.read_table(str(path))
     except (pa.ArrowInvalid, OSError) as exc:
         raise ValueError(f"{path.name} is not a readable Parquet file: {exc}") from None
-    md = table.schema.metadata or {}
-    meta = _meta(md[b"roadgrip"].decode("utf-8", "replace"), path, "schema key 'roadgrip'") if (
-        b"roadgrip" in md) else None
+    meta = parquet_meta(table.schema.metadata, path)
     try:
         df = table.to_pandas()
     except (pa.ArrowException, ValueError, TypeError) as exc:
         raise ValueError(f"{path.name}: columns that cannot be read ({type(exc).__name__}: "
                          f"{' '.join(str(exc).split())[:160]})") from None
     return _finish(df, meta, vehicle, path)
+
+
+def parquet_meta(schema_metadata: dict[bytes, bytes] | None, path: str | Path) -> DriveMeta | None:
+    """The drive metadata of a Parquet file's schema (``None`` where it has none).
+
+    Raises
+    ------
+    ValueError
+        Metadata that does not parse, in one line naming the file.
+    """
+    md = schema_metadata or {}
+    if b"roadgrip" not in md:
+        return None
+    return _meta(md[b"roadgrip"].decode("utf-8", "replace"), Path(path), "schema key 'roadgrip'")
 
 
 def _meta(text: str, path: Path, where: str) -> DriveMeta:
