@@ -477,12 +477,29 @@ def _gather_sorted(a, idx):  # pragma: no cover - compiled
 
 
 def copy(st: LinAlgState) -> LinAlgState:
-    return st._replace(sigma=st.sigma.copy(), pinv=st.pinv.copy(), hist=st.hist.copy(),
-                       hcoef=st.hcoef.copy(), spare=st.spare.copy(), sigma_spare=st.sigma_spare.copy(),
-                       pend=st.pend.copy(), pgain=st.pgain.copy(), panc=st.panc.copy(),
+    """A deep copy. ``sigma`` and ``sigma_spare`` are copied into the two halves of one
+    (2, ...) buffer, and ``pend``, ``pgain``, ``pkw`` into the first half of one each,
+    the layout the compiled step (:mod:`roadgrip.estimators.gpssm.compiled`) works in."""
+    if st.sigma_spare.shape == st.sigma.shape:
+        sigma, sigma_spare = _in_pair(st.sigma, st.sigma_spare)
+    else:  # 'direct' keeps no spare
+        sigma, sigma_spare = st.sigma.copy(), st.sigma_spare.copy()
+    pend, pgain = _in_pair(st.pend)[0], _in_pair(st.pgain)[0]
+    return st._replace(sigma=sigma, pinv=st.pinv.copy(), hist=st.hist.copy(),
+                       hcoef=st.hcoef.copy(), spare=st.spare.copy(), sigma_spare=sigma_spare,
+                       pend=pend, pgain=pgain, panc=st.panc.copy(),
                        sanc=st.sanc.copy(), hanc=st.hanc.copy(),
-                       pkw=None if st.pkw is None else st.pkw.copy(),
+                       pkw=None if st.pkw is None else _in_pair(st.pkw)[0],
                        pkf=None if st.pkf is None else st.pkf.copy())
+
+
+def _in_pair(a: NDArray, b: NDArray | None = None) -> tuple[NDArray, NDArray]:
+    """Copies of ``a`` (and ``b``, else nothing) as the halves of one (2, ...) buffer."""
+    pair = np.empty((2, *a.shape), a.dtype)
+    pair[0] = a
+    if b is not None:
+        pair[1] = b
+    return pair[0], pair[1]
 
 
 def information(st: LinAlgState) -> NDArray:
