@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roadgrip.inference.kinematic import kinematic_lateral_acceleration
-from roadgrip.signals import WHEELS, pose_velocity, undriven_wheels
+from roadgrip.signals import WHEELS, pose_velocity, rolling_speed, speed_wheels
 
 __all__ = ["Sample", "drive_inputs", "drive_vx", "drive_vy", "upsample_inputs"]
 
@@ -53,9 +53,7 @@ def drive_vx(drive: Any, source: str = "auto") -> NDArray[np.float64]:
     ``'auto'``    ``'wheels'`` when those wheel speeds exist, else ``'column'``, else
                   ``'pose'``.
     """
-    veh = drive.vehicle
-    free = undriven_wheels(veh.drive)
-    wheels = tuple(f"omega_{w}" for w, f in zip(WHEELS, free if free.any() else ~free, strict=True) if f)
+    wheels = tuple(f"omega_{w}" for w, u in zip(WHEELS, speed_wheels(drive.vehicle.drive), strict=True) if u)
     if source == "auto":
         if drive.has(*wheels):
             source = "wheels"
@@ -69,8 +67,7 @@ def drive_vx(drive: Any, source: str = "auto") -> NDArray[np.float64]:
                 "and no pose: the GP-SSM filter needs the longitudinal speed"
             )
     if source == "wheels":
-        drive.require(*wheels, why="vx from the non-driven wheels")
-        return np.mean([drive.col(c) for c in wheels], axis=0) * veh.wheel_radius
+        return rolling_speed(drive)[0]
     if source == "column":
         return drive.col("vx")
     if source == "pose":
