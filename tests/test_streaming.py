@@ -202,3 +202,16 @@ def test_info_reads_a_long_drive_in_chunks(dgd, tmp_path, monkeypatch):
     assert res.exit_code == 0, res.output
     assert "read in chunks" in res.output and "from the first 20 s of 6001 rows" in res.output
     assert "6001" in res.output and "nonlinear tire excitation" in res.output
+
+
+def test_peak_memory_of_a_child_is_its_own():
+    """A process started from a large one reports its own peak, not its parent's (Linux
+    keeps ``ru_maxrss`` across ``execve``; the streamed run is measured in a child)."""
+    from roadgrip.cli.stream import peak_rss_bytes
+
+    ballast = np.ones(40_000_000)  # 320 MB resident in this process
+    parent = peak_rss_bytes()
+    child = subprocess.run([sys.executable, "-c", "from roadgrip.cli.stream import peak_rss_bytes; "
+                            "print(peak_rss_bytes())"], capture_output=True, text=True, check=True)
+    assert parent > ballast.nbytes
+    assert int(child.stdout) < parent - 250e6, (int(child.stdout), parent)

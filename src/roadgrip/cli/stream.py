@@ -13,6 +13,7 @@ whole drives only.
 from __future__ import annotations
 
 import resource
+import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -30,8 +31,22 @@ __all__ = ["CHUNK_ROWS", "STREAM_METHODS", "drive_chunks", "peak_rss_bytes", "st
 
 
 def peak_rss_bytes() -> int:
-    """Peak resident memory of this process so far [B] (Linux ``ru_maxrss`` is in KiB)."""
-    return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
+    """Peak resident memory of this process so far [B].
+
+    Linux: ``VmHWM`` of ``/proc/self/status``, the peak of this program's memory.
+    ``ru_maxrss`` survives ``execve``, so a process started from a large one (a test
+    worker, a notebook) would report its parent's peak. Elsewhere ``ru_maxrss``
+    (KiB on Linux, bytes on macOS).
+    """
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    rss = int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+    return rss if sys.platform == "darwin" else rss * 1024
 
 
 def _estimator_columns(names: list[str]) -> list[str]:
