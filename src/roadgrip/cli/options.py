@@ -29,6 +29,7 @@ __all__ = [
     "check_seed",
     "gpssm_memory",
     "parse_curve_times",
+    "proc_kib",
 ]
 
 SEED_MAX = 2**32 - 1
@@ -150,16 +151,24 @@ def check_cell(cell: float) -> None:
         raise _bad("--cell", "a cell size from 0.01 to 1000 m", cell)
 
 
-def available_memory() -> float:
-    """Memory the process may still allocate [B]: ``MemAvailable`` of ``/proc/meminfo``,
-    else the physical memory, else 8 GiB."""
+def proc_kib(path: str, key: str) -> float | None:
+    """A ``key: N kB`` line of a Linux ``/proc`` file, in bytes (``None``: no such file or key)."""
     try:
-        with open("/proc/meminfo") as fh:
+        with open(path) as fh:
             for line in fh:
-                if line.startswith("MemAvailable:"):
+                if line.startswith(key + ":"):
                     return float(line.split()[1]) * 1024.0
     except OSError:
         pass
+    return None
+
+
+def available_memory() -> float:
+    """Memory the process may still allocate [B]: ``MemAvailable`` of ``/proc/meminfo``,
+    else the physical memory, else 8 GiB."""
+    avail = proc_kib("/proc/meminfo", "MemAvailable")
+    if avail is not None:
+        return avail
     try:
         return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
     except (ValueError, OSError, AttributeError):

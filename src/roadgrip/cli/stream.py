@@ -38,13 +38,11 @@ def peak_rss_bytes() -> int:
     worker, a notebook) would report its parent's peak. Elsewhere ``ru_maxrss``
     (KiB on Linux, bytes on macOS).
     """
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
+    from roadgrip.cli.options import proc_kib
+
+    peak = proc_kib("/proc/self/status", "VmHWM")
+    if peak is not None:
+        return int(peak)
     rss = int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
     return rss if sys.platform == "darwin" else rss * 1024
 
