@@ -38,7 +38,7 @@ from roadgrip.drive import SIGNAL_COLUMNS, Drive
 from roadgrip.io._csv import read_csv_exact
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
-__all__ = ["QUANTITY_OF", "UNITS", "load_mapping", "read_map", "read_mapped"]
+__all__ = ["QUANTITY_OF", "UNITS", "load_mapping", "map_vehicle", "read_map", "read_mapped"]
 
 UNITS: dict[str, tuple[str, float]] = {
     "m/s^2": ("acceleration", 1.0),
@@ -77,6 +77,19 @@ QUANTITY_OF: dict[str, str] = {
 _TOP_KEYS = {"columns", "vehicle", "time_zero", "keep", "source", "description"}
 _ENTRY_KEYS = {"column", "unit", "sign", "scale", "axis"}
 
+
+
+def map_vehicle(m: dict[str, Any], vehicle: str | Path | VehicleParams | None, reader: str,
+                kind: str) -> VehicleParams:
+    """The vehicle of a reader: the argument, else the map's ``vehicle:`` entry.
+
+    ``reader`` and ``kind`` (e.g. ``'read_mdf'``, ``'channel map'``) name them in the
+    error raised when neither gives one.
+    """
+    spec = vehicle if vehicle is not None else m.get("vehicle")
+    if spec is None:
+        raise ValueError(f"{reader} needs a vehicle: in the {kind} ('vehicle:') or as argument")
+    return load_vehicle(spec)
 
 
 def read_map(spec: str | Path | dict[str, Any], *, kind: str, file_kind: str, section: str,
@@ -197,10 +210,7 @@ def read_mapped(
     p = Path(csv_path)
     if not p.is_file():
         raise ValueError(f"no such file: {p}")
-    veh_spec = vehicle if vehicle is not None else m.get("vehicle")
-    if veh_spec is None:
-        raise ValueError("read_mapped needs a vehicle: in the mapping ('vehicle:') or as argument")
-    veh = load_vehicle(veh_spec)
+    veh = map_vehicle(m, vehicle, "read_mapped", "mapping")
     try:
         src = read_csv_exact(p)
     except pd.errors.EmptyDataError:

@@ -44,9 +44,9 @@ import numpy as np
 import pandas as pd
 
 from roadgrip.drive import SIGNAL_COLUMNS, Drive, DriveValidationError
-from roadgrip.io.mapping import QUANTITY_OF, UNITS, read_map
+from roadgrip.io.mapping import QUANTITY_OF, UNITS, map_vehicle, read_map
 from roadgrip.io.resample import make_clock, resample
-from roadgrip.vehicle.params import VehicleParams, load_vehicle
+from roadgrip.vehicle.params import VehicleParams
 
 __all__ = ["UNIT_ALIASES", "load_channel_map", "read_mdf", "si_unit"]
 
@@ -184,10 +184,7 @@ def read_mdf(
     if not p.is_file():
         raise ValueError(f"no such file: {p}")
     m = load_channel_map(channels)
-    veh_spec = vehicle if vehicle is not None else m.get("vehicle")
-    if veh_spec is None:
-        raise ValueError("read_mdf needs a vehicle: in the channel map ('vehicle:') or as argument")
-    veh = load_vehicle(veh_spec)
+    veh = map_vehicle(m, vehicle, "read_mdf", "channel map")
     try:
         mdf = MDF(p)
     except Exception as exc:  # asammdf raises several errors on a foreign file

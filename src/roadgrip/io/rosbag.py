@@ -54,9 +54,9 @@ import pandas as pd
 import yaml
 
 from roadgrip.drive import SIGNAL_COLUMNS, Drive, DriveValidationError
-from roadgrip.io.mapping import QUANTITY_OF, UNITS, read_map
+from roadgrip.io.mapping import QUANTITY_OF, UNITS, map_vehicle, read_map
 from roadgrip.io.resample import resample
-from roadgrip.vehicle.params import VehicleParams, load_vehicle
+from roadgrip.vehicle.params import VehicleParams
 
 __all__ = [
     "BAG_SUFFIXES",
@@ -333,10 +333,7 @@ def read_rosbag(
     if not p.exists():
         raise ValueError(f"no such file or folder: {p}")
     m = load_topic_map(topics)
-    veh_spec = vehicle if vehicle is not None else m.get("vehicle")
-    if veh_spec is None:
-        raise ValueError("read_rosbag needs a vehicle: in the topic map ('vehicle:') or as argument")
-    veh = load_vehicle(veh_spec)
+    veh = map_vehicle(m, vehicle, "read_rosbag", "topic map")
     present, stamps, values = _collect(p, m)
     skipped, missing = [], []
     for col, e in {**m["signals"], **m["extras"]}.items():
