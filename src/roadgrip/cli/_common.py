@@ -39,6 +39,8 @@ TopicsOpt = Annotated[
 ChannelsOpt = Annotated[
     str | None, typer.Option("--channels", help="MDF4 files: channel map YAML.")
 ]
+AlignOpt = Annotated[bool, typer.Option(
+    "--align", help="Remove the estimated sensor delays (those reported reliable) before use.")]
 
 
 def load_drive(path: str, fmt: str | None, vehicle: str | None,

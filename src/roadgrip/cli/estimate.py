@@ -9,6 +9,7 @@ from typing import Annotated, Any
 import typer
 
 from roadgrip.cli._common import (
+    AlignOpt,
     ChannelsOpt,
     FormatOpt,
     TopicsOpt,
@@ -18,7 +19,6 @@ from roadgrip.cli._common import (
     load_drive,
     progress_bar,
 )
-from roadgrip.cli.info import AlignOpt
 
 RESULT_SUFFIXES = (".parquet", ".pq", ".csv")
 """Suffixes of ``--output`` and ``--curves``: Parquet, or CSV (the table only)."""

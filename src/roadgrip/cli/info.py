@@ -9,6 +9,7 @@ from rich.console import Group
 from rich.table import Table
 
 from roadgrip.cli._common import (
+    AlignOpt,
     ChannelsOpt,
     FormatOpt,
     TopicsOpt,
@@ -17,9 +18,6 @@ from roadgrip.cli._common import (
     console,
     load_drive,
 )
-
-AlignOpt = Annotated[bool, typer.Option(
-    "--align", help="Remove the estimated sensor delays (those reported reliable) before use.")]
 
 
 def render(sections) -> Group:
