@@ -356,8 +356,9 @@ def channels(
     kf, kr, on_x = traction_slips(kin.kappa, kin.wheels_valid, ax, params)
     vx = np.atleast_1d(np.asarray(kin.vx, float))
     brake = braking_samples(kin, ax) if braking else np.zeros(ax.shape, bool)
-    kf_b, kr_b = axle_slips(np.atleast_2d(kin.kappa), np.atleast_2d(kin.wheels_valid))
-    kf, kr = np.where(brake, kf_b, kf), np.where(brake, kr_b, kr)
+    if brake.any():  # both axles' own slips, not the driven one's against the free wheels
+        kf_b, kr_b = axle_slips(np.atleast_2d(kin.kappa), np.atleast_2d(kin.wheels_valid))
+        kf, kr = np.where(brake, kf_b, kf), np.where(brake, kr_b, kr)
     cp = class_predictions(kf, kr, kin.alpha_f, kin.alpha_r, steer, ax, params, model, vx)
     # the longitudinal channel in straight-line traction or braking, without the slip angles
     zero = np.zeros_like(np.atleast_1d(kf))
