@@ -20,6 +20,7 @@ function                          what
 :func:`pose_velocity`             the same from a drive's ``x, y, psi`` columns
 :func:`axle_loads`                axle normal loads with longitudinal load transfer
 :func:`level_accelerations`       accelerometer readings with the body's roll and pitch removed
+:func:`tilt_gains`                the accelerometer's over-reading that it divides out
 :func:`sustained_grip`            largest ``|a_y| / g`` held for a second so far (a friction floor)
 :func:`white_noise_std`           white-noise level of a sampled signal
 ================================  ======================================================
@@ -58,6 +59,7 @@ __all__ = [
     "speed_wheels",
     "sustained_grip",
     "sustained_grip_step",
+    "tilt_gains",
     "undriven_wheels",
     "wheel_centre_speeds",
     "wheel_cg_speeds",
@@ -270,9 +272,15 @@ def level_accelerations(ax: ArrayLike, ay: ArrayLike, vehicle: VehicleParams
     >>> round(float(level_accelerations(0.0, 1.0 + 0.01 * 9.80665, veh)[1]), 12)
     1.0
     """
-    ax = np.asarray(ax, dtype=float)
-    ay = np.asarray(ay, dtype=float)
-    return ax / (1.0 + GRAVITY * vehicle.pitch_gradient), ay / (1.0 + GRAVITY * vehicle.roll_gradient)
+    gx, gy = tilt_gains(vehicle)
+    return np.asarray(ax, dtype=float) / gx, np.asarray(ay, dtype=float) / gy
+
+
+def tilt_gains(vehicle: VehicleParams) -> tuple[float, float]:
+    """How much a body-fixed accelerometer over-reads ``a_x`` and ``a_y`` [-]:
+    ``1 + g pitch_gradient`` and ``1 + g roll_gradient`` (:func:`level_accelerations`
+    divides by them)."""
+    return 1.0 + GRAVITY * vehicle.pitch_gradient, 1.0 + GRAVITY * vehicle.roll_gradient
 
 
 SUSTAIN_WINDOW = 1.0

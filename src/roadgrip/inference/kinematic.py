@@ -68,7 +68,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from roadgrip.constants import GRAVITY, V_EPS
+from roadgrip.constants import V_EPS
 from roadgrip.drive import WHEEL_COLUMNS, Drive
 from roadgrip.inference.kinematic_kernel import (
     AID_CODES,
@@ -79,6 +79,7 @@ from roadgrip.inference.kinematic_kernel import (
     kinematic_batch,
     kinematic_update,
 )
+from roadgrip.signals import tilt_gains
 from roadgrip.vehicle.params import VehicleParams, driven_wheels
 from roadgrip.vehicle.slip import longitudinal_slip, slip_angles
 
@@ -199,7 +200,7 @@ def kinematic_params(params: VehicleParams, cfg: KinematicConfig, aid: str) -> K
         AID_CODES[aid], driven_wheels(params.drive).astype(np.int64), params.wheel_radius,
         params.lf, params.lr, 0.5 * params.track_width, cfg.tau_vx, cfg.tau_pose, cfg.tau_beta,
         cfg.a_linear, cfg.accel_threshold, cfg.gate_abs, cfg.gate_rel, cfg.v_min,
-        1.0 / (1.0 + GRAVITY * params.pitch_gradient), 1.0 / (1.0 + GRAVITY * params.roll_gradient),
+        *tilt_gains(params),
     )
 
 

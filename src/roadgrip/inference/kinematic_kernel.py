@@ -97,10 +97,9 @@ class KinematicParams(NamedTuple):
         [m].
     tau_vx, tau_pose, tau_beta, a_linear, accel_threshold, gate_abs, gate_rel, v_min : float
         :class:`~roadgrip.inference.kinematic.KinematicConfig` fields.
-    level_x, level_y : float
-        Factors that level the accelerometer's ``ax``, ``ay`` before integration,
-        ``1 / (1 + g pitch_gradient)`` and ``1 / (1 + g roll_gradient)`` [-]
-        (:func:`roadgrip.signals.level_accelerations`).
+    tilt_x, tilt_y : float
+        The accelerometer's over-reading of ``ax``, ``ay`` from the body's pitch and
+        roll, divided out before integration [-] (:func:`roadgrip.signals.tilt_gains`).
     """
 
     aid: int
@@ -117,8 +116,8 @@ class KinematicParams(NamedTuple):
     gate_abs: float
     gate_rel: float
     v_min: float
-    level_x: float
-    level_y: float
+    tilt_x: float
+    tilt_y: float
 
 
 @numba.njit(cache=True)
@@ -143,7 +142,7 @@ def kinematic_update(st, s, p):  # pragma: no cover - compiled
     """One estimator update from state ``st``, sample ``s`` and parameters ``p``; returns the new (vx, vy)."""
     vx, vy, t_prev, x_prev, y_prev, psi_prev, started = st.vx, st.vy, st.t, st.x, st.y, st.psi, st.started
     t, r, steer, omega = s.t, s.yaw_rate, s.steer, s.omega
-    ax, ay = s.ax * p.level_x, s.ay * p.level_y
+    ax, ay = s.ax / p.tilt_x, s.ay / p.tilt_y
     x, y, psi, vx_meas = s.x, s.y, s.psi, s.vx_meas
     aid, driven, R, lf, lr, half_track = p.aid, p.driven, p.wheel_radius, p.lf, p.lr, p.half_track
     tau_vx, tau_pose, tau_beta, a_lin = p.tau_vx, p.tau_pose, p.tau_beta, p.a_linear
