@@ -115,6 +115,7 @@ def _run_one(method: str, path: str, short_path: str) -> dict:
     out = tempfile.mkdtemp(prefix="roadgrip-long-")
     checks = {"chunks": 0, "min_cov_eig": np.inf, "bad_std_rows": 0, "nan_mu_rows": 0}
     rates: list[float] = []
+    rows: list[int] = []
     rss: list[float] = []
     clock = [time.process_time()]
 
@@ -129,6 +130,7 @@ def _run_one(method: str, path: str, short_path: str) -> dict:
         checks["bad_std_rows"] += int((~(np.isfinite(std) & (std > 0))).any(axis=1).sum())
         checks["nan_mu_rows"] += int(tab[["mu_front", "mu_rear"]].isna().any(axis=1).sum())
         checks["chunks"] += 1
+        rows.append(len(tab))
         rss.append(current_rss_bytes() / 2**20)
         clock[0] = time.process_time()
 
@@ -150,7 +152,7 @@ def _run_one(method: str, path: str, short_path: str) -> dict:
         return {"method": method, "mode": "streamed", "rows": long["rows"], "hours": long["duration_s"] / 3600,
                 "samples_per_s": long["samples_per_s"], "short_samples_per_s": short,
                 "cpu_samples_per_s": long["rows"] / cpu, "short_cpu_samples_per_s": float(np.median(short_cpu)),
-                "median_chunk_samples_per_s": float(np.median(rates)), "chunk_rates": [round(x) for x in rates],
+                "median_chunk_samples_per_s": float(np.median(rates)), "chunk_rates": [round(x) for x in rates], "chunk_rows": rows,
                 "rss_first_half_mib": max(rss[: len(rss) // 2]), "rss_second_half_mib": max(rss[len(rss) // 2:]),
                 "first_third_samples_per_s": float(np.median(rates[:third])),
                 "last_third_samples_per_s": float(np.median(rates[-third:])),
