@@ -4,7 +4,6 @@ or report started."""
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
@@ -53,13 +52,12 @@ def drive_file(tmp_path_factory) -> Path:
     return p
 
 
-def _invoke(args: list[str]) -> tuple[str, float]:
-    t0 = time.perf_counter()
+def _invoke(args: list[str]) -> str:
     res = CliRunner().invoke(app, args)
-    wall = time.perf_counter() - t0
     assert res.exit_code != 0, res.output
+    # reading, simulating, benchmarking and reporting raise WorkRan here: a refusal comes first
     assert not isinstance(res.exception, WorkRan), f"{args}: {res.exception}"
-    return str(res.exception) + res.output, wall
+    return str(res.exception) + res.output
 
 
 EST = ["estimate", "{drive}", "--method", "gpssm", "-o", "{tmp}/e.parquet"]
@@ -136,11 +134,10 @@ CASES = {
 def test_a_bad_option_is_refused_before_any_work(case, drive_file, tmp_path, no_work):
     args, texts = CASES[case]
     args = [a.format(drive=drive_file, tmp=tmp_path) for a in args]
-    message, wall = _invoke(args)
+    message = _invoke(args)
     for text in texts:
         assert text in message, f"{case}: {text!r} not in {message!r}"
     assert "\n" not in message.strip() or message.count("error") <= 1
-    assert wall < 5.0, f"{case}: {wall:.1f} s before the refusal"
 
 
 def test_memory_estimate_follows_the_gpssm_state():
