@@ -4,7 +4,9 @@ Run: ``.venv/bin/python benchmarks/bench_cascade.py`` (one core: ``NUMBA_NUM_THR
 ``--accuracy`` prints instead the map and per-sample figures on the multi-body
 figure-eight drives (both vehicles, seeds 0-4, 5 m cells) and on ``f1tenth-patches``
 (seeds 0-4, 0.5 m cells), each cell scored against the friction under the tires at
-the positions inside it (:mod:`roadgrip.evaluate.map_truth`).
+the positions inside it (:mod:`roadgrip.evaluate.map_truth`), and the ceiling of
+each: the same observations with the true friction under their axle
+(:func:`roadgrip.evaluate.map_truth.truth_at_observations`).
 
 Prints samples/s of the whole three-stage cascade on the simulated
 ``f1tenth-patches`` drive, and, for the stage-2 force model (6 states, 5
@@ -132,12 +134,19 @@ def bench_accuracy(seeds=(0, 1, 2, 3, 4)) -> None:
 
     from roadgrip.constants import Z95
     from roadgrip.estimators import run_estimator
-    from roadgrip.evaluate.map_truth import sample_score, score_map
+    from roadgrip.evaluate.map_truth import sample_score, score_map, truth_at_observations
     from roadgrip.mapping import grid_from_estimates
+
+    def pooled_line(label: str, pooled: list) -> None:
+        c = pd.concat(pooled)
+        err = (c["mu_mean"] - c["mu_true"]).abs()
+        if len(c):
+            print(f"  {label}: {len(c)} cells with >= 10 observations, MAE {err.mean():.3f}, within 0.1 "
+                  f"{100 * np.mean(err <= 0.1):.0f} %, truth in mean +- 1.96 std {100 * np.mean(err <= Z95 * c['mu_std']):.0f} %")
 
     rows = [("figure-eight", v, 5.0) for v in ("ford-escort", "vw-vanagon")] + [("f1tenth-patches", None, 0.5)]
     for scenario, vehicle, cell in rows:
-        pooled = []
+        pooled, ceiling = [], []
         print(f"{scenario} {vehicle or ''} ({cell:g} m cells)")
         for seed in seeds:
             kw = {"engine": "multibody", "vehicle": vehicle} if vehicle else {}
@@ -151,11 +160,12 @@ def bench_accuracy(seeds=(0, 1, 2, 3, 4)) -> None:
                   f"{100 * s['confidently_wrong']:.2f} %  below the grip floor "
                   f"{100 * max(s['below_floor_front'], s['below_floor_rear']):.2f} %")
             pooled.append(score.cells[(score.cells["n_obs"] >= 10) & score.cells["mu_true"].notna()])
-        c = pd.concat(pooled)
-        err = (c["mu_mean"] - c["mu_true"]).abs()
-        if len(c):
-            print(f"  pooled: {len(c)} cells with >= 10 observations, MAE {err.mean():.3f}, within 0.1 "
-                  f"{100 * np.mean(err <= 0.1):.0f} %, truth in mean +- 1.96 std {100 * np.mean(err <= Z95 * c['mu_std']):.0f} %")
+            best = score_map(drive, grid_from_estimates(truth_at_observations(drive, tab), cell=cell))
+            ceiling.append(best.cells[(best.cells["n_obs"] >= 10) & best.cells["mu_true"].notna()])
+        pooled_line("pooled", pooled)
+        # the same observations, each carrying the true friction under its axle: what the
+        # places where the drive gave information allow any estimator
+        pooled_line("ceiling (every observation exact)", ceiling)
 
 
 if __name__ == "__main__":

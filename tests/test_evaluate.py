@@ -414,3 +414,39 @@ def test_cell_truth_is_the_field_at_the_observations_the_grid_fused():
         assert got == pytest.approx(expect[(round(xc, 6), round(yc, 6))], abs=1e-12)
     # cells without observations keep the area average
     np.testing.assert_allclose(truth[~observed], area[~observed])
+
+
+def test_exact_observations_at_every_sample_map_the_path_truth():
+    """The ceiling map (every observation exact) equals the cell truth of the scoring when every
+    sample is an observation of equal precision: the scoring and the ceiling measure the same
+    thing, and the ceiling falls short only where observations are missing."""
+    from roadgrip.estimators import run_estimator
+    from roadgrip.evaluate.map_truth import axle_positions, path_cell_truth, truth_at_observations
+    from roadgrip.mapping import empty_grid, fuse, observations_from_estimates
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    drive = simulate_scenario("f1tenth-patches", 0, duration=20.0)
+    tab = run_estimator("cascade", drive).table
+    pos = axle_positions(drive)
+    for a in ("front", "rear"):
+        tab[f"x_{a}"], tab[f"y_{a}"] = pos[a]
+        tab[f"excited_{a}"] = True
+        tab[f"mu_{a}_obs_std"] = 1e-3
+        tab[f"mu_{a}_obs_sys"] = 0.0
+    exact = truth_at_observations(drive, tab)
+    assert not np.allclose(exact["mu_front_obs"], tab["mu_front_obs"], equal_nan=True)
+    obs = observations_from_estimates(exact)
+    assert len(obs.mu) == 2 * drive.n
+    g = fuse(empty_grid(0.5), obs.x, obs.y, obs.mu, obs.var)
+    truth = path_cell_truth(drive, 0.5)
+    iy, ix = np.nonzero(g.n_obs > 0)
+    w_mean = g.s1[iy, ix] / g.s0[iy, ix]
+    # the observations' weighted mean; the posterior adds the prior, weighted up in the cells
+    # on a patch edge, whose observations disagree beyond their variances
+    fused = pd.Series(w_mean, index=pd.MultiIndex.from_arrays([ix + g.ix0, iy + g.iy0]))
+    assert len(fused) == len(truth) and (truth.max() - truth.min()) > 0.2
+    np.testing.assert_allclose(fused.reindex(truth.index).to_numpy(), truth.to_numpy(), atol=1e-12)
+    mean, _ = g.posterior()
+    np.testing.assert_allclose(mean[iy, ix], w_mean, atol=1e-3)
+    with pytest.raises(ValueError, match="rows"):
+        truth_at_observations(drive, tab.iloc[:-1])

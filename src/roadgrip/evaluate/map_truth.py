@@ -35,6 +35,7 @@ __all__ = [
     "path_cell_truth",
     "sample_score",
     "score_map",
+    "truth_at_observations",
 ]
 
 AXLES = ("front", "rear")
@@ -92,6 +93,32 @@ def path_cell_truth(drive: Drive, cell: float) -> pd.Series:
     vals = np.concatenate([mu[a] for a in AXLES])
     idx = keys[0].append(keys[1])
     return pd.Series(vals, index=idx).groupby(level=["ix", "iy"]).mean()
+
+
+def truth_at_observations(drive: Drive, table: pd.DataFrame) -> pd.DataFrame:
+    """The estimates with every friction observation replaced by the true friction under its axle.
+
+    Each ``mu_<axle>_obs`` (the cascade's single-sample observations) becomes
+    :func:`axle_truth`; which samples are observations, their positions and their
+    bands stay the estimator's. The map of this table is what any estimator would
+    map if every observation it made were exact: its score (:func:`score_map`) is
+    the ceiling that the places where the drive gave information allow, since a
+    cell's truth averages every pass through the cell and the observations only
+    the excited ones.
+
+    Raises
+    ------
+    ValueError
+        When the table has no ``mu_front_obs`` / ``mu_rear_obs`` column or its
+        length differs from the drive's.
+    """
+    cols = [f"mu_{a}_obs" for a in AXLES if f"mu_{a}_obs" in table.columns]
+    if not cols:
+        raise ValueError("the estimates have no single-sample friction observations (mu_front_obs, mu_rear_obs)")
+    if len(table) != drive.n:
+        raise ValueError(f"the estimates have {len(table)} rows, the drive {drive.n} samples")
+    mu = axle_truth(drive)
+    return table.assign(**{c: mu[c.split("_")[1]] for c in cols})
 
 
 def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
