@@ -87,6 +87,7 @@ posterior      posterior curves and the peak per axle
 guard          honesty checks after every step: divergence, the physics floor, the vy band
 estimator      ``prepare`` / ``init`` / ``step`` / ``run``; the online :class:`GPSSM`
 batch          ``run_many``: many drives, one process per core
+stream         ``run_chunks``: one long drive in chunks, the state carried between them
 presets        data-set options (DART)
 accuracy       curve accuracy against the truth (evaluation)
 =============  =============================================================================

@@ -29,7 +29,7 @@ from roadgrip.estimators.gpssm.stepping import step_unthreaded
 from roadgrip.estimators.protocol import DriveInfo, Prepared
 from roadgrip.vehicle.params import VehicleParams
 
-__all__ = ["GPSSM", "FilterState", "init", "prepare", "prior_band", "run", "run_filter", "step"]
+__all__ = ["GPSSM", "FilterState", "init", "prepare", "prior_band", "run", "run_block", "run_filter", "step"]
 
 PROGRESS_EVERY = 50
 """Output rows between two calls of the progress callback."""
@@ -135,10 +135,7 @@ def run_filter(
     start = 0
     with one_blas_thread():
         for end in sorted(ends):
-            if config.linalg == "direct":
-                state, out = _stepped(ctx, state, data[start:end + 1], seed)
-            else:
-                state, out = advance(ctx, state, data[start:end + 1], seed)
+            state, out = run_block(ctx, state, data[start:end + 1], seed)
             blocks.append(out)
             for t, i in zip(times, at, strict=True):
                 if i == end:
@@ -149,7 +146,18 @@ def run_filter(
                     progress(done)
             start = end + 1
     out = np.concatenate(blocks)[recorded]
-    return _table(out), curves
+    return rows_table(out), curves
+
+
+def run_block(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int = 0) -> tuple[GPSSMState, NDArray]:
+    """Samples ``data`` (K, 8) (:func:`~roadgrip.estimators.gpssm.compiled.sample_array`)
+    through the filter from ``state`` (None: initialise from the first sample with
+    ``seed``): the compiled step (:func:`~roadgrip.estimators.gpssm.compiled.advance`), or
+    the NumPy reference for ``linalg='direct'``. The state after the block reuses the
+    arrays of ``state``; the rows (K, len(ROW_FIELDS)) are one per sample."""
+    if ctx.config.linalg == "direct":
+        return _stepped(ctx, state, data, seed)
+    return advance(ctx, state, data, seed)
 
 
 def _stepped(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int) -> tuple[GPSSMState, NDArray]:
@@ -161,8 +169,8 @@ def _stepped(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int) -
     return state, out
 
 
-def _table(out: NDArray) -> pd.DataFrame:
-    """The table of the rows of :func:`advance` (as :func:`_row` gives them)."""
+def rows_table(out: NDArray) -> pd.DataFrame:
+    """The table of the rows of :func:`run_block` (as :func:`_row` gives them)."""
     cols = {("yaw_rate_est" if k == "yaw_rate" else k): out[:, i] for i, k in enumerate(ROW_FIELDS)}
     for k in BOOL_COLUMNS:
         cols[k] = cols[k] != 0.0

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from roadgrip.inference.kinematic import kinematic_lateral_acceleration
 from roadgrip.signals import WHEELS, pose_velocity, rolling_speed, speed_wheels
 
-__all__ = ["Sample", "drive_inputs", "drive_vx", "drive_vy", "upsample_inputs"]
+__all__ = ["Sample", "drive_inputs", "drive_vx", "drive_vy", "substeps", "upsample_inputs"]
 
 
 class Sample(NamedTuple):
@@ -109,7 +109,15 @@ def drive_inputs(
     return np.column_stack([drive.col("t"), ay, drive.col("yaw_rate"), drive.col("steer"), vx, vy, ax])
 
 
-def upsample_inputs(data: NDArray, max_dt: float) -> tuple[NDArray, NDArray, int]:
+def substeps(t: NDArray, max_dt: float) -> int:
+    """Filter steps per sample interval of :func:`upsample_inputs`: ``ceil(median dt /
+    max_dt)`` over the times ``t`` [s] (1 for fewer than two)."""
+    if len(t) < 2:
+        return 1
+    return max(1, math.ceil(float(np.median(np.diff(t))) / max_dt - 1e-9))
+
+
+def upsample_inputs(data: NDArray, max_dt: float, k: int | None = None) -> tuple[NDArray, NDArray, int]:
     """Linear interpolation of the input rows onto ``k`` sub-steps per sample interval.
 
     The lateral model is integrated by forward Euler with the friction held over a step;
@@ -118,12 +126,29 @@ def upsample_inputs(data: NDArray, max_dt: float) -> tuple[NDArray, NDArray, int
     interpolated rows between recorded ones (and the filter widens ``R`` by ``sqrt(k)`` so
     that the information per recorded sample is unchanged).
 
-    Returns the rows (n', columns), a mask of the recorded rows and ``k``.
+    Parameters
+    ----------
+    data : ndarray, shape (n, columns)
+        Input rows, time [s] in the first column.
+    max_dt : float
+        Longest filter step [s].
+    k : int, optional
+        Filter steps per sample interval; default :func:`substeps` of the times of
+        ``data`` (a drive read in chunks passes the first chunk's).
+
+    Returns
+    -------
+    rows : ndarray, shape (n', columns)
+    recorded : ndarray of bool, shape (n',)
+        The rows that are samples of ``data`` (every ``k``-th).
+    k : int
     """
     t = data[:, 0]
+    if k is not None and (int(k) != k or k < 1):
+        raise ValueError(f"filter steps per sample interval must be an integer >= 1, got {k!r}")
     if len(t) < 2:
-        return data, np.ones(len(t), dtype=bool), 1
-    k = max(1, math.ceil(float(np.median(np.diff(t))) / max_dt - 1e-9))
+        return data, np.ones(len(t), dtype=bool), 1 if k is None else int(k)
+    k = substeps(t, max_dt) if k is None else int(k)
     if k == 1:
         return data, np.ones(len(t), dtype=bool), 1
     frac = np.arange(k) / k
