@@ -74,11 +74,13 @@ def test_chunks_equal_the_whole_drive(snow20, basis, linalg, extra):
     assert all(r.info is results[0].info for r in results)
 
 
-def test_sub_steps_across_the_seams_equal_the_whole_drive(snow20):
+@pytest.mark.parametrize("linalg", ["exact", "direct"])
+def test_sub_steps_across_the_seams_equal_the_whole_drive(snow20, linalg):
     """At 12.5 Hz the filter takes two steps per sample interval (``max_dt`` 0.04 s); the
-    step between two chunks interpolates from the last sample before the seam."""
+    step between two chunks interpolates from the last sample before the seam. Also
+    through the NumPy reference step (``linalg='direct'``)."""
     slow = snow20.with_data(snow20.data.iloc[::2].reset_index(drop=True))
-    cfg = GPSSMConfig(basis="separable-odd:6", particles=24)
+    cfg = GPSSMConfig(basis="separable-odd:6", particles=24, linalg=linalg)
     whole = run(slow, cfg, seed=3)
     results, parts, _ = _streamed(slow, [0, 2, 3, 100, 101, slow.n], cfg, 3)
     assert results[0].info.derived["substeps"] == 2
