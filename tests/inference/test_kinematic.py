@@ -14,8 +14,10 @@ from roadgrip.inference.kinematic import (
     KinematicEstimator,
     drive_lateral_acceleration,
     estimate_kinematics,
+    kinematic_init,
     kinematic_lateral_acceleration,
     kinematic_samples,
+    kinematics_from,
     select_lateral_acceleration,
     wheel_slips,
 )
@@ -138,6 +140,29 @@ def test_step_equals_batch(dgd):
     np.testing.assert_allclose(batch.kappa, np.array([r.kappa for r in rows]), rtol=1e-10, atol=1e-15)
     with pytest.raises(ValueError, match="time must increase"):
         est.step(next(iter(kinematic_samples(short))))
+
+
+@pytest.mark.parametrize("pose", [False, True])
+def test_blocks_from_a_state_equal_the_whole_drive(dgd, pose):
+    """A drive in consecutive blocks, each from the state the block before ended in, gives
+    the whole drive's estimates (with the pose aid the previous pose crosses the seams)."""
+    drive = dgd.slice_time(20.0, 45.0)
+    if pose:  # rear wheel speeds only: the pose gives the speed
+        drive = drive.with_data(drive.data.drop(columns=["omega_fl", "omega_fr"]))
+    whole = estimate_kinematics(drive)
+    state, parts = kinematic_init(), []
+    for a, b in ((0, 700), (700, 701), (701, drive.n)):
+        out, state = kinematics_from(state, drive.with_data(drive.data.iloc[a:b]))
+        parts.append(out)
+    for field in ("vx", "vy", "beta", "kappa", "alpha_f", "alpha_r"):
+        np.testing.assert_array_equal(np.concatenate([getattr(p, field) for p in parts]),
+                                      getattr(whole, field), err_msg=field)
+    assert state.started and state.t == drive.t[-1] and state.vx == whole.vx[-1]
+    # from a fresh state at the last seam the lateral velocity starts over from zero
+    fresh, _ = kinematics_from(kinematic_init(), drive.with_data(drive.data.iloc[701:]))
+    assert not np.array_equal(fresh.vy, whole.vy[701:])
+    with pytest.raises(ValueError, match="time must increase: the block starts at"):
+        kinematics_from(state, drive.with_data(drive.data.iloc[:10]))
 
 
 def test_pose_aid_recovers_speed_and_sideslip_on_a_circle():

@@ -57,7 +57,10 @@ brings nothing new, so ``'auto'`` keeps the accelerometer.
 
 The per-sample update is one compiled function
 (:func:`roadgrip.inference.kinematic_kernel.kinematic_update`) used by both
-the online step and the batch loop, so ``run`` equals stepping exactly.
+the online step and the batch loop, so ``run`` equals stepping exactly. The
+batch loop starts from a given state and returns the state after its last
+sample (:func:`kinematics_from`): a long drive runs in consecutive blocks with
+the estimates of one run over the whole drive.
 """
 
 from __future__ import annotations
@@ -98,6 +101,7 @@ __all__ = [
     "kinematic_params",
     "kinematic_samples",
     "kinematic_step",
+    "kinematics_from",
     "resolve_aid",
     "select_lateral_acceleration",
     "slip_v_eps",
@@ -358,10 +362,42 @@ def estimate_kinematics(
     KinematicOutput
         Arrays with leading axis time (``kappa`` shape (T, 4)).
     """
+    return kinematics_from(kinematic_init(), drive, config)[0]
+
+
+def kinematics_from(
+    state: KinematicState, drive: Drive, config: KinematicConfig = KinematicConfig()
+) -> tuple[KinematicOutput, KinematicState]:
+    """Batch estimate over a block of a drive from ``state`` (compiled loop; equals stepping).
+
+    A drive in consecutive blocks, each started from the state the block before
+    ended in (the first from :func:`kinematic_init`), gives the estimates of the
+    whole drive in one block: memory follows the block, not the drive.
+
+    Parameters
+    ----------
+    state : KinematicState
+        State before the block's first sample (its time earlier than the block's).
+    drive : Drive
+        The block's samples.
+    config : KinematicConfig
+
+    Returns
+    -------
+    output : KinematicOutput
+        Arrays with leading axis time (``kappa`` shape (T, 4)).
+    state : KinematicState
+        After the block's last sample.
+    """
     a = inputs_from_drive(drive)
+    if state.started and not a["t"][0] > state.t:
+        raise ValueError(f"time must increase: the block starts at t = {a['t'][0]} after {state.t}")
     aid = resolve_aid(drive, config)
-    vx, vy = kinematic_batch(KinematicSeries(**a), kinematic_params(drive.vehicle, config, aid))
-    return _output(vx, vy, a["yaw_rate"], a["steer"], a["omega"], drive.vehicle, config)
+    st = KinematicState(float(state.vx), float(state.vy), float(state.t), float(state.x),
+                        float(state.y), float(state.psi), bool(state.started))
+    vx, vy, end = kinematic_batch(KinematicSeries(**a), kinematic_params(drive.vehicle, config, aid), st)
+    out = _output(vx, vy, a["yaw_rate"], a["steer"], a["omega"], drive.vehicle, config)
+    return out, KinematicState(*end)
 
 
 class KinematicEstimator:

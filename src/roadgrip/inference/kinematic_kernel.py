@@ -1,8 +1,9 @@
 """Compiled update of the kinematic estimator (:mod:`roadgrip.inference.kinematic`).
 
 :func:`kinematic_update` is the one per-sample update, used by the online step
-and by the batch loop :func:`kinematic_batch`, so a batch run equals stepping
-exactly. Its arguments are three records: the state :class:`KinematicState`,
+and by the batch loop :func:`kinematic_batch` (from a given state, returning the
+state after the last sample, so that a drive can be run in consecutive blocks), so
+a batch run equals stepping exactly. Its arguments are three records: the state :class:`KinematicState`,
 the sample :class:`KinematicInput` and the parameters :class:`KinematicParams`.
 """
 
@@ -218,12 +219,17 @@ def kinematic_update(st, s, p):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def kinematic_batch(u, p):  # pragma: no cover - compiled
-    """:func:`kinematic_update` over a :class:`KinematicSeries`; returns (vx, vy), shape (T,) each."""
+def kinematic_batch(u, p, st):  # pragma: no cover - compiled
+    """:func:`kinematic_update` over a :class:`KinematicSeries` from the state ``st``.
+
+    Returns ``(vx, vy, state)``: the velocities [m/s], shape (T,) each, and the
+    :class:`KinematicState` after the last sample. A drive given in consecutive
+    blocks, each started from the state the block before ended in, gives the
+    velocities of the whole drive in one block.
+    """
     n = u.t.shape[0]
     vx_o = np.empty(n)
     vy_o = np.empty(n)
-    st = KinematicState(0.0, 0.0, np.nan, np.nan, np.nan, np.nan, False)
     for i in range(n):
         s = KinematicInput(u.t[i], u.ax[i], u.ay[i], u.yaw_rate[i], u.steer[i], u.omega[i],
                            u.x[i], u.y[i], u.psi[i], u.vx_meas[i])
@@ -231,4 +237,4 @@ def kinematic_batch(u, p):  # pragma: no cover - compiled
         st = KinematicState(vx, vy, u.t[i], u.x[i], u.y[i], u.psi[i], True)
         vx_o[i] = vx
         vy_o[i] = vy
-    return vx_o, vy_o
+    return vx_o, vy_o, st
