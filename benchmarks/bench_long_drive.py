@@ -10,14 +10,18 @@ yaw rate by what the scenarios' ends differ, as a logger restart would.
 
 Each method runs in its own process, so that its peak resident memory is its own:
 
-- ``cascade`` is streamed (:func:`roadgrip.cli.stream.stream_estimate`, 10-minute chunks,
-  estimates written as they come); after each chunk the three stages' covariances are
-  checked positive definite, and every output row's standard deviations finite and
-  positive;
-- the other methods cannot continue from a state over a block of samples
-  (:mod:`roadgrip.cli.stream`), so they run over the whole drive held in memory, as
-  ``roadgrip estimate`` without ``--stream`` does; ``gpssm`` at a few hundred samples per
-  second would need hours for one day and is only run when named, on ``--gpssm-hours``.
+- ``cascade``, ``brls`` and ``slipmap`` are streamed
+  (:func:`roadgrip.cli.stream.stream_estimate`, 10-minute chunks, estimates written as
+  they come). After each chunk: the cascade's three stages' covariances are checked
+  positive definite and every output row's standard deviations finite and positive; the
+  classifiers' rows checked to carry a grip class ('high', 'low' or 'unknown', as every
+  row of the whole run does) and a finite grip index in [0, 1], the bRLS channels'
+  covariances ``S`` positive and their estimates finite, the slip map's recursion state
+  finite with its index in [0, 1];
+- ``gpssm`` cannot continue from a state over a block of samples
+  (:mod:`roadgrip.cli.stream`), so it runs over the whole drive held in memory, as
+  ``roadgrip estimate`` without ``--stream`` does; at a few hundred samples per second it
+  would need hours for one day and is only run when named, on ``--gpssm-hours``.
 
 Throughput is compared with the same method on the first ten minutes of the drive, in
 the same process after a warm-up run (compilation excluded from both; the median of three
@@ -108,33 +112,78 @@ def min_active_eig(cov: np.ndarray) -> float:
     return float(np.linalg.eigvalsh(cov[np.ix_(active, active)]).min()) if active.any() else np.inf
 
 
+def _check_cascade(res, checks: dict) -> None:
+    """The three stages' covariances positive definite, every row's mu and its standard
+    deviations finite (and positive)."""
+    st = res.state
+    for cov in (st.velocity_cov, st.force_cov, st.friction_cov):
+        checks["min_cov_eig"] = min(checks["min_cov_eig"], min_active_eig(cov))
+    tab = res.table
+    std = tab[["mu_front_std", "mu_rear_std"]].to_numpy()
+    checks["bad_std_rows"] += int((~(np.isfinite(std) & (std > 0))).any(axis=1).sum())
+    checks["nan_mu_rows"] += int(tab[["mu_front", "mu_rear"]].isna().any(axis=1).sum())
+
+
+def _bad_class_rows(tab) -> int:
+    """Rows without a grip class or with a grip index outside [0, 1] (the whole run gives
+    every row both)."""
+    labelled = tab["grip_class"].isin(("high", "low", "unknown")).to_numpy()
+    idx = tab["grip_index"].to_numpy(float)
+    return int((~labelled | ~(np.isfinite(idx) & (idx >= 0.0) & (idx <= 1.0))).sum())
+
+
+def _check_brls(res, checks: dict) -> None:
+    """Each enabled bRLS channel's covariance ``S`` positive (a 1x1 covariance: its own
+    eigenvalue) and its estimate finite; every row classified."""
+    core, cfg = res.state.core, res.state.settings
+    for ch, s, theta in ((cfg.long, core.s_long, core.theta_long), (cfg.lat, core.s_lat, core.theta_lat)):
+        if ch.enabled:
+            checks["min_cov_eig"] = min(checks["min_cov_eig"], float(s))
+            checks["bad_state_chunks"] += int(not np.isfinite(theta))
+    checks["bad_class_rows"] += _bad_class_rows(res.table)
+
+
+def _check_slipmap(res, checks: dict) -> None:
+    """The recursion's state finite, its index in [0, 1]; every row classified."""
+    core = res.state.core
+    ok = (np.isfinite([core.f, core.f_lp, core.info, core.rate]).all() and 0.0 <= core.f_lp <= 1.0
+          and core.info >= 0.0)
+    checks["bad_state_chunks"] += int(not ok)
+    checks["bad_class_rows"] += _bad_class_rows(res.table)
+
+
+CHECKS = {
+    "cascade": lambda: {"chunks": 0, "min_cov_eig": np.inf, "bad_std_rows": 0, "nan_mu_rows": 0},
+    "brls": lambda: {"chunks": 0, "min_cov_eig": np.inf, "bad_state_chunks": 0, "bad_class_rows": 0},
+    "slipmap": lambda: {"chunks": 0, "bad_state_chunks": 0, "bad_class_rows": 0},
+}
+"""The counters of each streamed method's checks after every chunk."""
+
+STATE_CHECKS = {"cascade": _check_cascade, "brls": _check_brls, "slipmap": _check_slipmap}
+"""Each streamed method's check of a chunk's result (state and rows)."""
+
+
 def _run_one(method: str, path: str, short_path: str) -> dict:
     """In this process: warm up on the short drive, time it, then the long drive."""
-    from roadgrip.cli.stream import peak_rss_bytes, stream_estimate
+    from roadgrip.cli.stream import STREAM_METHODS, peak_rss_bytes, stream_estimate
 
     out = tempfile.mkdtemp(prefix="roadgrip-long-")
-    checks = {"chunks": 0, "min_cov_eig": np.inf, "bad_std_rows": 0, "nan_mu_rows": 0}
-    rates: list[float] = []
-    rows: list[int] = []
-    rss: list[float] = []
-    clock = [time.process_time()]
+    if method in STREAM_METHODS:
+        checks = CHECKS[method]()
+        rates: list[float] = []
+        rows: list[int] = []
+        rss: list[float] = []
+        clock = [time.process_time()]
 
-    def check(res) -> None:
-        now = time.process_time()
-        rates.append(len(res.table) / (now - clock[0]))  # read, estimate and write of one chunk
-        st = res.state
-        for cov in (st.velocity_cov, st.force_cov, st.friction_cov):
-            checks["min_cov_eig"] = min(checks["min_cov_eig"], min_active_eig(cov))
-        tab = res.table
-        std = tab[["mu_front_std", "mu_rear_std"]].to_numpy()
-        checks["bad_std_rows"] += int((~(np.isfinite(std) & (std > 0))).any(axis=1).sum())
-        checks["nan_mu_rows"] += int(tab[["mu_front", "mu_rear"]].isna().any(axis=1).sum())
-        checks["chunks"] += 1
-        rows.append(len(tab))
-        rss.append(current_rss_bytes() / 2**20)
-        clock[0] = time.process_time()
+        def check(res) -> None:
+            now = time.process_time()
+            rates.append(len(res.table) / (now - clock[0]))  # read, estimate and write of one chunk
+            STATE_CHECKS[method](res, checks)
+            checks["chunks"] += 1
+            rows.append(len(res.table))
+            rss.append(current_rss_bytes() / 2**20)
+            clock[0] = time.process_time()
 
-    if method == "cascade":
         stream_estimate(short_path, f"{out}/warm.parquet", method)
         # the short drive is one chunk: its rate against the median chunk of the long drive
         short_rates, short_cpu = [], []
@@ -223,7 +272,8 @@ def main() -> None:
             continue
         r = json.loads(proc.stdout.strip().splitlines()[-1])
         checks = {k: (round(r[k]) if k.endswith("samples_per_s") else r[k])
-                  for k in ("chunks", "min_cov_eig", "bad_std_rows", "nan_mu_rows", "missing_output_rows",
+                  for k in ("chunks", "min_cov_eig", "bad_std_rows", "nan_mu_rows", "bad_state_chunks",
+                            "bad_class_rows", "missing_output_rows",
                             "cpu_samples_per_s", "short_cpu_samples_per_s",
                             "median_chunk_samples_per_s", "first_third_samples_per_s",
                             "last_third_samples_per_s") if k in r}

@@ -1,7 +1,7 @@
-"""Long drives in chunks: the cascade streamed equals the cascade over the whole drive, the
-reader yields the file's rows without truth, `roadgrip estimate --stream` writes what the
-whole run writes, and (slow) two hours of driving run in bounded memory with positive
-definite covariances at the throughput of a short drive."""
+"""Long drives in chunks: the cascade and the two classifiers streamed equal their runs over
+the whole drive, the reader yields the file's rows without truth, `roadgrip estimate
+--stream` writes what the whole run writes, and (slow) two hours of driving run in bounded
+memory with healthy states (positive definite covariances, every row estimated once)."""
 
 from __future__ import annotations
 
@@ -20,6 +20,8 @@ from roadgrip.cli.stream import drive_chunks, stream_estimate
 from roadgrip.estimators.cascade import CascadeConfig
 from roadgrip.estimators.cascade.estimator import run as cascade_run
 from roadgrip.estimators.cascade.stream import run_chunks
+from roadgrip.estimators.classify import BRLS, SLIPMAP, Calibration
+from roadgrip.estimators.classify.stream import run_chunks as classifier_chunks
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "benchmarks" / "bench_long_drive.py"
@@ -61,6 +63,85 @@ def test_chunks_with_a_pose_differ_only_near_the_seams(dgd):
     assert np.nanmax(np.abs(parts["vx"] - whole["vx"])) < 0.05
     for col in ("mu_front", "mu_rear", "mu_front_upper", "mu_rear_lower"):
         assert np.nanmax(np.abs(parts[col] - whole[col])) < 0.01, col
+
+
+@pytest.fixture(scope="module")
+def dgd_full():
+    """The whole dry-gravel-dry drive (180 s): both classifiers change class on it."""
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    return simulate_scenario("dry-gravel-dry", seed=0)
+
+
+def _classifier_configs(vehicle):
+    """Uncalibrated and calibrated settings of each classifier, with the prefilters on (their
+    state crosses the seams) and the kinematic lateral acceleration (its dvy/dt does)."""
+    from dataclasses import replace
+
+    from roadgrip.estimators.classify.brls_config import default_config, saturation_config
+    from roadgrip.estimators.classify.grip_model import default_grip_model
+    from roadgrip.estimators.classify.slipmap_config import default_config as slipmap_default
+
+    paper = replace(default_config(), prefilter_tau_s=0.3, lateral_acceleration="kinematic")
+    fitted = saturation_config(default_grip_model(vehicle, 1.0, 0.6), lateral=True)  # braking slips too
+    slip = replace(slipmap_default(), prefilter_tau_s=0.5)
+    return {
+        "brls uncalibrated": BRLS.Config(),
+        "brls paper": BRLS.Config(calibration=Calibration(paper)),
+        "brls fitted model": BRLS.Config(calibration=Calibration(fitted)),
+        "slipmap uncalibrated": SLIPMAP.Config(),
+        "slipmap calibrated": SLIPMAP.Config(calibration=Calibration(paper, slipmap=slip)),
+    }
+
+
+CLASSIFIER_CASES = ["brls uncalibrated", "brls paper", "brls fitted model", "slipmap uncalibrated",
+                    "slipmap calibrated"]
+
+
+@pytest.mark.parametrize("case", CLASSIFIER_CASES)
+@pytest.mark.parametrize("aid", ["wheels", "pose"])
+def test_classifier_chunks_equal_the_whole_drive(dgd_full, case, aid):
+    """The kinematic stage, the prefilters, the bRLS channels and state machine or the slip
+    map's recursion continue across the seams: the chunks give the whole run's rows. With
+    the pose aid (front wheel speeds dropped) the pose and the kinematic lateral
+    acceleration's dvy/dt cross the seams too. A restart at every seam does not give them."""
+    if aid == "wheels":
+        drive = dgd_full.with_data(dgd_full.data.drop(columns=["x", "y", "psi"]))
+    else:
+        drive = dgd_full.with_data(dgd_full.data.drop(columns=["omega_fl", "omega_fr"]))
+    config = _classifier_configs(drive.vehicle)[case]
+    est = BRLS if case.startswith("brls") else SLIPMAP
+    whole = est.run(drive, config).table
+    pieces = _pieces(drive, [0, 1234, 1235, 4500, 9000, drive.n])  # uneven, one of one sample
+    results = list(classifier_chunks(pieces, config))
+    assert {r.info.derived["aid"] for r in results} == {aid}
+    parts = pd.concat([r.table for r in results], ignore_index=True)
+    assert list(parts.columns) == list(whole.columns) and len(parts) == len(whole)
+    num = whole.select_dtypes("number").columns
+    np.testing.assert_allclose(parts[num].to_numpy(float), whole[num].to_numpy(float), rtol=0, atol=1e-12)
+    other = whole.columns.difference(num)
+    assert (parts[other] == whole[other]).all().all()
+    # the comparison has power: restarted at each seam, the rows differ
+    restarted = pd.concat([next(classifier_chunks([p], config)).table for p in pieces], ignore_index=True)
+    assert not np.allclose(restarted[num].to_numpy(float), whole[num].to_numpy(float), atol=1e-6,
+                           equal_nan=True)
+
+
+def test_classifiers_change_class_on_the_drive(dgd_full):
+    """The equality above is checked over class changes, not one class held throughout."""
+    bare = dgd_full.with_data(dgd_full.data.drop(columns=["x", "y", "psi"]))
+    for case, config in _classifier_configs(bare.vehicle).items():
+        est = BRLS if case.startswith("brls") else SLIPMAP
+        cls = est.run(bare, config).table["grip_class"]
+        assert {"high", "low"} <= set(cls), case
+
+
+def test_classifier_chunks_must_follow_in_time(dgd):
+    pieces = _pieces(dgd, [0, 3000, dgd.n])
+    with pytest.raises(ValueError, match="chunks must follow each other in time"):
+        list(classifier_chunks([pieces[0], pieces[0]], SLIPMAP.Config()))
+    with pytest.raises(ValueError, match="streams the bRLS or the slip-map classifier, not a CascadeConfig"):
+        list(classifier_chunks(pieces, FIXED))
 
 
 def test_drive_chunks_read_the_rows_without_truth(dgd, tmp_path):
@@ -114,9 +195,44 @@ def test_stream_command_writes_what_the_whole_run_writes(dgd, tmp_path):
     assert len(pd.read_csv(tmp_path / "s.csv")) == dgd.n
 
 
+@pytest.mark.parametrize("method", ["brls", "slipmap"])
+def test_stream_command_runs_the_classifiers(dgd, tmp_path, method):
+    """``--stream --method brls|slipmap`` (with a calibration file for the bRLS) writes the
+    whole run's table; in several chunks too."""
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+    from roadgrip.cli.calibrate import write_calibration
+    from roadgrip.estimators import EstimateResult
+    from roadgrip.estimators.classify.brls_config import default_config
+
+    src = tmp_path / "d.parquet"
+    dgd.save(src)
+    extra = []
+    if method == "brls":
+        write_calibration(Calibration(default_config()), tmp_path / "cal.yaml")
+        extra = ["--calibration", str(tmp_path / "cal.yaml")]
+    runner = CliRunner()
+    res = runner.invoke(app, ["estimate", str(src), "--method", method, "--stream", "-o",
+                              str(tmp_path / "s.parquet"), *extra])
+    assert res.exit_code == 0, res.output
+    assert "grip class (final):" in res.output and "samples/s, peak memory" in res.output
+    res = runner.invoke(app, ["estimate", str(src), "--method", method, "-o", str(tmp_path / "w.parquet"), *extra])
+    assert res.exit_code == 0, res.output
+    streamed, whole = EstimateResult.read_parquet(tmp_path / "s.parquet"), EstimateResult.read_parquet(tmp_path / "w.parquet")
+    assert streamed.method == method and streamed.meta["derived"] == {"aid": "wheels"}
+    pd.testing.assert_frame_equal(streamed.table, whole.table)
+    options = {"calibration": Calibration(default_config())} if method == "brls" else {}
+    stats = stream_estimate(src, tmp_path / "s.csv", method, rows=1500, options=options)
+    assert stats["rows"] == dgd.n
+    chunked = pd.read_csv(tmp_path / "s.csv")
+    assert (chunked["grip_class"] == whole.table["grip_class"]).all()
+    np.testing.assert_allclose(chunked["grip_index"], whole.table["grip_index"], rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize(("extra", "message"), [
-    (["--method", "brls"], "--stream runs cascade, not 'brls'"),
-    (["--method", "gpssm"], "--stream runs cascade, not 'gpssm'"),
+    (["--method", "gpssm"], "--stream runs cascade, brls, slipmap, not 'gpssm'"),
+    (["--method", "slipmap", "--vss", "{tmp}/v.jsonl"], "--vss need the whole drive"),
     (["--method", "cascade", "--plot", "{tmp}/p.png"], "--plot need the whole drive"),
     (["--method", "cascade", "--align"], "--align need the whole drive"),
 ])
@@ -137,31 +253,53 @@ def test_stream_refuses_what_it_cannot_do_before_reading(extra, message, tmp_pat
     assert res.exit_code != 0 and message in str(res.exception), res.exception
 
 
-@pytest.mark.slow
-def test_two_hours_streamed_in_bounded_memory(tmp_path):
-    """Two hours (720 000 samples at 100 Hz): the resident memory does not grow after the
-    first hour and the peak stays below 1 GiB; the covariances of
-    all three stages are positive definite after every chunk and every row's standard
-    deviations finite and positive. The throughput against the ten-minute drive's is a speed
-figure: ``benchmarks/bench_long_drive.py`` prints it (a timed assertion here would measure the
-other tests sharing the machine)."""
+def _bench():
     spec = importlib.util.spec_from_file_location("bench_long_drive", BENCH)
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)
-    path, short = tmp_path / "long.parquet", tmp_path / "short.parquet"
+    return bench
+
+
+@pytest.fixture(scope="module")
+def two_hours(tmp_path_factory):
+    """Two hours of driving (720 000 samples at 100 Hz) and its first ten minutes."""
+    bench = _bench()
+    folder = tmp_path_factory.mktemp("long")
+    path, short = folder / "long.parquet", folder / "short.parquet"
     assert bench.write_long_drive(path, 2.0) == 720_000
     bench._short_copy(str(path), str(short))
-    proc = subprocess.run([sys.executable, str(BENCH), "--one", "cascade", str(path), str(short)],
+    return path, short
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["cascade", "brls", "slipmap"])
+def test_two_hours_streamed_in_bounded_memory(two_hours, method):
+    """Two hours streamed: the resident memory does not grow after the first hour and the
+    peak stays below 1 GiB; after every chunk the state is healthy (the cascade: the
+    covariances of all three stages positive definite and every row's standard deviations
+    finite and positive; the bRLS: both channels' covariances positive and estimates finite;
+    the slip map: its recursion finite with the index in [0, 1]) and every classifier row
+    carries a grip class and a finite grip index, as every row of the whole run does. The
+    throughput against the ten-minute drive's is a speed figure:
+    ``benchmarks/bench_long_drive.py`` prints it (a timed assertion here would measure the
+    other tests sharing the machine)."""
+    path, short = two_hours
+    proc = subprocess.run([sys.executable, str(BENCH), "--one", method, str(path), str(short)],
                           capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-2000:]
     r = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert r["rows"] == 720_000 and r["chunks"] == 12
+    assert r["mode"] == "streamed" and r["rows"] == 720_000 and r["chunks"] == 12
     assert r["peak_rss_mib"] < 1024
     # memory follows the row group (one hour here), not the length: no growth after the
     # first hour
     assert r["rss_second_half_mib"] < r["rss_first_half_mib"] + 32, r
-    assert r["min_cov_eig"] > 0 and r["bad_std_rows"] == 0 and r["nan_mu_rows"] == 0, r
-    # every row passes through the filter once: chunks neither skip nor repeat rows
+    if method == "cascade":
+        assert r["min_cov_eig"] > 0 and r["bad_std_rows"] == 0 and r["nan_mu_rows"] == 0, r
+    else:
+        assert r["bad_state_chunks"] == 0 and r["bad_class_rows"] == 0, r
+        if method == "brls":
+            assert r["min_cov_eig"] > 0, r
+    # every row passes through the estimator once: chunks neither skip nor repeat rows
     assert sum(r["chunk_rows"]) == r["rows"], r
 
 

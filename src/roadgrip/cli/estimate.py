@@ -50,7 +50,7 @@ def estimate(
     align: AlignOpt = False,
     stream: Annotated[bool, typer.Option(
         "--stream", help="Long drives: read, estimate and write in chunks of 10 min with bounded "
-        "memory (cascade, canonical Parquet drive).")] = False,
+        "memory (cascade, brls, slipmap; canonical Parquet drive).")] = False,
 ) -> None:
     """Run one estimator over a drive and write its estimates."""
     from roadgrip import estimators
@@ -125,8 +125,8 @@ def _stream(drive_path: str, output: Path, method: str, vehicle: str | None, fmt
     from roadgrip.cli.stream import STREAM_METHODS, drive_chunks, stream_estimate
 
     if method not in STREAM_METHODS:
-        raise ValueError(f"--stream runs {', '.join(STREAM_METHODS)}, not {method!r} (its batch kernel "
-                         "cannot continue from a state); run the whole drive without --stream")
+        raise ValueError(f"--stream runs {', '.join(STREAM_METHODS)}, not {method!r} (it cannot continue "
+                         "from a state over a block of samples); run the whole drive without --stream")
     given = [k for k, v in others.items() if v is not None]
     if given:
         raise ValueError(f"--stream writes the estimates only: {', '.join(given)} need the whole drive")
@@ -137,9 +137,13 @@ def _stream(drive_path: str, output: Path, method: str, vehicle: str | None, fmt
         stats = stream_estimate(drive_path, output, method, vehicle=vehicle, options=options, seed=seed,
                                 progress=advance)
     last = stats["last"]
-    for axle in ("front", "rear"):
-        console.print(f"peak friction {axle} (final): {last[f'mu_{axle}']:.3f}  "
-                      f"[{last[f'mu_{axle}_lower']:.3f}, {last[f'mu_{axle}_upper']:.3f}]", highlight=False)
+    if method == "cascade":
+        for axle in ("front", "rear"):
+            console.print(f"peak friction {axle} (final): {last[f'mu_{axle}']:.3f}  "
+                          f"[{last[f'mu_{axle}_lower']:.3f}, {last[f'mu_{axle}_upper']:.3f}]", highlight=False)
+    else:
+        console.print(f"grip class (final): {last['grip_class']}, grip index {last['grip_index']:.2f}",
+                      highlight=False)
     console.print(f"{stats['rows']} samples ({stats['duration_s'] / 3600:.2f} h) in {stats['wall_s']:.1f} s: "
                   f"{stats['samples_per_s']:.0f} samples/s, peak memory "
                   f"{stats['peak_rss_bytes'] / 2**20:.0f} MiB", highlight=False)

@@ -3,11 +3,11 @@ chunk by chunk and written as it goes, so that memory follows the chunk, not the
 
 ``roadgrip estimate --stream`` uses it; ``benchmarks/bench_long_drive.py`` measures it.
 Only the columns an estimator reads are read (no truth columns). Streaming needs an
-estimator that can continue from its state over a block of samples: the cascade
-(:mod:`roadgrip.estimators.cascade.stream`). The classifiers' kinematic stage
-(``roadgrip.inference.kinematic_kernel.kinematic_batch``) starts from a fresh state on
-every call, and the GP-SSM has no public block step from a given state, so those run on
-whole drives only.
+estimator that continues from its state over a block of samples, :data:`STREAM_METHODS`:
+the cascade (:mod:`roadgrip.estimators.cascade.stream`) and the two classifiers, bRLS
+and slip map (:mod:`roadgrip.estimators.classify.stream`). Each method's ``run_chunks``
+yields per chunk its table, its state after the chunk and what it derived from the first
+chunk. The GP-SSM has no block step from a given state, so it runs on whole drives only.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import Any
 
 import pandas as pd
 
-STREAM_METHODS = ("cascade",)
+STREAM_METHODS = ("cascade", "brls", "slipmap")
 """Methods ``--stream`` runs."""
 
 CHUNK_ROWS = 60_000
@@ -158,8 +158,9 @@ def stream_estimate(path: str | Path, output: str | Path, method: str = "cascade
     progress : callable, optional
         Called with the rows of each chunk.
     on_chunk : callable, optional
-        Called with each chunk's result (e.g. the cascade's
-        :class:`~roadgrip.estimators.cascade.stream.ChunkResult`), for checks.
+        Called with each chunk's result (``table``, ``state`` and ``info``: the cascade's
+        :class:`~roadgrip.estimators.cascade.stream.ChunkResult`, the classifiers'
+        :class:`~roadgrip.estimators.classify.stream.ClassifierChunk`), for checks.
 
     Returns
     -------
@@ -168,16 +169,19 @@ def stream_estimate(path: str | Path, output: str | Path, method: str = "cascade
         row as a dict) and ``duration_s``.
     """
     if method not in STREAM_METHODS:
-        raise ValueError(f"--stream runs {', '.join(STREAM_METHODS)}, not {method!r}: its batch "
-                         "kernel cannot continue from a state (run the whole drive without --stream)")
+        raise ValueError(f"--stream runs {', '.join(STREAM_METHODS)}, not {method!r}: it cannot "
+                         "continue from a state over a block of samples (run the whole drive without --stream)")
     import json
 
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     from roadgrip.estimators import get
-    from roadgrip.estimators.cascade.stream import run_chunks
 
+    if method == "cascade":
+        from roadgrip.estimators.cascade.stream import run_chunks
+    else:
+        from roadgrip.estimators.classify.stream import run_chunks
     est = get(method)
     config = est.Config.from_options(options or {})
     _, chunks = drive_chunks(path, vehicle, rows)

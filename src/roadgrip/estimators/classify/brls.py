@@ -95,6 +95,7 @@ from roadgrip.estimators.classify.frontend import (
     KINEMATIC,
     Front,
     FrontState,
+    first_step,
     front_batch,
     front_init,
     front_step,
@@ -119,6 +120,7 @@ __all__ = [
     "BRLS",
     "BRLSEstimatorConfig",
     "BRLSRunState",
+    "brls_block",
     "brls_table",
     "grip_of",
     "model_regressors",
@@ -290,10 +292,39 @@ def brls_table(
     the kinematic stage's output.
     """
     front = Front.for_drive(drive, config.lateral_acceleration, kin_cfg)
-    kin, ay = front_batch(drive, front)
-    (phi_long, y_long, phi_lat, y_lat), _ = model_regressors(
-        kin, drive.col("ax"), ay, drive.col("steer"), drive.vehicle, config, drive.t)
-    _, out = brls_batch(drive.t, phi_long, y_long, phi_lat, y_lat, config, dt0=FIRST_STEP_S)
+    table, kin, _ = brls_block(drive, BRLSRunState(front, config, front_init(), brls_init(config)))
+    return table, kin
+
+
+def brls_block(drive: Drive, state: BRLSRunState) -> tuple[pd.DataFrame, KinematicOutput, BRLSRunState]:
+    """The classifier over a block of samples from ``state`` (batch; equals stepping).
+
+    A whole drive is one block from :func:`init`'s state; a long drive in chunks
+    gives, chunk by chunk, the rows of the whole drive (the kinematic stage, both
+    prefilters, the bRLS channels and the state machine continue from ``state``).
+
+    Parameters
+    ----------
+    drive : Drive
+        The block's samples, later than ``state``'s.
+    state : BRLSRunState
+
+    Returns
+    -------
+    table : DataFrame
+        One row per sample (columns of :func:`brls_table`).
+    kin : KinematicOutput
+        The kinematic stage's output, arrays of shape (T,).
+    state : BRLSRunState
+        After the block's last sample.
+    """
+    config = state.settings
+    (kin, ay), front_state = front_batch(drive, state.front, state.kin)
+    dt0 = first_step(state.kin, drive.t[0])
+    (phi_long, y_long, phi_lat, y_lat), filtered = model_regressors(
+        kin, drive.col("ax"), ay, drive.col("steer"), state.front.params, config, drive.t, dt0,
+        np.asarray(state.filtered, float))
+    core, out = brls_batch(drive.t, phi_long, y_long, phi_lat, y_lat, config, state.core, dt0=dt0)
     table = pd.DataFrame({
         "t": drive.t,
         "grip_class": out.grip_class,
@@ -309,7 +340,8 @@ def brls_table(
         "vx_hat": kin.vx,
         "beta_hat": kin.beta,
     })
-    return table, kin
+    new = BRLSRunState(state.front, config, front_state, core, tuple(float(v) for v in filtered))
+    return table, kin, new
 
 
 # ---------------------------------------------------------------------------------------

@@ -3,9 +3,10 @@
 Both classifiers of paper 002 read the slips and the speed of the kinematic
 stage (:mod:`roadgrip.inference.kinematic`, the paper's ref. [26]). This module
 runs that stage sample by sample for the online step (:func:`front_step`,
-state :class:`FrontState`) and over a whole drive for the batch run
-(:func:`front_batch`); the two give the same slips, step and kinematic lateral
-acceleration.
+state :class:`FrontState`) and over a block of samples for the batch run
+(:func:`front_batch`, from a :class:`FrontState` to the one after the block: a
+whole drive is one block, a long drive streamed in chunks one block per chunk);
+the two give the same slips, step and kinematic lateral acceleration.
 """
 
 from __future__ import annotations
@@ -24,11 +25,11 @@ from roadgrip.inference.kinematic import (
     KinematicInput,
     KinematicOutput,
     KinematicState,
-    drive_lateral_acceleration,
-    estimate_kinematics,
     kinematic_init,
+    kinematic_lateral_acceleration,
     kinematic_samples,
     kinematic_step,
+    kinematics_from,
     resolve_aid,
     select_lateral_acceleration,
 )
@@ -40,6 +41,8 @@ __all__ = [
     "Front",
     "FrontBatch",
     "FrontState",
+    "classifier_info",
+    "first_step",
     "front_batch",
     "front_init",
     "front_step",
@@ -133,15 +136,49 @@ def front_step(
     return FrontState(kst, float(sample.t)), kin, dt, ay
 
 
-def front_batch(drive: Drive, front: Front) -> FrontBatch:
-    """The kinematic stage and the lateral acceleration over a whole drive (equals stepping)."""
-    kin = estimate_kinematics(drive, front.kinematic)
-    ay = drive_lateral_acceleration(drive, kin, front.lateral_acceleration, front.kinematic)
-    return FrontBatch(kin, ay)
+def first_step(state: FrontState, t0: float) -> float:
+    """Step before a block's first sample at ``t0`` [s]: from the previous sample, or
+    :data:`FIRST_STEP_S` at the start of the drive."""
+    return FIRST_STEP_S if math.isnan(state.t_prev) else float(t0) - state.t_prev
+
+
+def front_batch(drive: Drive, front: Front, state: FrontState | None = None) -> tuple[FrontBatch, FrontState]:
+    """The kinematic stage and the lateral acceleration over a block of samples (equals stepping).
+
+    Parameters
+    ----------
+    drive : Drive
+        The block (a whole drive, or a chunk of one whose samples follow ``state``'s).
+    front : Front
+    state : FrontState, optional
+        State before the block (default :func:`front_init`, the start of a drive).
+
+    Returns
+    -------
+    batch : FrontBatch
+    state : FrontState
+        After the block's last sample: the next block of the drive continues from it.
+    """
+    prev = (state if state is not None else front_init()).kin
+    kin, end = kinematics_from(prev, drive, front.kinematic)
+    r = drive.col("yaw_rate")
+    if prev.started:  # dvy/dt of the first sample from the previous block's last
+        ay_kin = kinematic_lateral_acceleration(
+            np.r_[prev.t, drive.t], np.r_[prev.vx, kin.vx], np.r_[prev.vy, kin.vy], np.r_[0.0, r])[1:]
+    else:
+        ay_kin = kinematic_lateral_acceleration(drive.t, kin.vx, kin.vy, r)
+    ay = np.asarray(select_lateral_acceleration(front.lateral_acceleration, front.aid, drive.col("ay"),
+                                                ay_kin), float)
+    return FrontBatch(kin, ay), FrontState(end, float(drive.t[-1]))
+
+
+def classifier_info(drive: Drive, lateral_acceleration: str) -> DriveInfo:
+    """What a classifier derives from a drive before its first sample: the velocity aid
+    (``derived['aid']``, from the columns present: a chunk of a drive gives the drive's)."""
+    return DriveInfo.from_drive(drive, aid=Front.for_drive(drive, lateral_acceleration, KINEMATIC).aid)
 
 
 def prepare_classifier(drive: Drive, lateral_acceleration: str) -> Prepared:
     """A classifier's ``prepare``: the drive's info (velocity aid in ``derived['aid']``) and
     its kinematic samples."""
-    aid = Front.for_drive(drive, lateral_acceleration, KINEMATIC).aid
-    return Prepared(DriveInfo.from_drive(drive, aid=aid), kinematic_samples(drive))
+    return Prepared(classifier_info(drive, lateral_acceleration), kinematic_samples(drive))

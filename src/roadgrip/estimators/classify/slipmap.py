@@ -78,6 +78,7 @@ from roadgrip.estimators.classify.frontend import (
     KINEMATIC,
     Front,
     FrontState,
+    first_step,
     front_batch,
     front_init,
     front_step,
@@ -108,7 +109,8 @@ from roadgrip.inference.kinematic import (
     drive_lateral_acceleration,
 )
 
-__all__ = ["SLIPMAP", "SlipMapEstimatorConfig", "SlipMapRunState", "calibrate_section", "slipmap_table"]
+__all__ = ["SLIPMAP", "SlipMapEstimatorConfig", "SlipMapRunState", "calibrate_section", "slipmap_block",
+           "slipmap_table"]
 
 
 @dataclass(frozen=True)
@@ -174,10 +176,39 @@ def slipmap_table(drive: Drive, config: SlipMapConfig, kin_cfg: KinematicConfig 
     [m/s], ``beta_hat`` [rad].
     """
     front = Front.for_drive(drive, config.lateral_acceleration, kin_cfg)
-    kin, ay = front_batch(drive, front)
-    ev = _filtered_evidence(drive, kin, config, kin_cfg)
-    _, out = slipmap_batch(drive.t, ev, config, dt0=FIRST_STEP_S)
-    return pd.DataFrame({
+    start = SlipMapRunState(front, config, front_init(), (0.0,) * PREFILTER_SIZE, slipmap_init())
+    return slipmap_block(drive, start)[0]
+
+
+def slipmap_block(drive: Drive, state: SlipMapRunState) -> tuple[pd.DataFrame, SlipMapRunState]:
+    """The classifier over a block of samples from ``state`` (batch; equals stepping).
+
+    A whole drive is one block from :func:`init`'s state; a long drive in chunks
+    gives, chunk by chunk, the rows of the whole drive (the kinematic stage, the
+    prefilter and the recursion of eq. 16 continue from ``state``; the evidence
+    is per sample).
+
+    Parameters
+    ----------
+    drive : Drive
+        The block's samples, later than ``state``'s.
+    state : SlipMapRunState
+
+    Returns
+    -------
+    table : DataFrame
+        One row per sample (columns of :func:`slipmap_table`).
+    state : SlipMapRunState
+        After the block's last sample.
+    """
+    config, front = state.settings, state.front
+    (kin, ay), front_state = front_batch(drive, front, state.kin)
+    dt0 = first_step(state.kin, drive.t[0])
+    kin_f, ax_f, ay_f, braking, filtered = prefilter(kin, drive.col("ax"), ay, drive.t, config.prefilter_tau_s,
+                                                     dt0, np.asarray(state.filtered, float))
+    ev = evidence_from_kinematics(kin_f, ax_f, ay_f, drive.col("steer"), front.params, config, braking)
+    core, out = slipmap_batch(drive.t, ev, config, state.core, dt0=dt0)
+    table = pd.DataFrame({
         "t": drive.t,
         "grip_class": out.grip_class,
         "grip_index": out.grip_index,
@@ -197,6 +228,7 @@ def slipmap_table(drive: Drive, config: SlipMapConfig, kin_cfg: KinematicConfig 
         "vx_hat": kin.vx,
         "beta_hat": kin.beta,
     })
+    return table, SlipMapRunState(front, config, front_state, tuple(float(v) for v in filtered), core)
 
 
 # ---------------------------------------------------------------------------------------
