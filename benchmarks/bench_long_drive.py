@@ -271,12 +271,14 @@ def main() -> None:
             print(f"{method:<8} failed: {tail}", flush=True)
             continue
         r = json.loads(proc.stdout.strip().splitlines()[-1])
-        checks = {k: (round(r[k]) if k.endswith("samples_per_s") else r[k])
+        checks = {k: (round(r[k]) if k.endswith(("samples_per_s", "_mib")) else r[k])
                   for k in ("chunks", "min_cov_eig", "bad_std_rows", "nan_mu_rows", "bad_state_chunks",
                             "bad_class_rows", "missing_output_rows",
                             "cpu_samples_per_s", "short_cpu_samples_per_s",
                             "median_chunk_samples_per_s", "first_third_samples_per_s",
-                            "last_third_samples_per_s") if k in r}
+                            "last_third_samples_per_s", "rss_first_half_mib", "rss_second_half_mib") if k in r}
+        if "chunk_rows" in r:  # every row through the estimator once
+            checks["rows_once"] = sum(r["chunk_rows"]) == r["rows"]
         print(f"{method:<8} {r['mode']:<12} {r['hours']:>6.2f} {r['rows']:>10} {r['samples_per_s']:>10.0f} "
               f"{r['short_samples_per_s']:>10.0f} {r['samples_per_s'] / r['short_samples_per_s']:>6.2f} "
               f"{r['peak_rss_mib']:>9.0f} {r['wall_s']:>9.0f}  {checks}", flush=True)
