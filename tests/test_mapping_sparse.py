@@ -155,3 +155,49 @@ def test_hexagon_map_fuses_anywhere_on_the_globe_or_refuses_naming_the_observati
     assert np.all(np.isfinite(m)) and np.all(np.isfinite(s))
     qm, _ = g.query(lat, lon)
     assert set(np.round(qm, 12)) <= set(np.round(m, 12))
+
+
+def test_a_cell_between_two_surfaces_widens_by_the_spread_of_its_neighbourhood():
+    """Three cells in a row on 0.45 | 0.6 | 0.7: the middle cell's std is its own (prior and
+    observations) plus the range 0.25 over sqrt(12); a neighbour with fewer than
+    SPREAD_MIN_OBS observations does not count, and the end cells see only the middle one."""
+    n = 20
+    x = np.repeat([0.5, 1.5, 2.5], n)
+    mu = np.repeat([0.45, 0.6, 0.7], n)
+    g = M.fuse(M.empty_grid(1.0, overdispersion=False), x, np.full(3 * n, 0.5), mu, np.full(3 * n, 0.01))
+    own_m, own_s = C.cell_posterior(g.cells, g.prior_mean, g.prior_std, False)
+    m, s = g.cell_posterior()
+    np.testing.assert_array_equal(m, own_m)
+    r = np.array([own_m[1] - own_m[0], own_m[2] - own_m[0], own_m[2] - own_m[1]])
+    np.testing.assert_allclose(s, np.sqrt(own_s**2 + r**2 / 12), rtol=1e-12)
+    assert r[1] == pytest.approx(0.25, abs=2e-3)
+    # a sparse neighbour (fewer observations than SPREAD_MIN_OBS) above it changes nothing
+    k = C.SPREAD_MIN_OBS - 1
+    g2 = M.fuse(g, np.full(k, 1.5), np.full(k, 1.5), np.full(k, 1.1), np.full(k, 0.01))
+    assert g2.cell_posterior()[1][1] == pytest.approx(s[1], rel=1e-12)
+    g3 = M.fuse(g2, [1.5], [1.5], [1.1], [0.01])
+    assert g3.cell_posterior()[1][1] > s[1] + 0.02
+    # a lone cell: its own posterior
+    lone = M.fuse(M.empty_grid(1.0), [0.5] * 3, [0.5] * 3, [0.5] * 3, [0.01] * 3)
+    np.testing.assert_allclose(lone.cell_posterior()[1], C.cell_posterior(lone.cells, 0.7, 0.4)[1], rtol=1e-12)
+
+
+def test_square_neighbours_are_the_eight_around_and_stay_inside_the_index_range():
+    key = C.square_keys([0, C.MAX_INDEX], [0, 5])
+    nb = C.square_neighbours(key)
+    ix, iy = C.square_index(nb[0])
+    assert sorted(zip(ix.tolist(), iy.tolist(), strict=True)) == [
+        (dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy]
+    ix, _ = C.square_index(nb[1])
+    assert ix.max() == C.MAX_INDEX and (nb[1] == key[1]).sum() == 3
+
+
+def test_hexagon_neighbours_share_an_edge():
+    h3 = pytest.importorskip("h3")
+    lat, lon = np.array([48.137, 48.1372]), np.array([11.575, 11.5753])
+    g = H.fuse_hex(H.empty_hexgrid(12), lat, lon, [0.5, 0.6], [0.01, 0.01])
+    nb = g.neighbour_keys()
+    assert nb.shape == (g.n_cells, 6)
+    for k, ring in zip(g.cells.key.tolist(), nb.tolist(), strict=True):
+        s = h3.int_to_str(k)
+        assert {h3.int_to_str(r) for r in ring} == set(h3.grid_ring(s, 1))

@@ -28,6 +28,16 @@ errors, model mismatch), the cell's uncertainty is inflated accordingly
 instead of shrinking as ``1 / sqrt(n)``. Cells without observations report the
 prior: a wide band, never a confident number.
 
+What a cell's number answers is the friction where cars drive inside it, and the
+observations of a cell come only from where a car was excited in it. A cell on the edge
+between two surfaces may hold observations from one side only. Its standard deviation
+therefore adds the sub-cell spread ``R / sqrt(12)`` in quadrature (the standard
+deviation of a value anywhere in a range ``R``), with ``R`` the range of the posterior
+means over the cell and its adjacent cells that hold at least
+:data:`~roadgrip.mapping.cells.SPREAD_MIN_OBS` observations (eight squares, six
+hexagons). Inside one surface ``R`` is the noise of the neighbours' means, so
+the term is conservative there. The mean is the cell's own.
+
 Forgetting (optional, for changing conditions): with a time constant ``tau``
 [s], an observation at time ``t`` enters with weight ``exp(-(t_ref - t) / tau)``
 relative to the grid's reference time ``t_ref`` (the latest observation);

@@ -22,6 +22,7 @@ Examples
 
 from __future__ import annotations
 
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
@@ -39,9 +40,11 @@ __all__ = [
     "cells_from_squares",
     "empty_cells",
     "lookup",
+    "neighbour_spread",
     "scale_cells",
     "square_index",
     "square_keys",
+    "square_neighbours",
 ]
 
 MAX_INDEX = 2**31 - 1
@@ -52,6 +55,9 @@ _LOW = np.int64(2**32 - 1)
 
 BYTES_PER_CELL = 48
 """Memory of one observed cell [bytes]: an int64 key, four float64 sums and an int64 count."""
+
+SPREAD_MIN_OBS = 5
+"""Observations a neighbouring cell needs for its mean to count in :func:`neighbour_spread`."""
 
 
 class CellSums(NamedTuple):
@@ -114,6 +120,41 @@ def square_index(key: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Inverse of :func:`square_keys`: ``(ix, iy)``."""
     key = np.asarray(key, dtype=np.int64)
     return (key & _LOW) - _OFFSET, key >> np.int64(32)
+
+
+def square_neighbours(key: ArrayLike) -> NDArray[np.int64]:
+    """Keys of the eight cells around each square cell, shape ``(k, 8)``.
+
+    A neighbour beyond :data:`MAX_INDEX` is replaced by the cell itself.
+    """
+    ix, iy = square_index(np.asarray(key, dtype=np.int64).ravel())
+    d = np.array([(dx, dy) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dx or dy], np.int64)
+    nx, ny = ix[:, None] + d[:, 0], iy[:, None] + d[:, 1]
+    inside = (np.abs(nx) <= MAX_INDEX) & (np.abs(ny) <= MAX_INDEX)
+    return square_keys(np.where(inside, nx, ix[:, None]), np.where(inside, ny, iy[:, None]))
+
+
+def neighbour_spread(c: CellSums, mean: NDArray[np.float64], neighbours: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Range of the posterior means over each cell and its observed neighbours [-], shape ``(k,)``.
+
+    Parameters
+    ----------
+    c : CellSums
+    mean : ndarray, shape (k,)
+        Posterior means of the rows of ``c``.
+    neighbours : ndarray of int64, shape (k, m)
+        Keys of the cells around each row (:func:`square_neighbours`, H3 rings); a
+        neighbour counts when it holds at least :data:`SPREAD_MIN_OBS` observations.
+    """
+    if c.size == 0:
+        return np.zeros(0)
+    row = lookup(c, neighbours)
+    ok = row >= 0
+    ok[ok] = c.n_obs[row[ok]] >= SPREAD_MIN_OBS
+    m = mean[np.where(ok, row, 0)]
+    hi = np.maximum(mean, np.where(ok, m, -np.inf).max(axis=1))
+    lo = np.minimum(mean, np.where(ok, m, np.inf).min(axis=1))
+    return hi - lo
 
 
 def _reduce(key: NDArray[np.int64], sums: tuple[NDArray[np.float64], ...], n: NDArray[np.int64]) -> CellSums:
@@ -219,9 +260,10 @@ def birge_ratio(c: CellSums) -> NDArray[np.float64]:
 
 def cell_posterior(c: CellSums, prior_mean: float, prior_std: float,
                    overdispersion: bool = True) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Posterior friction mean and standard deviation [-] of each row, shape ``(k,)``.
+    """Posterior friction mean and standard deviation [-] of each row from its own sums, shape ``(k,)``.
 
-    The model is in :mod:`roadgrip.mapping` (prior, Birge ratio, systematic part).
+    The model is in :mod:`roadgrip.mapping` (prior, Birge ratio, systematic part);
+    :meth:`CellMap.cell_posterior` adds the spread across the neighbourhood.
     """
     b = birge_ratio(c) if overdispersion else np.ones(c.size)
     p0 = 1.0 / prior_std**2
@@ -270,6 +312,23 @@ class CellMap:
         """Memory of the cell table [bytes] (:data:`BYTES_PER_CELL` a cell)."""
         return self.cells.nbytes
 
+    def neighbour_keys(self) -> NDArray[np.int64]:
+        """Keys of the cells adjacent to each observed cell, shape ``(k, m)``."""
+        raise NotImplementedError
+
     def cell_posterior(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Posterior mean and standard deviation [-] of the observed cells, each shape ``(k,)``."""
-        return cell_posterior(self.cells, self.prior_mean, self.prior_std, self.overdispersion)
+        """Posterior mean and standard deviation [-] of the observed cells, each shape ``(k,)``.
+
+        The standard deviation adds to the cell's own (:func:`cell_posterior`) the sub-cell
+        spread ``R / sqrt(12)``, with ``R`` the range of the means over the cell and its
+        observed neighbours (:func:`neighbour_spread`; :mod:`roadgrip.mapping`).
+        """
+        return self._posterior
+
+    @cached_property
+    def _posterior(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        mean, std = cell_posterior(self.cells, self.prior_mean, self.prior_std, self.overdispersion)
+        if self.cells.size == 0:
+            return mean, std
+        spread = neighbour_spread(self.cells, mean, self.neighbour_keys())
+        return mean, np.sqrt(std * std + spread * spread / 12.0)

@@ -32,6 +32,7 @@ from roadgrip.mapping.cells import (
     scale_cells,
     square_index,
     square_keys,
+    square_neighbours,
 )
 
 __all__ = ["MAX_CELLS", "MAX_COORD", "MAX_MU", "MIN_VAR", "FrictionGrid", "Observations", "empty_grid", "fuse", "merge"]
@@ -141,6 +142,10 @@ class FrictionGrid(CellMap):
     def cell_index(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         """Global indices ``(ix, iy)`` of the observed cells, each shape ``(k,)``."""
         return square_index(self.cells.key)
+
+    def neighbour_keys(self) -> NDArray[np.int64]:
+        """Keys of the eight cells around each observed cell, shape ``(k, 8)``."""
+        return square_neighbours(self.cells.key)
 
     def cell_centres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Centres ``(x, y)`` [m] of the observed cells, each shape ``(k,)``."""

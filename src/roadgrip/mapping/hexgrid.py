@@ -75,6 +75,19 @@ class HexGrid(CellMap):
             raise ValueError(f"H3 resolution must be an integer 0-15, got {self.resolution!r}")
         self._check_prior()
 
+    def neighbour_keys(self) -> NDArray[np.int64]:
+        """H3 indices of the six hexagons around each observed cell, shape ``(k, 6)``.
+
+        Around one of H3's twelve pentagons the missing sixth neighbour repeats the cell.
+        """
+        from h3.api import basic_int as h3i
+
+        out = np.empty((self.cells.size, 6), np.int64)
+        for i, k in enumerate(self.cells.key.tolist()):
+            ring = [r for r in h3i.grid_disk(k, 1) if r != k][:6]
+            out[i] = ring + [k] * (6 - len(ring))
+        return out
+
     def cell_centres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Centres ``(lat, lon)`` [deg] of the observed cells."""
         from h3.api import basic_int as h3i
