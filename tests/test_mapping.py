@@ -269,6 +269,31 @@ def test_acceptance_f1tenth_patches_two_laps(seed):
     assert std[grid.n_obs == 0].min() == pytest.approx(grid.prior_std)
 
 
+def test_f1tenth_patches_cells_against_the_truth_at_their_positions():
+    """Seeds 0-4, 0.5 m cells, cells with >= 10 observations scored against the mean true
+    friction at the axle positions inside them: >= 90 % calibrated at 95 %, and within 0.1 at
+    least as often as the ceiling (the same observations made exact) allows. The ceiling stays
+    below 90 %: a cell on a patch edge is averaged over every pass, observed only where the
+    car was excited."""
+    from roadgrip.estimators import run_estimator
+    from roadgrip.evaluate.map_truth import score_map, truth_at_observations
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    got, best = [], []
+    for seed in range(5):
+        drive = simulate_scenario("f1tenth-patches", seed)
+        tab = run_estimator("cascade", drive).table
+        for out, t in ((got, tab), (best, truth_at_observations(drive, tab))):
+            c = score_map(drive, M.grid_from_estimates(t, 0.5)).cells
+            out.append(c[(c["n_obs"] >= 10) & c["mu_true"].notna()])
+    got, best = pd.concat(got), pd.concat(best)
+    err, err_best = got["error"].abs(), best["error"].abs()
+    assert len(got) >= 50
+    assert np.mean(err <= Z95 * got["mu_std"]) >= 0.9
+    assert np.mean(err <= 0.1) >= np.mean(err_best <= 0.1) >= 0.7
+    assert err.mean() <= 0.05
+
+
 FRICTIONMAPS = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "frictionmaps"
 
 
