@@ -27,9 +27,9 @@ Printed:
   particle number, the rows with collapsed weights (ESS below 1.5 particles, the guard's
   collapse level), the resampling rate, the rows flagged ``diverged`` and the guard's
   re-initialisations; ``COLLAPSE`` is printed when any row's weights collapsed;
-- the rows whose band is not finite or does not hold its estimate (``mu_*_lower <= mu_*
-  <= mu_*_upper``, finite, for both axles, and finite positive ``vy_std``,
-  ``yaw_rate_std``).
+- the rows whose peak band is not finite or does not hold its estimate (``mu_*_lower <=
+  mu_* <= mu_*_upper``, finite, for both axles), and the rows whose ``vy_std`` or
+  ``yaw_rate_std`` is not finite or is zero.
 
 With ``--whole`` the same drive also runs whole (:func:`roadgrip.estimators.gpssm.run`,
 in its own child process): its peak memory, and whether its rows equal the streamed ones.
@@ -93,16 +93,20 @@ def _carried_bytes(obj, seen=None) -> int:
 
 
 def _bad_band_rows(tab) -> int:
-    """Rows whose axle bands are not finite or do not hold the estimate, or whose state
-    standard deviations are not finite and positive."""
+    """Rows whose axle bands are not finite or do not hold the estimate."""
     bad = np.zeros(len(tab), bool)
     for axle in ("front", "rear"):
         lo, mu, hi = (tab[c].to_numpy(float) for c in (f"mu_{axle}_lower", f"mu_{axle}", f"mu_{axle}_upper"))
         bad |= ~(np.isfinite(lo) & np.isfinite(mu) & np.isfinite(hi) & (lo <= mu) & (mu <= hi))
-    for col in ("vy_std", "yaw_rate_std"):
-        s = tab[col].to_numpy(float)
-        bad |= ~(np.isfinite(s) & (s > 0))
     return int(bad.sum())
+
+
+def _std_rows(tab) -> tuple[int, int]:
+    """Rows with a state standard deviation (``vy_std``, ``yaw_rate_std``) not finite, and
+    rows with one of zero (every particle a copy of one after a resampling from collapsed
+    weights: the particle spread is none)."""
+    s = tab[["vy_std", "yaw_rate_std"]].to_numpy(float)
+    return int((~np.isfinite(s)).any(axis=1).sum()), int((s == 0.0).any(axis=1).sum())
 
 
 def _stream(path: str, out: str, config, rows: int, on_chunk=None) -> dict:
@@ -149,7 +153,8 @@ def _run_streamed(path: str, short: str, rows: int, particles: int, out_dir: str
     s = _stream(short, f"{out_dir}/short_out.parquet", config, rows)
     rss_short = peak_rss_bytes() / 2**20
     ck = {"chunks": 0, "rows": [], "rss_mib": [], "cpu_rate": [], "wall_rate": [], "ess_min": np.inf,
-          "ess_sum": 0.0, "ess_p1": [], "collapsed_rows": 0, "bad_band_rows": 0, "resampled_rows": 0,
+          "ess_sum": 0.0, "ess_p1": [], "collapsed_rows": 0, "bad_band_rows": 0, "nonfinite_std_rows": 0,
+          "zero_std_rows": 0, "resampled_rows": 0,
           "diverged_rows": 0, "state_bytes": []}
     clock = [time.process_time(), time.perf_counter()]
 
@@ -168,6 +173,9 @@ def _run_streamed(path: str, short: str, rows: int, particles: int, out_dir: str
         ck["resampled_rows"] += int(tab["resampled"].sum())
         ck["diverged_rows"] += int(tab["diverged"].sum())
         ck["bad_band_rows"] += _bad_band_rows(tab)
+        nonfinite, zero = _std_rows(tab)
+        ck["nonfinite_std_rows"] += nonfinite
+        ck["zero_std_rows"] += zero
         ck["state_bytes"].append(_carried_bytes(res.state))
         ck["resets"] = int(res.state.filter.guard.resets)
         ck["rss_mib"].append(_rss_now_mib())
@@ -192,6 +200,7 @@ def _run_streamed(path: str, short: str, rows: int, particles: int, out_dir: str
         "ess_mean": ck["ess_sum"] / max(n, 1), "ess_min": ck["ess_min"], "ess_p1_min_chunk": min(ck["ess_p1"]),
         "collapsed_rows": ck["collapsed_rows"], "resampling_rate": ck["resampled_rows"] / max(n, 1),
         "diverged_rows": ck["diverged_rows"], "resets": ck.get("resets", 0), "bad_band_rows": ck["bad_band_rows"],
+        "nonfinite_std_rows": ck["nonfinite_std_rows"], "zero_std_rows": ck["zero_std_rows"],
         "chunks": ck["chunks"], "chunk_rows_sum": int(sum(ck["rows"])), "wall_s": long["wall_s"],
         "rss_per_chunk_mib": [round(x) for x in rss], "cpu_rate_per_chunk": [round(x) for x in rates],
         "rows_out": f"{out_dir}/long_out.parquet",
@@ -271,7 +280,9 @@ def main() -> None:
           f"lowest chunk 1st percentile {r['ess_p1_min_chunk']:.1f}; collapsed rows (ESS < {COLLAPSED_ESS}) "
           f"{r['collapsed_rows']}; resampling rate {r['resampling_rate']:.3f}; diverged rows "
           f"{r['diverged_rows']}, re-initialisations {r['resets']}{flag}")
-    print(f"bands: {r['bad_band_rows']} of {r['rows']} rows not finite or not holding the estimate")
+    print(f"bands: {r['bad_band_rows']} of {r['rows']} rows with a peak band not finite or not holding the "
+          f"estimate; state standard deviations: {r['nonfinite_std_rows']} rows not finite, "
+          f"{r['zero_std_rows']} rows zero (no particle spread after resampling from collapsed weights)")
     if args.whole:
         import pandas as pd
 
