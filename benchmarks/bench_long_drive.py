@@ -18,10 +18,12 @@ Each method runs in its own process, so that its peak resident memory is its own
   row of the whole run does) and a finite grip index in [0, 1], the bRLS channels'
   covariances ``S`` positive and their estimates finite, the slip map's recursion state
   finite with its index in [0, 1];
-- ``gpssm`` cannot continue from a state over a block of samples
-  (:mod:`roadgrip.cli.stream`), so it runs over the whole drive held in memory, as
-  ``roadgrip estimate`` without ``--stream`` does; at a few hundred samples per second it
-  would need hours for one day and is only run when named, on ``--gpssm-hours``.
+- ``gpssm`` is streamed too; after each chunk its rows are checked to carry finite peak
+  bands that hold their estimate, and the rows whose weights collapsed (effective sample
+  size below 1.5 particles) and those flagged ``diverged`` are counted (the filter's guard
+  re-initialises a diverged filter and says so in ``diverged``). At about a thousand
+  samples per second one day needs hours, so it is only run when named, on
+  ``--gpssm-hours`` (``benchmarks/bench_gpssm_stream.py`` looks at its state closer).
 
 Throughput is compared with the same method on the first ten minutes of the drive, in
 the same process after a warm-up run (compilation excluded from both; the median of three
@@ -152,14 +154,27 @@ def _check_slipmap(res, checks: dict) -> None:
     checks["bad_class_rows"] += _bad_class_rows(res.table)
 
 
+def _check_gpssm(res, checks: dict) -> None:
+    """Every row's peak bands finite and holding their estimate; collapsed and diverged rows counted."""
+    tab = res.table
+    ok = np.ones(len(tab), bool)
+    for ax in ("front", "rear"):
+        lo, mu, hi = (tab[c].to_numpy(float) for c in (f"mu_{ax}_lower", f"mu_{ax}", f"mu_{ax}_upper"))
+        ok &= np.isfinite(lo) & np.isfinite(mu) & np.isfinite(hi) & (lo <= mu) & (mu <= hi)
+    checks["bad_band_rows"] += int((~ok).sum())
+    checks["collapsed_rows"] += int((tab["ess"].to_numpy(float) < 1.5).sum())
+    checks["diverged_rows"] += int(tab["diverged"].sum())
+
+
 CHECKS = {
     "cascade": lambda: {"chunks": 0, "min_cov_eig": np.inf, "bad_std_rows": 0, "nan_mu_rows": 0},
     "brls": lambda: {"chunks": 0, "min_cov_eig": np.inf, "bad_state_chunks": 0, "bad_class_rows": 0},
     "slipmap": lambda: {"chunks": 0, "bad_state_chunks": 0, "bad_class_rows": 0},
+    "gpssm": lambda: {"chunks": 0, "bad_band_rows": 0, "collapsed_rows": 0, "diverged_rows": 0},
 }
 """The counters of each streamed method's checks after every chunk."""
 
-STATE_CHECKS = {"cascade": _check_cascade, "brls": _check_brls, "slipmap": _check_slipmap}
+STATE_CHECKS = {"cascade": _check_cascade, "brls": _check_brls, "slipmap": _check_slipmap, "gpssm": _check_gpssm}
 """Each streamed method's check of a chunk's result (state and rows)."""
 
 
@@ -273,7 +288,7 @@ def main() -> None:
         r = json.loads(proc.stdout.strip().splitlines()[-1])
         checks = {k: (round(r[k]) if k.endswith(("samples_per_s", "_mib")) else r[k])
                   for k in ("chunks", "min_cov_eig", "bad_std_rows", "nan_mu_rows", "bad_state_chunks",
-                            "bad_class_rows", "missing_output_rows",
+                            "bad_class_rows", "missing_output_rows", "bad_band_rows", "collapsed_rows", "diverged_rows",
                             "cpu_samples_per_s", "short_cpu_samples_per_s",
                             "median_chunk_samples_per_s", "first_third_samples_per_s",
                             "last_third_samples_per_s", "rss_first_half_mib", "rss_second_half_mib") if k in r}

@@ -195,6 +195,30 @@ def test_stream_command_writes_what_the_whole_run_writes(dgd, tmp_path):
     assert len(pd.read_csv(tmp_path / "s.csv")) == dgd.n
 
 
+def test_stream_command_runs_the_gpssm(dgd, tmp_path):
+    """``--stream --method gpssm`` writes the whole run's table, in several chunks too."""
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+    from roadgrip.estimators import EstimateResult, run_estimator
+
+    src = tmp_path / "d.parquet"
+    dgd.save(src)
+    opts = ["--particles", "40"]
+    res = CliRunner().invoke(app, ["estimate", str(src), "--method", "gpssm", "--stream", *opts, "-o",
+                                   str(tmp_path / "s.parquet")])
+    assert res.exit_code == 0, res.output
+    whole = run_estimator("gpssm", dgd, {"particles": 40}).table
+    streamed = EstimateResult.read_parquet(tmp_path / "s.parquet")
+    assert streamed.method == "gpssm"
+    pd.testing.assert_frame_equal(streamed.table, whole)
+    stats = stream_estimate(src, tmp_path / "s.csv", "gpssm", rows=1500, options={"particles": 40})
+    assert stats["rows"] == dgd.n
+    chunked = pd.read_csv(tmp_path / "s.csv")
+    for col in ("mu_front", "mu_rear_lower", "mu_rear_upper", "vy", "ess"):
+        np.testing.assert_allclose(chunked[col], whole[col], rtol=1e-12, equal_nan=True)
+
+
 @pytest.mark.parametrize("method", ["brls", "slipmap"])
 def test_stream_command_runs_the_classifiers(dgd, tmp_path, method):
     """``--stream --method brls|slipmap`` (with a calibration file for the bRLS) writes the
@@ -231,7 +255,7 @@ def test_stream_command_runs_the_classifiers(dgd, tmp_path, method):
 
 
 @pytest.mark.parametrize(("extra", "message"), [
-    (["--method", "gpssm"], "--stream runs cascade, brls, slipmap, not 'gpssm'"),
+    (["--method", "gpssm", "--curves", "{tmp}/c.parquet"], "--curves need the whole drive"),
     (["--method", "slipmap", "--vss", "{tmp}/v.jsonl"], "--vss need the whole drive"),
     (["--method", "cascade", "--plot", "{tmp}/p.png"], "--plot need the whole drive"),
     (["--method", "cascade", "--align"], "--align need the whole drive"),

@@ -50,7 +50,7 @@ def estimate(
     align: AlignOpt = False,
     stream: Annotated[bool, typer.Option(
         "--stream", help="Long drives: read, estimate and write in chunks of 10 min with bounded "
-        "memory (cascade, brls, slipmap; canonical Parquet drive).")] = False,
+        "memory (every method; canonical Parquet drive).")] = False,
 ) -> None:
     """Run one estimator over a drive and write its estimates."""
     from roadgrip import estimators

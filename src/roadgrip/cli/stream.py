@@ -4,10 +4,12 @@ chunk by chunk and written as it goes, so that memory follows the chunk, not the
 ``roadgrip estimate --stream`` uses it; ``benchmarks/bench_long_drive.py`` measures it.
 Only the columns an estimator reads are read (no truth columns). Streaming needs an
 estimator that continues from its state over a block of samples, :data:`STREAM_METHODS`:
-the cascade (:mod:`roadgrip.estimators.cascade.stream`) and the two classifiers, bRLS
-and slip map (:mod:`roadgrip.estimators.classify.stream`). Each method's ``run_chunks``
-yields per chunk its table, its state after the chunk and what it derived from the first
-chunk. The GP-SSM has no block step from a given state, so it runs on whole drives only.
+the cascade (:mod:`roadgrip.estimators.cascade.stream`), the two classifiers, bRLS
+and slip map (:mod:`roadgrip.estimators.classify.stream`), and the GP-SSM
+(:mod:`roadgrip.estimators.gpssm.stream`). Each method's ``run_chunks`` yields per chunk
+its table, its state after the chunk and what it derived from the first chunk. Streamed,
+the GP-SSM writes its estimates table; its posterior curves (``--curves``) need the whole
+drive.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from typing import Any
 
 import pandas as pd
 
-STREAM_METHODS = ("cascade", "brls", "slipmap")
+STREAM_METHODS = ("cascade", "brls", "slipmap", "gpssm")
 """Methods ``--stream`` runs."""
 
 CHUNK_ROWS = 60_000
@@ -180,6 +182,8 @@ def stream_estimate(path: str | Path, output: str | Path, method: str = "cascade
 
     if method == "cascade":
         from roadgrip.estimators.cascade.stream import run_chunks
+    elif method == "gpssm":
+        from roadgrip.estimators.gpssm.stream import run_chunks
     else:
         from roadgrip.estimators.classify.stream import run_chunks
     est = get(method)
