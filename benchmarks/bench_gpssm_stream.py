@@ -69,29 +69,6 @@ def _rss_now_mib() -> float:
         return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
 
 
-def _carried_bytes(obj, seen=None) -> int:
-    """Bytes of the arrays (and of the guard's window, 8 a value) reachable from a
-    :class:`~roadgrip.estimators.gpssm.stream.StreamState`, each array once."""
-    from roadgrip.estimators.gpssm.guard import Guard
-    from roadgrip.estimators.gpssm.state import Context
-
-    seen = set() if seen is None else seen
-    if id(obj) in seen:
-        return 0
-    seen.add(id(obj))
-    if isinstance(obj, np.ndarray):
-        return obj.nbytes if obj.base is None or id(obj.base) not in seen else 0
-    if isinstance(obj, Guard):
-        return 8 * (len(obj.times) + len(obj.ay))
-    if isinstance(obj, Context):
-        return _carried_bytes(obj.kernel, seen)
-    if isinstance(obj, dict):
-        return sum(_carried_bytes(v, seen) for v in obj.values())
-    if isinstance(obj, tuple | list):
-        return sum(_carried_bytes(v, seen) for v in obj)
-    return 0
-
-
 def _bad_band_rows(tab) -> int:
     """Rows whose axle bands are not finite or do not hold the estimate."""
     bad = np.zeros(len(tab), bool)
@@ -141,6 +118,7 @@ def _run_streamed(path: str, short: str, rows: int, particles: int, out_dir: str
     """In this process: warm up, the short drive, then the long drive streamed."""
     from roadgrip.cli.stream import peak_rss_bytes
     from roadgrip.estimators.gpssm import GPSSMConfig
+    from roadgrip.estimators.gpssm.stream import carried_bytes
 
     config = GPSSMConfig(particles=particles)
     warm = f"{out_dir}/warm.parquet"
@@ -176,7 +154,7 @@ def _run_streamed(path: str, short: str, rows: int, particles: int, out_dir: str
         nonfinite, zero = _std_rows(tab)
         ck["nonfinite_std_rows"] += nonfinite
         ck["zero_std_rows"] += zero
-        ck["state_bytes"].append(_carried_bytes(res.state))
+        ck["state_bytes"].append(carried_bytes(res.state))
         ck["resets"] = int(res.state.filter.guard.resets)
         ck["rss_mib"].append(_rss_now_mib())
         clock[0], clock[1] = time.process_time(), time.perf_counter()

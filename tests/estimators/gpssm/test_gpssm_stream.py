@@ -12,9 +12,8 @@ import pandas as pd
 import pytest
 
 from roadgrip.estimators.gpssm import GPSSMConfig, curves_frame, run, run_filter
-from roadgrip.estimators.gpssm.guard import FLOOR_WINDOW, Guard
-from roadgrip.estimators.gpssm.state import Context
-from roadgrip.estimators.gpssm.stream import pending_curves, run_chunk, run_chunks
+from roadgrip.estimators.gpssm.guard import FLOOR_WINDOW
+from roadgrip.estimators.gpssm.stream import carried_bytes, pending_curves, run_chunk, run_chunks
 from roadgrip.sim.scenarios import simulate_scenario
 
 
@@ -98,26 +97,6 @@ def test_a_state_handed_back_resumes_where_it_was(snow20):
     pd.testing.assert_frame_equal(run_chunk(again.state, pieces[2]).table, results[2].table, check_exact=True)
 
 
-def _carried(obj, seen=None):
-    """Bytes of the arrays (and the guard's window, 8 bytes a value) reachable from a
-    stream state, each array counted once."""
-    seen = set() if seen is None else seen
-    if id(obj) in seen:
-        return 0
-    seen.add(id(obj))
-    if isinstance(obj, np.ndarray):
-        return obj.nbytes if obj.base is None or id(obj.base) not in seen else 0
-    if isinstance(obj, Guard):
-        return 8 * (len(obj.times) + len(obj.ay))
-    if isinstance(obj, Context):
-        return _carried(obj.kernel, seen)
-    if isinstance(obj, dict):
-        return sum(_carried(v, seen) for v in obj.values())
-    if isinstance(obj, tuple | list):
-        return sum(_carried(v, seen) for v in obj)
-    return 0
-
-
 def test_the_carried_state_does_not_grow_with_the_chunks(snow20):
     """Sixty chunks of about eight samples: after the first second (the guard's window
     filled) what passes between chunks has the same size after every chunk, and no more
@@ -126,14 +105,14 @@ def test_the_carried_state_does_not_grow_with_the_chunks(snow20):
     edges = np.linspace(0, snow20.n, 61).astype(int)
     sizes, windows = [], []
     for r in run_chunks(_pieces(snow20, edges), cfg, seed=0):
-        sizes.append(_carried(r.state))
+        sizes.append(carried_bytes(r.state))
         windows.append(len(r.state.filter.guard.times))
         assert r.state.filter.k == r.state.tally.rows  # one step per sample so far, none kept
     rate = snow20.n / snow20.duration
     assert max(windows) <= FLOOR_WINDOW * rate + 1
     assert len(set(sizes[5:])) == 1, sizes
     (long,) = list(run_chunks(_pieces(snow20, [0, snow20.n]), cfg, seed=0))[-1:]
-    assert sizes[-1] == _carried(long.state)
+    assert sizes[-1] == carried_bytes(long.state)
 
 
 def test_bad_chunks_are_named(snow20):

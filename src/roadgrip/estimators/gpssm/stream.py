@@ -33,12 +33,14 @@ from numpy.typing import NDArray
 from roadgrip.blas_threads import one_blas_thread
 from roadgrip.estimators.gpssm.config import GPSSMConfig
 from roadgrip.estimators.gpssm.estimator import rows_table, run_block
+from roadgrip.estimators.gpssm.guard import Guard
 from roadgrip.estimators.gpssm.inputs import drive_inputs, substeps, upsample_inputs
 from roadgrip.estimators.gpssm.posterior import CurvePosterior, posterior_curves
 from roadgrip.estimators.gpssm.state import Context, GPSSMState, copy_state
 from roadgrip.estimators.protocol import DriveInfo
 
-__all__ = ["ChunkResult", "StreamState", "Tally", "begin", "pending_curves", "run_chunk", "run_chunks"]
+__all__ = ["ChunkResult", "StreamState", "Tally", "begin", "carried_bytes", "pending_curves", "run_chunk",
+           "run_chunks"]
 
 
 class Tally(NamedTuple):
@@ -259,3 +261,27 @@ def run_chunks(chunks: Iterable[Any], config: GPSSMConfig | None = None, seed: i
         res = run_chunk(state, chunk)
         state = res.state
         yield res
+
+
+def carried_bytes(obj: Any, _seen: set[int] | None = None) -> int:
+    """Bytes a :class:`StreamState` carries to the next chunk [B].
+
+    The arrays reachable from it, each counted once (a view of an array already counted
+    adds nothing), and the guard's trailing window at 8 bytes a value; other Python
+    objects count nothing. What must not grow with the number of chunks.
+    """
+    seen = set() if _seen is None else _seen
+    if id(obj) in seen:
+        return 0
+    seen.add(id(obj))
+    if isinstance(obj, np.ndarray):
+        return obj.nbytes if obj.base is None or id(obj.base) not in seen else 0
+    if isinstance(obj, Guard):
+        return 8 * (len(obj.times) + len(obj.ay))
+    if isinstance(obj, Context):
+        return carried_bytes(obj.kernel, seen)
+    if isinstance(obj, dict):
+        return sum(carried_bytes(v, seen) for v in obj.values())
+    if isinstance(obj, tuple | list):
+        return sum(carried_bytes(v, seen) for v in obj)
+    return 0
