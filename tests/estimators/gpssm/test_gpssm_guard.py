@@ -64,3 +64,30 @@ def test_no_upper_bound_below_the_sustained_lateral_acceleration():
         assert (late[f"mu_{axle}_upper"] >= 0.6 - 1e-12).all()
         assert (late[f"mu_{axle}"] >= 0.6 / late["ay_gain"] - 1e-12).all()
     assert (t.loc[t["t"] < 0.9, "floor"] == 0.0).all()
+
+
+def test_collapsed_weights_report_the_yaw_rate_as_well_as_the_gyro_reads_it(snow20):
+    """Resampling from an effective sample size near 1 leaves copies of one particle, whose
+    spread is 0 (and stays near 0 for some steps, at equal weights): the reported
+    yaw_rate_std is then at least the gyro's noise, in the online
+    step and in the compiled run (a gyro noise assumed 100 times too small collapses the
+    weights again and again)."""
+    d = snow20.slice_time(0.0, 8.0)
+    cfg = _cfg(d, "separable-odd:6", n=24)
+    f = GPSSM(cfg, d.vehicle, seed=0)
+    samples = _samples(d)
+    for s in samples[:50]:
+        f.step(s)
+    f.state_.logw[:] = -np.inf
+    f.state_.logw[0] = 0.0
+    est = f.step(samples[50])
+    assert est.ess < 1.5
+    assert est.yaw_rate_std >= cfg.sigma_yaw_rate
+    sharp = _cfg(d, "separable-odd:6", n=24, sigma_yaw_rate=1e-4)
+    table, _ = run_filter(d, sharp, seed=0)
+    collapsed = table["ess"].to_numpy() < 1.5
+    assert collapsed.sum() >= 10
+    assert (table["yaw_rate_std"].to_numpy()[collapsed] >= sharp.sigma_yaw_rate).all()
+    # and the steps after, whose copies share equal weights: no spread below the gyro's
+    std = table["yaw_rate_std"].to_numpy()
+    assert (std >= 0.01 * sharp.sigma_yaw_rate).all()

@@ -64,7 +64,7 @@ from roadgrip.estimators.gpssm.block_ops import (
     _refactored_posterior,
     _resample,
 )
-from roadgrip.estimators.gpssm.guard import _ESS_COLLAPSED, _YAW_SIGMAS, FLOOR_WINDOW
+from roadgrip.estimators.gpssm.guard import _COPIES, _ESS_COLLAPSED, _YAW_SIGMAS, FLOOR_WINDOW
 from roadgrip.estimators.gpssm.kernel_ops import (
     PeakGrid,
     PeakParams,
@@ -433,6 +433,8 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
     if diverged and not measured:
         vy_std = max(vy_std, cst.sigma_vy0, abs(e_vy))
     row[2] = vy_std
+    if ess < _ESS_COLLAPSED or e_yr_std < _COPIES * cst.sigma_r:
+        row[4] = max(e_yr_std, cst.sigma_r)  # copies of one particle: no spread (guard docstring)
     row[23] = 1.0 if diverged else 0.0
     row[24] = floor_raw
     for ax in range(2):

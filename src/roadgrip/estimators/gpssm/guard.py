@@ -28,6 +28,13 @@ Lateral-velocity band
     Without a measured lateral velocity the particle spread after resampling
     under-represents the error of ``vy``: ``vy_std`` includes ``slip_sigma |vx|`` in
     quadrature (the slip-angle error the curve band assumes too).
+Collapsed weights
+    A step whose effective sample size is below 1.5 particles resamples copies of one
+    particle, whose spread says nothing, and the copies stay nearly equal for some steps
+    after (equal weights, so a fine effective sample size). Such a step, or one whose
+    yaw-rate spread is below a hundredth of the gyro's noise, reports ``yaw_rate_std``
+    of at least the gyro's noise ``sigma_yaw_rate``: the yaw rate is then known as well
+    as the gyro reads it, not better.
 """
 
 from __future__ import annotations
@@ -46,6 +53,8 @@ FLOOR_WINDOW = 1.0
 """Window [s] of the sustained lateral acceleration of the physics floor."""
 
 _ESS_COLLAPSED = 1.5
+_COPIES = 0.01
+"""A yaw-rate spread below this fraction of the gyro's noise is copies of one particle."""
 _YAW_SIGMAS = 5.0
 
 
@@ -113,7 +122,7 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
     Returns
     -------
     GPSSMEstimate
-        With ``diverged``, ``floor``, the widened ``vy_std`` and the bands.
+        With ``diverged``, ``floor``, the widened ``vy_std`` and ``yaw_rate_std`` and the bands.
     """
     config = ctx.config
     g = state.guard
@@ -152,7 +161,10 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
     if diverged and not measured_vy:
         # the lateral state is unknown: its band as wide as the start's, or the estimate
         vy_std = max(vy_std, config.sigma_vy0, abs(est.vy))
-    rep = {"vy_std": vy_std, "diverged": diverged, "floor": g.floor_raw}
+    yaw_std = est.yaw_rate_std
+    if est.ess < _ESS_COLLAPSED or yaw_std < _COPIES * ctx.sigma_yaw_rate:
+        yaw_std = max(yaw_std, ctx.sigma_yaw_rate)
+    rep = {"vy_std": vy_std, "yaw_rate_std": yaw_std, "diverged": diverged, "floor": g.floor_raw}
     for axle in ("front", "rear"):
         obs = getattr(est, f"peak_observed_{axle}")
         mu = getattr(est, f"mu_{axle}")
