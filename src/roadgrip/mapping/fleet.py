@@ -236,10 +236,10 @@ def fleet_map(
     processes : bool
         Local workers as processes (``False``: threads of this process).
     partitions : int, optional
-        Number of tasks the drives are split into (default four per worker thread, at most one
-        per drive: fewer, longer tasks spend less on scheduling, and four per thread keep the
-        workers evenly loaded); each task merges its drives, then the task maps are merged in
-        a tree.
+        Number of tasks the drives are split into (default one per drive, at most 64 per worker
+        thread: a drive takes a tenth of a second or more, against milliseconds of scheduling,
+        and small tasks keep the workers evenly loaded to the end); each task merges its
+        drives, then the task maps are merged in a tree.
     start_times : dict, optional
         Start time [s] by position in ``sources`` (overrides the drives' own).
 
@@ -265,7 +265,7 @@ def fleet_map(
             own = client = Client(cluster)
     try:
         threads = sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()) or 1
-        k = 4 * threads if partitions is None else int(partitions)
+        k = 64 * threads if partitions is None else int(partitions)
         chunks = [c.tolist() for c in np.array_split(np.arange(len(items)), max(1, min(k, len(items))))]
         futures = [client.submit(_part_list, [items[i] for i in c], config, st, pure=False) for c in chunks]
         while len(futures) > 1:  # tree reduction, pairs of partial maps
