@@ -49,13 +49,10 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-COLLAPSED_ESS = 1.5
-"""Effective sample size [particles] below which the weights count as collapsed (the
-guard's level, :mod:`roadgrip.estimators.gpssm.guard`)."""
 
 
 def _long_drive_bench():
-    """``benchmarks/bench_long_drive.py`` as a module (its drive builder)."""
+    """``benchmarks/bench_long_drive.py`` as a module (its drive builder and row checks)."""
     spec = importlib.util.spec_from_file_location("bench_long_drive", HERE / "bench_long_drive.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
@@ -67,15 +64,6 @@ def _rss_now_mib() -> float:
 
     with open("/proc/self/statm") as fh:
         return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
-
-
-def _bad_band_rows(tab) -> int:
-    """Rows whose axle bands are not finite or do not hold the estimate."""
-    bad = np.zeros(len(tab), bool)
-    for axle in ("front", "rear"):
-        lo, mu, hi = (tab[c].to_numpy(float) for c in (f"mu_{axle}_lower", f"mu_{axle}", f"mu_{axle}_upper"))
-        bad |= ~(np.isfinite(lo) & np.isfinite(mu) & np.isfinite(hi) & (lo <= mu) & (mu <= hi))
-    return int(bad.sum())
 
 
 def _std_rows(tab) -> tuple[int, int]:
@@ -122,7 +110,7 @@ def _run_streamed(path: str, short: str, rows: int, particles: int, out_dir: str
 
     config = GPSSMConfig(particles=particles)
     warm = f"{out_dir}/warm.parquet"
-    _long_drive_bench()  # the import the parent made, so both processes hold the same modules
+    ld = _long_drive_bench()  # the import the parent made, so both processes hold the same modules
     import pyarrow.parquet as pq
 
     pf = pq.ParquetFile(short)
@@ -147,10 +135,10 @@ def _run_streamed(path: str, short: str, rows: int, particles: int, out_dir: str
         ck["ess_min"] = min(ck["ess_min"], float(ess.min()))
         ck["ess_sum"] += float(ess.sum())
         ck["ess_p1"].append(float(np.percentile(ess, 1)))
-        ck["collapsed_rows"] += int((ess < COLLAPSED_ESS).sum())
+        ck["collapsed_rows"] += int((ess < ld.COLLAPSED_ESS).sum())
         ck["resampled_rows"] += int(tab["resampled"].sum())
         ck["diverged_rows"] += int(tab["diverged"].sum())
-        ck["bad_band_rows"] += _bad_band_rows(tab)
+        ck["bad_band_rows"] += ld.bad_band_rows(tab)
         nonfinite, zero = _std_rows(tab)
         ck["nonfinite_std_rows"] += nonfinite
         ck["zero_std_rows"] += zero
@@ -255,7 +243,7 @@ def main() -> None:
           f"{day / r['cpu_samples_per_s'] / 3600:.1f} h of one core")
     flag = "  COLLAPSE" if r["collapsed_rows"] else ""
     print(f"particles ({r['particles']}): ESS mean {r['ess_mean']:.1f}, min {r['ess_min']:.2f}, "
-          f"lowest chunk 1st percentile {r['ess_p1_min_chunk']:.1f}; collapsed rows (ESS < {COLLAPSED_ESS}) "
+          f"lowest chunk 1st percentile {r['ess_p1_min_chunk']:.1f}; collapsed rows (ESS < {bench.COLLAPSED_ESS}) "
           f"{r['collapsed_rows']}; resampling rate {r['resampling_rate']:.3f}; diverged rows "
           f"{r['diverged_rows']}, re-initialisations {r['resets']}{flag}")
     print(f"bands: {r['bad_band_rows']} of {r['rows']} rows with a peak band not finite or not holding the "

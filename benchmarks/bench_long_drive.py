@@ -154,15 +154,25 @@ def _check_slipmap(res, checks: dict) -> None:
     checks["bad_class_rows"] += _bad_class_rows(res.table)
 
 
+COLLAPSED_ESS = 1.5
+"""Effective sample size [particles] below which the GP-SSM's weights count as collapsed
+(the guard's level, :mod:`roadgrip.estimators.gpssm.guard`)."""
+
+
+def bad_band_rows(tab) -> int:
+    """Rows whose axle bands are not finite or do not hold the estimate."""
+    bad = np.zeros(len(tab), bool)
+    for axle in ("front", "rear"):
+        lo, mu, hi = (tab[c].to_numpy(float) for c in (f"mu_{axle}_lower", f"mu_{axle}", f"mu_{axle}_upper"))
+        bad |= ~(np.isfinite(lo) & np.isfinite(mu) & np.isfinite(hi) & (lo <= mu) & (mu <= hi))
+    return int(bad.sum())
+
+
 def _check_gpssm(res, checks: dict) -> None:
     """Every row's peak bands finite and holding their estimate; collapsed and diverged rows counted."""
     tab = res.table
-    ok = np.ones(len(tab), bool)
-    for ax in ("front", "rear"):
-        lo, mu, hi = (tab[c].to_numpy(float) for c in (f"mu_{ax}_lower", f"mu_{ax}", f"mu_{ax}_upper"))
-        ok &= np.isfinite(lo) & np.isfinite(mu) & np.isfinite(hi) & (lo <= mu) & (mu <= hi)
-    checks["bad_band_rows"] += int((~ok).sum())
-    checks["collapsed_rows"] += int((tab["ess"].to_numpy(float) < 1.5).sum())
+    checks["bad_band_rows"] += bad_band_rows(tab)
+    checks["collapsed_rows"] += int((tab["ess"].to_numpy(float) < COLLAPSED_ESS).sum())
     checks["diverged_rows"] += int(tab["diverged"].sum())
 
 
@@ -217,7 +227,7 @@ def _run_one(method: str, path: str, short_path: str) -> dict:
                 "samples_per_s": long["samples_per_s"], "short_samples_per_s": short,
                 "cpu_samples_per_s": long["rows"] / cpu, "short_cpu_samples_per_s": float(np.median(short_cpu)),
                 "median_chunk_samples_per_s": float(np.median(rates)), "chunk_rates": [round(x) for x in rates], "chunk_rows": rows,
-                "rss_first_half_mib": max(rss[: len(rss) // 2]), "rss_second_half_mib": max(rss[len(rss) // 2:]),
+                "rss_first_half_mib": max(rss[: max(len(rss) // 2, 1)]), "rss_second_half_mib": max(rss[len(rss) // 2:]),
                 "first_third_samples_per_s": float(np.median(rates[:third])),
                 "last_third_samples_per_s": float(np.median(rates[-third:])),
                 "peak_rss_mib": long["peak_rss_bytes"] / 2**20, "rss_after_short_mib": rss_short / 2**20,
