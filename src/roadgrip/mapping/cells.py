@@ -321,14 +321,17 @@ class CellMap:
 
         The standard deviation adds to the cell's own (:func:`cell_posterior`) the sub-cell
         spread ``R / sqrt(12)``, with ``R`` the range of the means over the cell and its
-        observed neighbours (:func:`neighbour_spread`; :mod:`roadgrip.mapping`).
+        observed neighbours (:func:`neighbour_spread`; :mod:`roadgrip.mapping`). Computed
+        once per map; the arrays are read-only.
         """
         return self._posterior
 
     @cached_property
     def _posterior(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         mean, std = cell_posterior(self.cells, self.prior_mean, self.prior_std, self.overdispersion)
-        if self.cells.size == 0:
-            return mean, std
-        spread = neighbour_spread(self.cells, mean, self.neighbour_keys())
-        return mean, np.sqrt(std * std + spread * spread / 12.0)
+        if self.cells.size:
+            spread = neighbour_spread(self.cells, mean, self.neighbour_keys())
+            std = np.sqrt(std * std + spread * spread / 12.0)
+        for a in (mean, std):
+            a.setflags(write=False)
+        return mean, std
