@@ -113,21 +113,19 @@ def truth_of_cells(paths: list[str], cell: float) -> pd.Series:
 def ceiling_map(paths: list[str], starts: pd.Series):
     """The fleet map with every observation exact: the cascade's observations of each drive carrying
     the true friction under their axle (:func:`roadgrip.evaluate.map_truth.truth_at_observations`),
-    fused as :func:`roadgrip.mapping.fleet.drive_part` fuses them (start times from the fleet run)."""
+    fused as the fleet map fuses them (:func:`roadgrip.mapping.fleet.square_map`, start times from the fleet run)."""
     from roadgrip.estimators import run_estimator
     from roadgrip.evaluate.map_truth import truth_at_observations
     from roadgrip.io import read_drive
-    from roadgrip.mapping import empty_grid, fuse, merge, observations_from_estimates
-    from roadgrip.mapping.fleet import FleetConfig
+    from roadgrip.mapping import merge
+    from roadgrip.mapping.fleet import FleetConfig, square_map
 
     cfg = FleetConfig()
     maps = []
     for p in paths:
         d = read_drive(p, vehicle=cfg.vehicle)
         tab = truth_at_observations(d, run_estimator(cfg.method, d, dict(cfg.options), seed=cfg.seed).table)
-        obs = observations_from_estimates(tab, cfg.cell)
-        maps.append(fuse(empty_grid(cfg.cell, cfg.prior_mean, cfg.prior_std, cfg.tau), obs.x, obs.y, obs.mu,
-                         obs.var, t=obs.t + float(starts[p]), sys=obs.sys))
+        maps.append(square_map(tab, cfg, float(starts[p])))
     return merge(*maps)
 
 

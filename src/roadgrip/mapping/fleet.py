@@ -42,7 +42,8 @@ from roadgrip.mapping.estimates import observations_from_estimates
 from roadgrip.mapping.grid import FrictionGrid, empty_grid, fuse, merge
 from roadgrip.mapping.hexgrid import HexGrid, empty_hexgrid, fuse_hex, merge_hex
 
-__all__ = ["FleetConfig", "FleetPart", "drive_part", "fleet_map", "merge_parts", "sequential_fleet_map"]
+__all__ = ["FleetConfig", "FleetPart", "drive_part", "fleet_map", "merge_parts", "sequential_fleet_map",
+           "square_map"]
 
 _UNIX_TIME = 1e8  # a drive whose t starts above this [s] is taken to carry Unix time
 
@@ -171,12 +172,19 @@ def drive_part(source: Any, config: FleetConfig, start_time: float | None = None
                             origin=tuple(map(float, config.origin))), x, y, obs.mu, obs.var, t=obs.t + start,
                  sys=obs.sys)
     else:
-        obs = observations_from_estimates(table, config.cell)
-        m = fuse(empty_grid(config.cell, config.prior_mean, config.prior_std, config.tau),
-                 obs.x, obs.y, obs.mu, obs.var, t=obs.t + start, sys=obs.sys)
-    stats = pd.DataFrame({"source": [name], "samples": [drive.n], "observations": [len(obs.mu)],
+        m = square_map(table, config, start)
+    stats = pd.DataFrame({"source": [name], "samples": [drive.n], "observations": [int(m.cells.n_obs.sum())],
                           "start_time": [start], "seconds": [time.perf_counter() - t0], "cells": [kind]})
     return FleetPart(m, stats)
+
+
+def square_map(table: pd.DataFrame, config: FleetConfig, start: float = 0.0) -> FrictionGrid:
+    """The square-cell map of one drive's estimates in its pose frame, as :func:`drive_part` fuses
+    them: :func:`~roadgrip.mapping.estimates.observations_from_estimates` with the grip-used
+    check, the fleet's prior and forgetting, observation times shifted by ``start`` [s]."""
+    obs = observations_from_estimates(table, config.cell)
+    return fuse(empty_grid(config.cell, config.prior_mean, config.prior_std, config.tau),
+                obs.x, obs.y, obs.mu, obs.var, t=obs.t + start, sys=obs.sys)
 
 
 def merge_parts(parts: list[FleetPart] | tuple[FleetPart, ...]) -> FleetPart:
