@@ -207,6 +207,9 @@ def _run_one(method: str, path: str, short_path: str) -> dict:
             checks["chunks"] += 1
             rows.append(len(res.table))
             rss.append(current_rss_bytes() / 2**20)
+            # progress on stderr (a run of hours leaves its figures so far if it is stopped)
+            print(f"# {method} chunk {checks['chunks']}: {sum(rows)} rows, {rates[-1]:.0f} samples per CPU s, "
+                  f"{rss[-1]:.0f} MiB, {checks}", file=sys.stderr, flush=True)
             clock[0] = time.process_time()
 
         stream_estimate(short_path, f"{out}/warm.parquet", method)
@@ -289,11 +292,11 @@ def main() -> None:
             print(f"# wrote {path}: {rows} rows in {time.perf_counter() - t0:.0f} s", flush=True)
             files[hours] = (path, short)
         path, short = files[hours]
+        # stderr passes through (the per-chunk progress)
         proc = subprocess.run([sys.executable, __file__, "--one", method, path, short],
-                              capture_output=True, text=True)
+                              stdout=subprocess.PIPE, text=True)
         if proc.returncode != 0:
-            tail = (proc.stderr.strip().splitlines() or ["?"])[-1]
-            print(f"{method:<8} failed: {tail}", flush=True)
+            print(f"{method:<8} failed with exit code {proc.returncode} (its error above)", flush=True)
             continue
         r = json.loads(proc.stdout.strip().splitlines()[-1])
         checks = {k: (round(r[k]) if k.endswith(("samples_per_s", "_mib")) else r[k])
