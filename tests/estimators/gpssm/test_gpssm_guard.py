@@ -82,6 +82,7 @@ def test_collapsed_weights_report_the_yaw_rate_as_well_as_the_gyro_reads_it(snow
     f.state_.logw[0] = 0.0
     est = f.step(samples[50])
     assert est.ess < 1.5
+    assert est.collapsed
     assert est.yaw_rate_std >= cfg.sigma_yaw_rate
     sharp = _cfg(d, "separable-odd:6", n=24, sigma_yaw_rate=1e-4)
     table, _ = run_filter(d, sharp, seed=0)
@@ -91,3 +92,19 @@ def test_collapsed_weights_report_the_yaw_rate_as_well_as_the_gyro_reads_it(snow
     # and the steps after, whose copies share equal weights: no spread below the gyro's
     std = table["yaw_rate_std"].to_numpy()
     assert (std >= 0.01 * sharp.sigma_yaw_rate).all()
+    # every collapsed step is flagged, and so are the copies after it (equal weights, a
+    # fine effective sample size, no spread)
+    flagged = table["collapsed"].to_numpy()
+    assert flagged[collapsed].all()
+    assert (flagged & ~collapsed).any()
+    assert not flagged[table["ess"].to_numpy() > 0.5 * sharp.particles].all()
+
+
+def test_the_reference_step_flags_the_same_collapsed_steps(snow20):
+    # the NumPy reference and the compiled step flag the same steps (same draws)
+    d = snow20.slice_time(0.0, 2.0)
+    tabs = [run_filter(d, _cfg(d, "separable-odd:6", n=24, sigma_yaw_rate=1e-4, linalg=mode), seed=0)[0]
+            for mode in ("exact", "direct")]
+    assert tabs[0]["collapsed"].sum() >= 5
+    np.testing.assert_array_equal(tabs[0]["collapsed"].to_numpy(), tabs[1]["collapsed"].to_numpy())
+    np.testing.assert_allclose(tabs[0]["ess"], tabs[1]["ess"], rtol=1e-6)

@@ -70,6 +70,7 @@ def test_chunks_equal_the_whole_drive(snow20, basis, linalg, extra):
     assert diag["ess_mean"] == pytest.approx(table["ess"].mean(), rel=1e-12)
     assert diag["ess_min"] == table["ess"].min() and diag["resampling_rate"] == table["resampled"].mean()
     assert diag["diverged_samples"] == table["diverged"].sum() and diag["excited_samples"] == table["excited"].sum()
+    assert diag["collapsed_samples"] == table["collapsed"].sum()
     assert all(r.info is results[0].info for r in results)
 
 

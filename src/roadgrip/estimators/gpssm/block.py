@@ -89,7 +89,7 @@ class OUT:
 
     (T, VY, VY_STD, YAW_RATE, YAW_RATE_STD, AY_GAIN, ALPHA_F, ALPHA_R, MU_NOW_F, MU_NOW_R, MU_F, MU_R,
      MU_F_LO, MU_F_HI, MU_R_LO, MU_R_HI, PEAK_ALPHA_F, PEAK_ALPHA_R, OBS_F, OBS_R, EXCITED, ESS,
-     RESAMPLED, DIVERGED, FLOOR, SIZE) = range(26)
+     RESAMPLED, DIVERGED, FLOOR, COLLAPSED, SIZE) = range(27)
 
 
 # module constants for the compiled code (it reads globals, not class attributes)
@@ -433,10 +433,12 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
     if diverged and not measured:
         vy_std = max(vy_std, cst.sigma_vy0, abs(e_vy))
     row[2] = vy_std
-    if ess < _ESS_COLLAPSED or e_yr_std < _COPIES * cst.sigma_r:
+    collapsed = ess < _ESS_COLLAPSED or e_yr_std < _COPIES * cst.sigma_r
+    if collapsed:
         row[4] = max(e_yr_std, cst.sigma_r)  # copies of one particle: no spread (guard docstring)
     row[23] = 1.0 if diverged else 0.0
     row[24] = floor_raw
+    row[25] = 1.0 if collapsed else 0.0
     for ax in range(2):
         obs = wk.pk[ax, _PK_OBS] != 0.0
         mu = wk.pk[ax, _PK_MU]

@@ -32,7 +32,7 @@ from roadgrip.vehicle.params import axle_loads
 
 __all__ = ["advance", "estimate", "sample_array"]
 
-_BOOLS = (bk.OUT.OBS_F, bk.OUT.OBS_R, bk.OUT.EXCITED, bk.OUT.RESAMPLED, bk.OUT.DIVERGED)
+_BOOLS = (bk.OUT.OBS_F, bk.OUT.OBS_R, bk.OUT.EXCITED, bk.OUT.RESAMPLED, bk.OUT.DIVERGED, bk.OUT.COLLAPSED)
 ROW_FIELDS = GPSSMEstimate._fields
 """Names of the columns of a row of :func:`advance`."""
 BOOL_COLUMNS = tuple(ROW_FIELDS[i] for i in _BOOLS)

@@ -183,7 +183,8 @@ def run(
     """The whole drive: table, posterior curves at ``config.curve_times`` and meta.
 
     ``meta`` holds ``config``, ``seed``, ``timing``, ``diagnostics`` (effective sample
-    size, resampling rate, ``diverged_samples`` and a ``warning`` when there are any)
+    size, resampling rate, ``diverged_samples`` and a ``warning`` when there are any,
+    ``collapsed_samples``: steps whose weights collapsed, column ``collapsed``)
     and ``summary``: the smaller of the two axles' peak estimates
     and the union of their bands at the last sample.
     """
@@ -208,6 +209,7 @@ def run(
     }
     n_div = int(table["diverged"].sum())
     meta["diagnostics"]["diverged_samples"] = n_div
+    meta["diagnostics"]["collapsed_samples"] = int(table["collapsed"].sum())
     if n_div:
         meta["diagnostics"]["warning"] = (
             f"the filter diverged on {n_div} of {len(table)} samples (column 'diverged'): "

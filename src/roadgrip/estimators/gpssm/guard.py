@@ -32,9 +32,11 @@ Collapsed weights
     A step whose effective sample size is below 1.5 particles resamples copies of one
     particle, whose spread says nothing, and the copies stay nearly equal for some steps
     after (equal weights, so a fine effective sample size). Such a step, or one whose
-    yaw-rate spread is below a hundredth of the gyro's noise, reports ``yaw_rate_std``
-    of at least the gyro's noise ``sigma_yaw_rate``: the yaw rate is then known as well
-    as the gyro reads it, not better.
+    yaw-rate spread is below a hundredth of the gyro's noise, is flagged ``collapsed``
+    and reports ``yaw_rate_std`` of at least the gyro's noise ``sigma_yaw_rate``: the
+    yaw rate is then known as well as the gyro reads it, not better. (The curve and peak
+    bands come from the surviving particle's own conjugate posterior and stay valid;
+    collapse that lasts ``diverge_time`` is a divergence.)
 """
 
 from __future__ import annotations
@@ -122,7 +124,8 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
     Returns
     -------
     GPSSMEstimate
-        With ``diverged``, ``floor``, the widened ``vy_std`` and ``yaw_rate_std`` and the bands.
+        With ``diverged``, ``floor``, ``collapsed``, the widened ``vy_std`` and
+        ``yaw_rate_std`` and the bands.
     """
     config = ctx.config
     g = state.guard
@@ -162,9 +165,11 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
         # the lateral state is unknown: its band as wide as the start's, or the estimate
         vy_std = max(vy_std, config.sigma_vy0, abs(est.vy))
     yaw_std = est.yaw_rate_std
-    if est.ess < _ESS_COLLAPSED or yaw_std < _COPIES * ctx.sigma_yaw_rate:
+    collapsed = bool(est.ess < _ESS_COLLAPSED or yaw_std < _COPIES * ctx.sigma_yaw_rate)
+    if collapsed:
         yaw_std = max(yaw_std, ctx.sigma_yaw_rate)
-    rep = {"vy_std": vy_std, "yaw_rate_std": yaw_std, "diverged": diverged, "floor": g.floor_raw}
+    rep = {"vy_std": vy_std, "yaw_rate_std": yaw_std, "diverged": diverged, "floor": g.floor_raw,
+           "collapsed": collapsed}
     for axle in ("front", "rear"):
         obs = getattr(est, f"peak_observed_{axle}")
         mu = getattr(est, f"mu_{axle}")

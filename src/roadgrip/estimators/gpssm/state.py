@@ -176,6 +176,7 @@ class GPSSMEstimate(NamedTuple):
     resampled: bool
     diverged: bool = False
     floor: float = 0.0
+    collapsed: bool = False
 
 
 

@@ -53,6 +53,7 @@ class Tally(NamedTuple):
     resampled: int = 0
     diverged: int = 0
     excited: int = 0
+    collapsed: int = 0
 
     def add(self, table: pd.DataFrame) -> Tally:
         """The tally with the rows of ``table`` (a chunk's) added."""
@@ -61,14 +62,16 @@ class Tally(NamedTuple):
         ess = table["ess"].to_numpy(float)
         return Tally(self.rows + len(table), self.ess_sum + float(ess.sum()), min(self.ess_min, float(ess.min())),
                      self.resampled + int(table["resampled"].sum()), self.diverged + int(table["diverged"].sum()),
-                     self.excited + int(table["excited"].sum()))
+                     self.excited + int(table["excited"].sum()), self.collapsed + int(table["collapsed"].sum()))
 
     def diagnostics(self) -> dict[str, Any]:
         """``ess_mean``, ``ess_min`` (effective sample size [particles]),
-        ``resampling_rate`` [-], ``diverged_samples`` and ``excited_samples``."""
+        ``resampling_rate`` [-], ``diverged_samples``, ``collapsed_samples`` and
+        ``excited_samples``."""
         n = max(self.rows, 1)
         return {"ess_mean": self.ess_sum / n, "ess_min": float(self.ess_min), "resampling_rate": self.resampled / n,
-                "diverged_samples": self.diverged, "excited_samples": self.excited}
+                "diverged_samples": self.diverged, "collapsed_samples": self.collapsed,
+                "excited_samples": self.excited}
 
 
 class StreamState(NamedTuple):
