@@ -327,6 +327,30 @@ def test_two_hours_streamed_in_bounded_memory(two_hours, method):
     assert sum(r["chunk_rows"]) == r["rows"], r
 
 
+@pytest.mark.slow
+def test_two_hours_of_gpssm_streamed_in_bounded_memory(two_hours):
+    """The GP-SSM (the command's defaults, 200 particles) over the same two hours, streamed:
+    resident memory below 1 GiB and not growing after the first hour; after every chunk
+    every particle's information matrix at least ``I`` and its posterior ``Lambda``
+    positive definite, every row's peak bands finite and holding the estimate, and every
+    row whose weights collapsed (effective sample size below 1.5) flagged ``collapsed`` or
+    ``diverged``. No throughput comparison (``SHORT`` '-'): about twelve minutes of
+    filtering here; ``benchmarks/bench_long_drive.py --methods gpssm`` prints it."""
+    path, _ = two_hours
+    proc = subprocess.run([sys.executable, str(BENCH), "--one", "gpssm", str(path), "-"],
+                          capture_output=True, text=True, timeout=3600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    r = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert r["mode"] == "streamed" and r["rows"] == 720_000 and r["chunks"] == 12
+    assert sum(r["chunk_rows"]) == r["rows"], r
+    assert r["peak_rss_mib"] < 1024
+    assert r["rss_second_half_mib"] < r["rss_first_half_mib"] + 32, r
+    assert r["min_info_eig"] >= 1.0 - 1e-8 and r["min_cov_eig"] > 0, r
+    assert r["bad_band_rows"] == 0, r
+    # the drive's repeated surface changes collapse the weights now and then: flagged
+    assert r["collapsed_rows"] > 0 and r["collapsed_unflagged_rows"] == 0, r
+
+
 def test_describe_chunks_equals_the_whole_description(dgd):
     """Counts, extremes, means, the truth and ay fractions as over the whole drive; the yaw
     proxy's linear model restarts per chunk (within a point of the whole drive's)."""
