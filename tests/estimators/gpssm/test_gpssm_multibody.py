@@ -52,10 +52,12 @@ def test_curves_within_002_and_covered(runs):
 
 def test_saturated_peaks_observed_and_on_the_truth(runs):
     # the front peaks: observed at the end and within 0.03 of the truth on every run. The
-    # rear: observed on 8 of 10 runs and within 0.03 there; on ford-escort seeds 2 and 4
-    # its estimated slip passes the learned maximum by less than peak_margin, or the band
-    # there is wider than peak_narrow, and the peak is reported as not observed: a lower
-    # bound (0.25) with the upper band at peak_max
+    # rear: observed on 7 of 10 runs and within 0.03 there; on ford-escort seeds 0-2 the
+    # learned rear peak lies more than floor_margin below the physics floor over the
+    # learned gain (0.29-0.30, the raw accelerometer's 0.34 over a gain of 1.14-1.16), and
+    # the peak is reported as not observed: the floor as the estimate, a lower bound of
+    # 0.24 and the upper band at peak_max (8 of 10 before the gain gate: not observed on
+    # seeds 2 and 4)
     n_rear = 0
     for (veh, seed), (_, _, h) in runs.items():
         for axle in AXLES:
@@ -67,7 +69,7 @@ def test_saturated_peaks_observed_and_on_the_truth(runs):
                 assert axle == "rear", (veh, seed, f)
                 assert f["upper"] == GPSSMConfig.peak_max and f["lower"] <= f["true_peak"]
             n_rear += axle == "rear" and f["observed"]
-    assert n_rear >= 8
+    assert n_rear >= 7
 
 
 def test_no_lower_bound_above_the_true_peak(runs):

@@ -127,6 +127,7 @@ class Consts(NamedTuple):
     sigma_ay: float
     sigma_r: float
     gain_walk: float
+    gain_gate: float
     sigma_vy0: float
     tan_sideslip: float
     min_speed: float
@@ -288,7 +289,8 @@ def run_steps(p, lin, st, wk, blk, cst, basis, pt, rng, out):  # pragma: no cove
                          vy_meas if has_vy else 0.0, learn),
             veh_k,
             gk.Params(cst.mf, lam, sc[_NU], cst.Lambda0, cst.sigma_ay, cst.sigma_r, vy_max, sc[_PS],
-                      0.0 if cst.carry else 1.0 - sc[_C], cst.tol, cst.max_terms, cst.conditional, cst.carry),
+                      0.0 if cst.carry else 1.0 - sc[_C], cst.tol, cst.max_terms, cst.conditional, cst.carry,
+                      cst.gain_gate),
             basis,
             gk.PeakColumns(wk.fpk, lin.pkw2[par], lin.pkw2[1 - par], wk.fresh),
             gk.Draws(wk.gdraw, wk.zdraw, wk.gwalk),

@@ -158,6 +158,14 @@ class GPSSMConfig(EstimatorConfig):
     ay_gain_walk : float
         Random-walk std of the gain [1/sqrt(s)] (artificial dynamics of a static
         parameter in a particle filter, so that resampling does not exhaust it).
+    ay_gain_gate : float
+        ``|a_y|`` [m/s²] below which a step does not weigh the particles' gains: every
+        particle then takes the weighted mean gain of the last step in eq. 8. Near zero
+        ``a_y`` says nothing of the gain's value, but its predictive variance grows with
+        the gain squared, so the weights favour the smallest gain at every step (straight
+        driving took the gain from 1.0 to 0.6 in ten seconds on the sedan; the friction
+        then learned was 1.7 times too high and the yaw rate ran away in the next slalom).
+        0 weighs every step.
     max_sideslip_ratio : float
         ``|vy| / vx`` [-] past which a step is flagged ``diverged`` and the particles'
         lateral state is re-initialised (:mod:`roadgrip.estimators.gpssm.guard`); 0.5 is
@@ -211,6 +219,7 @@ class GPSSMConfig(EstimatorConfig):
     slip_limit: float | None = None
     ay_gain_sigma: float = 0.1
     ay_gain_walk: float = 0.003
+    ay_gain_gate: float = 1.0
     axle_loads: str = "static"
     max_sideslip_ratio: float = 0.5
     diverge_time: float = 1.0
@@ -249,6 +258,8 @@ class GPSSMConfig(EstimatorConfig):
             v = getattr(self, name)
             if not (np.isfinite(v) and 0.0 <= v < 0.5):
                 raise ValueError(f"{name} must be in [0, 0.5), got {v!r}")
+        if not (np.isfinite(self.ay_gain_gate) and 0.0 <= self.ay_gain_gate <= 50.0):
+            raise ValueError(f"ay_gain_gate must be in [0, 50] m/s², got {self.ay_gain_gate!r}")
         if not 0.0 < self.ess_threshold <= 1.0:
             raise ValueError(f"ess_threshold must be in (0, 1], got {self.ess_threshold!r}")
         if self.linalg not in la.LINALG_MODES:

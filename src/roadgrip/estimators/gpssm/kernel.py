@@ -125,6 +125,7 @@ class Params(NamedTuple):
     max_terms: int
     conditional: bool
     carry: bool
+    gain_gate: float
 
 
 class BasisTables(NamedTuple):
@@ -211,7 +212,8 @@ def particle_pass(p, slots, inp, veh, prm, basis, peak, draws, out):  # pragma: 
     veh : VehicleConstants
     prm : Params
         ``mf`` (4,) prior Magic Formula ``B, C, D, E``; ``vy_max`` negative for no bound;
-        ``carry``: ``'fast'`` mode: ``H`` is taken as ``B`` (pass ``delta = 0``,
+        ``gain_gate``: ``|a_y|`` [m/s²] below which every particle takes the weighted mean
+        accelerometer gain of ``x`` and ``logw`` on entry; ``carry``: ``'fast'`` mode: ``H`` is taken as ``B`` (pass ``delta = 0``,
         ``max_terms = 0``); ``out.M`` and ``out.Lam`` hold each particle's posterior ``M =
         Psi P_B`` and ``Lambda`` of the last step on entry, carried and updated in place,
         so only ``phi`` is solved for and ``Lambda`` is not formed by cancellation
@@ -291,6 +293,12 @@ def particle_pass(p, slots, inp, veh, prm, basis, peak, draws, out):  # pragma: 
     cp = math.cos(steer_prev)
     c0, c1 = ay_gains_jit(math.cos(steer), veh)  # d ay / d mu_f, d ay / d mu_r
     ureg = regularised_speed_jit(vx, veh.v_eps)
+    # below the gate every particle takes the weighted mean gain (GPSSMConfig.ay_gain_gate)
+    gain_on = abs(ay) >= prm.gain_gate
+    kbar = 0.0
+    if not gain_on:
+        for n in range(N):
+            kbar += math.exp(logw[n]) * x[n, _GAIN]
     for ii in range(N):
         n = order[ii]
         # 1. propagate (eq. 7), forget (eq. 29)
@@ -307,9 +315,10 @@ def particle_pass(p, slots, inp, veh, prm, basis, peak, draws, out):  # pragma: 
                         Psi[n, g, a, k] *= lam
                     for b in range(d):
                         Phi[n, g, a, b] *= lam
-        # this particle's accelerometer gain on eq. 8
-        g0 = kg * c0
-        g1 = kg * c1
+        # this particle's accelerometer gain on eq. 8 (the mean gain below the gate)
+        ke = kg if gain_on else kbar
+        g0 = ke * c0
+        g1 = ke * c1
         if vy_max >= 0.0:
             vy = min(max(vy, -vy_max), vy_max)
         if has_vy:
