@@ -332,9 +332,9 @@ def test_two_hours_of_gpssm_streamed_in_bounded_memory(two_hours):
     """The GP-SSM (the command's defaults, 200 particles) over the same two hours, streamed:
     resident memory below 1 GiB and not growing after the first hour; after every chunk
     every particle's information matrix at least ``I`` and its posterior ``Lambda``
-    positive definite, every row's peak bands finite and holding the estimate, and every
+    positive definite, every row's peak bands finite and holding the estimate, every
     row whose weights collapsed (effective sample size below 1.5) flagged ``collapsed`` or
-    ``diverged``. No throughput comparison (``SHORT`` '-'): about twelve minutes of
+    ``diverged``, and fewer than 0.5 % of the rows flagged ``diverged``. No throughput comparison (``SHORT`` '-'): about twelve minutes of
     filtering here; ``benchmarks/bench_long_drive.py --methods gpssm`` prints it."""
     path, _ = two_hours
     proc = subprocess.run([sys.executable, str(BENCH), "--one", "gpssm", str(path), "-"],
@@ -347,8 +347,12 @@ def test_two_hours_of_gpssm_streamed_in_bounded_memory(two_hours):
     assert r["rss_second_half_mib"] < r["rss_first_half_mib"] + 32, r
     assert r["min_info_eig"] >= 1.0 - 1e-8 and r["min_cov_eig"] > 0, r
     assert r["bad_band_rows"] == 0, r
-    # the drive's repeated surface changes collapse the weights now and then: flagged
-    assert r["collapsed_rows"] > 0 and r["collapsed_unflagged_rows"] == 0, r
+    # any row whose weights collapsed is flagged (the flag itself: test_gpssm_guard)
+    assert r["collapsed_unflagged_rows"] == 0, r
+    # the sedan's own model family: none of its 720 000 rows diverged here (4 % of the
+    # rows did while straight driving pulled the accelerometer gain down,
+    # GPSSMConfig.ay_gain_gate); the bound leaves room for another machine's rounding
+    assert r["diverged_rows"] < 0.005 * r["rows"], r
 
 
 def test_describe_chunks_equals_the_whole_description(dgd):
