@@ -334,8 +334,9 @@ def test_two_hours_of_gpssm_streamed_in_bounded_memory(two_hours):
     every particle's information matrix at least ``I`` and its posterior ``Lambda``
     positive definite, every row's peak bands finite and holding the estimate, every
     row whose weights collapsed (effective sample size below 1.5) flagged ``collapsed`` or
-    ``diverged``, and fewer than 0.5 % of the rows flagged ``diverged``. No throughput comparison (``SHORT`` '-'): about twelve minutes of
-    filtering here; ``benchmarks/bench_long_drive.py --methods gpssm`` prints it."""
+    ``diverged``, and fewer than 0.5 % of the rows flagged ``diverged``. No throughput
+    comparison (``SHORT`` '-'): about twelve minutes of filtering here;
+    ``benchmarks/bench_long_drive.py --methods gpssm`` prints it."""
     path, _ = two_hours
     proc = subprocess.run([sys.executable, str(BENCH), "--one", "gpssm", str(path), "-"],
                           capture_output=True, text=True, timeout=3600)
