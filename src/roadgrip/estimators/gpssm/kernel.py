@@ -213,11 +213,11 @@ def particle_pass(p, slots, inp, veh, prm, basis, peak, draws, out):  # pragma: 
     prm : Params
         ``mf`` (4,) prior Magic Formula ``B, C, D, E``; ``vy_max`` negative for no bound;
         ``gain_gate``: ``|a_y|`` [m/s²] below which every particle takes the weighted mean
-        accelerometer gain of ``x`` and ``logw`` on entry; ``carry``: ``'fast'`` mode: ``H`` is taken as ``B`` (pass ``delta = 0``,
-        ``max_terms = 0``); ``out.M`` and ``out.Lam`` hold each particle's posterior ``M =
-        Psi P_B`` and ``Lambda`` of the last step on entry, carried and updated in place,
-        so only ``phi`` is solved for and ``Lambda`` is not formed by cancellation
-        (:mod:`roadgrip.estimators.gpssm.linalg`).
+        accelerometer gain of ``x`` and ``logw`` on entry; ``carry``: ``'fast'`` mode:
+        ``H`` is taken as ``B`` (pass ``delta = 0``, ``max_terms = 0``); ``out.M`` and
+        ``out.Lam`` hold each particle's posterior ``M = Psi P_B`` and ``Lambda`` of the
+        last step on entry, carried and updated in place, so only ``phi`` is solved for
+        and ``Lambda`` is not formed by cancellation (:mod:`roadgrip.estimators.gpssm.linalg`).
     basis : BasisTables
         ``L``, ``a_lim``: basis half-width and the slip angle past which the friction
         model is held flat [rad] (``GPSSMConfig.alpha_limit``).
