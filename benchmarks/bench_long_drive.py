@@ -187,10 +187,11 @@ def _check_gpssm(res, checks: dict) -> None:
     collapsed = tab["ess"].to_numpy(float) < COLLAPSED_ESS
     checks["collapsed_rows"] += int(collapsed.sum())
     # the rows flagged 'collapsed' (the weights' collapse and the copies after it)
-    flagged = tab["collapsed"].to_numpy(bool) if "collapsed" in tab else np.zeros(len(tab), bool)
+    flagged = tab["collapsed"].to_numpy(bool)
+    diverged = tab["diverged"].to_numpy(bool)
     checks["collapsed_flagged_rows"] += int(flagged.sum())
-    checks["collapsed_unflagged_rows"] += int((collapsed & ~flagged & ~tab["diverged"].to_numpy(bool)).sum())
-    checks["diverged_rows"] += int(tab["diverged"].sum())
+    checks["collapsed_unflagged_rows"] += int((collapsed & ~flagged & ~diverged).sum())
+    checks["diverged_rows"] += int(diverged.sum())
 
 
 CHECKS = {

@@ -60,7 +60,6 @@ def step_reference(
     if state is None:
         state = init_state(ctx, sample, seed)
         x, lin, Psi, Phi, nu = state.x, state.lin, state.Psi, state.Phi, state.nu
-        kbar = float(np.exp(state.logw) @ x[:, State.AY_GAIN])
     else:
         dt = sample.t - state.t
         if not dt > 0:
@@ -69,7 +68,6 @@ def step_reference(
         vy, r = euler_step(state.x[:, State.VY], state.x[:, State.YAW_RATE],
                            math.cos(state.u[Input.STEER]), state.u[Input.VX],
                            state.mu[:, 0], state.mu[:, 1], dt, veh)
-        kbar = float(np.exp(state.logw) @ state.x[:, State.AY_GAIN])
         gain = np.clip(state.x[:, State.AY_GAIN] + ctx.gain_steps(state.rng, dt), GAIN_MIN, GAIN_MAX)
         x = np.stack([vy, r, gain], axis=1)
         lin = la.forget(state.lin, lam, config.refactor_every)
@@ -116,8 +114,12 @@ def step_reference(
     dof = nu - d + 1.0
     scale = Lam_star * ((1.0 + s) / dof)[..., None, None]
     # eq. 8 with each particle's accelerometer gain: ay = c_ay . mu (below the gate the
-    # weighted mean gain of the step's start, GPSSMConfig.ay_gain_gate)
-    k = x[:, State.AY_GAIN] if abs(sample.ay) >= config.ay_gain_gate else np.full(N, kbar)
+    # weighted mean gain of the step's start, GPSSMConfig.ay_gain_gate: state.x and
+    # state.logw are still the previous step's)
+    if abs(sample.ay) >= config.ay_gain_gate:
+        k = x[:, State.AY_GAIN]
+    else:
+        k = np.full(N, float(np.exp(state.logw) @ state.x[:, State.AY_GAIN]))
     c_ay = k[:, None] * np.array(ay_gains(math.cos(sample.steer), veh))[None]
     r_pred = x[:, State.YAW_RATE]
     if config.proposal == "prior":
