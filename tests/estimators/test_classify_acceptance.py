@@ -89,15 +89,8 @@ def test_calibrated_detects_within_a_second_without_false_switches(runs):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
-def test_calibrated_accuracy_at_high_utilisation(runs, method, request):
+def test_calibrated_accuracy_at_high_utilisation(runs, method):
     vehicle, scores, _ = runs
-    if vehicle == "vw-vanagon" and method == "slipmap":
-        request.applymarker(pytest.mark.xfail(strict=True, reason=(
-            "measured 94.9-98.2 % over seeds 0-4: the van's braking on dry asphalt reaches "
-            "utilisation 0.6 (11-27 samples per drive) after the 'high' claim has expired, and "
-            "the slip map's per-sample vote takes no braking evidence (its residual is biased "
-            "late in a stop); the bRLS, which weighs braking samples by their class "
-            "separation, reaches 97.7-98.6 % there")))
     accs = {seed: s.accuracy_util for (seed, m, label), s in scores.items()
             if label == "calibrated" and m == method}
     print(vehicle, method, {k: round(v, 3) for k, v in accs.items()})

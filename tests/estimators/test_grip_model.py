@@ -165,3 +165,90 @@ def test_braking_onset_separates_dry_from_gravel_on_the_multibody_van():
     assert not quiet.phi_long[brake].any()
     coast = (np.abs(ax) < 0.3) & (np.abs(drive.col("ay")) < 0.3)
     assert not ch.phi_long[coast & (ax <= 0)].any()  # only traction speaks below braking
+
+
+def test_hard_braking_indicator_is_the_first_order_step_response():
+    """The prefilter's hard-braking indicator is the first-order response to
+    ``ax < -BRAKING_ACCEL`` over ``BRAKING_ONSET_TAU``: a stop is at its onset for
+    ``BRAKING_ONSET_S`` from rest, and a stop that follows a release soon is at its onset
+    for less (the indicator has not decayed), both to the analytic response."""
+    from roadgrip.estimators.classify.slipmap_evidence import (
+        BRAKING_ONSET_S,
+        BRAKING_ONSET_TAU,
+        PREFILTER_SIZE,
+        prefilter,
+    )
+    from roadgrip.inference.kinematic import KinematicOutput
+
+    dt = 0.01
+    t = np.arange(0.0, 12.0, dt)
+    ax = np.where((t >= 1.0) & (t < 4.0), -5.0, np.where((t >= 5.0) & (t < 8.0), -5.0, 0.2))
+    n = t.size
+    z = np.zeros(n)
+    kin = KinematicOutput(vx=np.full(n, 20.0), vy=z, beta=z, alpha_f=z, alpha_r=z,
+                          kappa=np.zeros((n, 4)), wheels_valid=np.ones((n, 4), bool))
+    _, _, _, braking, _ = prefilter(kin, ax, z, t, 0.05, dt, np.zeros(PREFILTER_SIZE))
+    # the recursion of the prefilter, y += (1 - exp(-dt / tau)) (u - y), in closed form
+    u = (ax < -1.0).astype(float)
+    a = np.exp(-dt / BRAKING_ONSET_TAU)
+    y = np.zeros(n)
+    for i in range(n):
+        y[i] = a * (y[i - 1] if i else 0.0) + (1.0 - a) * u[i]
+    np.testing.assert_allclose(braking.hard, y, atol=1e-12)
+    onset = braking.onset()
+    first = (t >= 1.0) & (t < 4.0)
+    held = t[first & onset]
+    # sampled: the first sample of a stop already counts one step of the response
+    assert held[0] == pytest.approx(1.0) and held[-1] == pytest.approx(1.0 + BRAKING_ONSET_S, abs=2.5 * dt)
+    # second stop: the indicator starts from y(5 s) and the onset ends where it reaches the level
+    y0 = braking.hard[np.searchsorted(t, 5.0) - 1]
+    level = 1.0 - math.exp(-BRAKING_ONSET_S / BRAKING_ONSET_TAU)
+    expected = BRAKING_ONSET_TAU * math.log((1.0 - y0) / (1.0 - level))
+    second = t[(t >= 5.0) & (t < 8.0) & onset]
+    assert 0.1 < expected < BRAKING_ONSET_S - 0.1
+    assert second[-1] - 5.0 == pytest.approx(expected, abs=2.5 * dt)
+    assert not onset[(t >= 1.0 + BRAKING_ONSET_S) & (t < 4.0)].any()
+
+
+def test_slip_map_votes_with_the_onset_of_a_stop_only_on_the_multibody_van():
+    """With a fitted model the slip map takes braking evidence at the onset of a stop:
+    on a multi-body dry -> gravel -> dry drive, each near-saturating stop votes 'high' on
+    dry asphalt and 'low' on gravel in its first 0.8 s, and the rest of the stop, where
+    the coasting speed's bias grows, carries no longitudinal evidence. Without a fitted
+    model braking carries none at all."""
+    from roadgrip.estimators.classify.grip_model import braking_samples
+    from roadgrip.estimators.classify.slipmap import Front, front_batch, front_init
+    from roadgrip.estimators.classify.slipmap_evidence import (
+        PREFILTER_SIZE,
+        evidence_from_kinematics,
+        prefilter,
+    )
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    drive = simulate_scenario("dry-gravel-dry", seed=1, engine="multibody", vehicle="vw-vanagon")
+    veh = drive.vehicle
+    model = GripModel(c_long=22.0, c_lat=13.0, mu_high=1.0, mu_low=0.5, model_error_x=0.05,
+                      gain_x=1.0 + GRAVITY * veh.pitch_gradient)
+    votes = {}
+    for grip in (model, None):
+        cfg = slipmap_saturation(grip=grip)
+        front = Front.for_drive(drive, cfg.lateral_acceleration)
+        (kin, ay), _ = front_batch(drive, front, front_init())
+        kin_f, ax_f, ay_f, braking, _ = prefilter(kin, drive.col("ax"), ay, drive.t, cfg.prefilter_tau_s,
+                                                  0.01, np.zeros(PREFILTER_SIZE))
+        ev = evidence_from_kinematics(kin_f, ax_f, ay_f, drive.col("steer"), veh, cfg, braking)
+        brake = braking_samples(kin_f, ax_f)
+        votes[grip is None] = (ev, brake, braking.onset())
+    ev, brake, onset = votes[False]
+    t, mu = drive.t, drive.col("mu_true")
+    starts = np.flatnonzero(brake & ~np.r_[False, brake[:-1]])
+    by_surface = {}
+    for i in starts:
+        sel = brake & onset & (t >= t[i]) & (t < t[i] + 1.0)
+        if ev.w_x[sel].sum() > 1.0:  # the classes predict different decelerations
+            by_surface.setdefault(float(mu[i]), []).append(float((ev.p_high - ev.p_low)[sel].sum()))
+    assert set(by_surface) == {0.5, 1.0}, by_surface
+    assert min(by_surface[1.0]) > 0.0 and max(by_surface[0.5]) < 0.0, by_surface
+    assert not ev.w_x[brake & ~onset].any()
+    ev0, brake0, _ = votes[True]
+    assert not ev0.w_x[brake0].any()

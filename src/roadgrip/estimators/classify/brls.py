@@ -232,7 +232,7 @@ def model_regressors(
         fitted = config.grip is not None
         ch, _ = channels(kin_f, ax_f, ay_f, steer, params, grip_of(config, params), config.min_speed,
                          braking=fitted)
-        settled = braking < BRAKING_MEMORY_MAX
+        settled = braking.memory < BRAKING_MEMORY_MAX
         if fitted:
             settled = settled | braking_samples(kin_f, ax_f)
         return (np.where(settled, ch.phi_long, 0.0), np.where(settled, ch.y_long, 0.0),

@@ -87,7 +87,7 @@ def _channel_data(drive: Drive, kin: KinematicOutput, ay: NDArray, axis: str, mi
     kf, kr, on_x = traction_slips(kin.kappa, kin.wheels_valid, ax, drive.vehicle)
     moving = np.abs(kin.vx) >= min_speed
     if axis == "x":
-        settled = braking < BRAKING_MEMORY_MAX
+        settled = braking.memory < BRAKING_MEMORY_MAX
         use = moving & on_x & settled & (np.abs(ay) < LONG_LATERAL_GATE * GRAVITY) & (ax > 0.3)
         zero = np.zeros(drive.n)
         return (kf, kr, zero, zero, drive.col("steer"), ax), ax, use, kin.vx

@@ -17,7 +17,13 @@ from scipy.special import erf
 from roadgrip.constants import GRAVITY
 from roadgrip.estimators.classify.brls_config import SATURATION_PHI_HALF
 from roadgrip.estimators.classify.common import DEFAULT_FRICTION
-from roadgrip.estimators.classify.grip_model import GripModel, channels, default_grip_model
+from roadgrip.estimators.classify.grip_model import (
+    BRAKING_ACCEL,
+    GripModel,
+    braking_samples,
+    channels,
+    default_grip_model,
+)
 from roadgrip.estimators.classify.slipmap_config import SlipMapConfig
 from roadgrip.inference.kinematic import KinematicOutput
 from roadgrip.signals import driven_wheels
@@ -25,7 +31,10 @@ from roadgrip.vehicle.params import VehicleParams
 
 __all__ = [
     "BRAKING_MEMORY_MAX",
+    "BRAKING_ONSET_S",
+    "BRAKING_ONSET_TAU",
     "PREFILTER_SIZE",
+    "Braking",
     "SlipMapEvidence",
     "evidence",
     "evidence_from_kinematics",
@@ -36,15 +45,48 @@ __all__ = [
 
 # columns of the prefiltered signals
 PF_KAPPA = slice(0, 4)
-PF_ALPHA_F, PF_ALPHA_R, PF_AX, PF_AY, PF_BRAKING = 4, 5, 6, 7, 8
-PREFILTER_SIZE = 9
-"""Prefiltered signals: ``kappa_fl..rr, alpha_f, alpha_r, ax, ay`` and the braking
-indicator ``ax < 0`` (its low-passed value says how recently the car braked)."""
+PF_ALPHA_F, PF_ALPHA_R, PF_AX, PF_AY, PF_BRAKING, PF_HARD = 4, 5, 6, 7, 8, 9
+PREFILTER_SIZE = 10
+"""Prefiltered signals: ``kappa_fl..rr, alpha_f, alpha_r, ax, ay``, the braking
+indicator ``ax < 0`` (its low-passed value says how recently the car braked) and the
+hard-braking indicator ``ax < -BRAKING_ACCEL`` (low-passed over
+:data:`BRAKING_ONSET_TAU`: how long the car has been braking)."""
 
 BRAKING_MEMORY_MAX = 0.05
 """The longitudinal saturation channel waits after braking until the low-passed braking
 indicator falls below this (about three prefilter time constants): the slips and the
 accelerometer (pitch rebound) settle for about a second after a stop."""
+
+BRAKING_ONSET_TAU = 1.0
+"""Time constant [s] of the low-passed hard-braking indicator (:class:`Braking`)."""
+
+BRAKING_ONSET_S = 0.8
+"""A braking sample carries evidence to the slip map only in about the first 0.8 s of a
+stop (the hard-braking indicator, low-passed over :data:`BRAKING_ONSET_TAU`, below
+``1 - exp(-BRAKING_ONSET_S / BRAKING_ONSET_TAU)``). The braking slips are taken against
+a speed that coasts on the accelerometer once no wheel rolls freely; its error is a
+bias that grows through the stop while the speed falls (multi-body van, 0.5 g stops
+from 21 m/s: 0.01-0.03 m/s at the onset, 0.03-0.05 m/s after 0.8 s, 0.05-0.07 m/s after
+3 s; the slip error ``dv / v`` grows five- to tenfold). A per-sample vote takes the
+direction of each sample whatever its class separation, so the late part of a stop,
+where that bias exceeds the class separation, would vote 'high' on gravel."""
+
+
+class Braking(NamedTuple):
+    """Low-passed braking indicators of :func:`prefilter` (arrays, shape (T,), in [0, 1]).
+
+    Attributes
+    ----------
+    memory : ``ax < 0`` over the prefilter's time constant (how recently the car braked)
+    hard : ``ax < -BRAKING_ACCEL`` over :data:`BRAKING_ONSET_TAU` (how long it has braked)
+    """
+
+    memory: NDArray[np.float64]
+    hard: NDArray[np.float64]
+
+    def onset(self) -> NDArray[np.bool_]:
+        """Samples in about the first :data:`BRAKING_ONSET_S` of hard braking."""
+        return self.hard < 1.0 - np.exp(-BRAKING_ONSET_S / BRAKING_ONSET_TAU)
 
 
 class SlipMapEvidence(NamedTuple):
@@ -136,35 +178,37 @@ def evidence(
 
 @numba.njit(cache=True)
 def _prefilter_kernel(x, t, tau, dt0, state):  # pragma: no cover - compiled
-    """First-order low-pass of the columns of ``x`` (T, m), in place on ``state`` (m,)."""
+    """First-order low-pass of the columns of ``x`` (T, m) with time constants ``tau``
+    (m,) [s] (0: none), in place on ``state`` (m,)."""
     n, m = x.shape
     out = np.empty((n, m))
     for i in range(n):
         dt = dt0 if i == 0 else t[i] - t[i - 1]
-        k = 1.0 if tau <= 0.0 else 1.0 - np.exp(-dt / tau)
         for j in range(m):
+            k = 1.0 if tau[j] <= 0.0 else 1.0 - np.exp(-dt / tau[j])
             state[j] += k * (x[i, j] - state[j])
             out[i, j] = state[j]
     return out
 
 
 def _pack(kin: KinematicOutput, ax, ay) -> NDArray[np.float64]:
-    """Prefilter inputs as columns ``kappa_fl..rr, alpha_f, alpha_r, ax, ay, ax < 0``, shape (T, 9)."""
+    """Prefilter inputs as columns ``kappa_fl..rr, alpha_f, alpha_r, ax, ay, ax < 0,
+    ax < -BRAKING_ACCEL``, shape (T, PREFILTER_SIZE)."""
     ax = np.atleast_1d(np.asarray(ax, float))
     return np.ascontiguousarray(np.column_stack([
         np.atleast_2d(kin.kappa), np.atleast_1d(kin.alpha_f), np.atleast_1d(kin.alpha_r),
-        ax, np.atleast_1d(ay), (ax < 0.0).astype(float),
+        ax, np.atleast_1d(ay), (ax < 0.0).astype(float), (ax < -BRAKING_ACCEL).astype(float),
     ]), dtype=float)
 
 
-def _unpack(kin: KinematicOutput, y: NDArray) -> tuple[KinematicOutput, NDArray, NDArray, NDArray]:
+def _unpack(kin: KinematicOutput, y: NDArray) -> tuple[KinematicOutput, NDArray, NDArray, Braking]:
     kin_f = kin._replace(kappa=y[:, PF_KAPPA], alpha_f=y[:, PF_ALPHA_F], alpha_r=y[:, PF_ALPHA_R])
-    return kin_f, y[:, PF_AX], y[:, PF_AY], y[:, PF_BRAKING]
+    return kin_f, y[:, PF_AX], y[:, PF_AY], Braking(y[:, PF_BRAKING], y[:, PF_HARD])
 
 
 def saturation_evidence(
     kin: KinematicOutput, ax, ay, steer, params: VehicleParams, config: SlipMapConfig,
-    grip: GripModel, braking=None,
+    grip: GripModel, braking: Braking | None = None,
 ) -> SlipMapEvidence:
     """Eq. 9-15 on the saturation model (``config.model == 'saturation'``), vectorised.
 
@@ -181,16 +225,25 @@ def saturation_evidence(
     units; the paper's hard split is the limit ``sigma -> 0``). The lateral
     channel counts only with ``config.lateral`` (the longitudinal one with
     ``config.longitudinal``); the longitudinal one only where
-    the low-passed braking indicator ``braking`` (from :func:`prefilter`) is below
-    :data:`BRAKING_MEMORY_MAX`. Braking samples carry no evidence here: the
-    direction of a vote ignores the class separation that discounts their biased
-    residual (:func:`~roadgrip.estimators.classify.grip_model.channels`).
+    the low-passed braking indicator ``braking.memory`` (from :func:`prefilter`) is below
+    :data:`BRAKING_MEMORY_MAX`, and, with a fitted model (``config.grip``), on the
+    braking samples (:func:`~roadgrip.estimators.classify.grip_model.braking_samples`)
+    at the onset of a stop (:meth:`Braking.onset`, :data:`BRAKING_ONSET_S`), where the
+    coasting speed's bias is still small against the class separation. Later in a stop
+    a per-sample vote would take the direction of that bias.
     """
     ch, cp = channels(kin, ax, ay, steer, params, grip, config.min_speed, braking=False)
     if braking is not None:
-        settled = np.atleast_1d(np.asarray(braking, float)) < BRAKING_MEMORY_MAX
+        settled = np.atleast_1d(braking.memory) < BRAKING_MEMORY_MAX
         ch = ch._replace(phi_long=np.where(settled, ch.phi_long, 0.0),
                          y_long=np.where(settled, ch.y_long, 0.0))
+        # only a fitted model: the vehicle's default takes the slip stiffness from the
+        # cornering stiffness (as the bRLS, grip_model.channels)
+        onset = braking_samples(kin, ax) & np.atleast_1d(braking.onset()) if config.grip is not None else None
+        if onset is not None and onset.any():
+            chb, _ = channels(kin, ax, ay, steer, params, grip, config.min_speed, braking=True)
+            ch = ch._replace(phi_long=np.where(onset, chb.phi_long, ch.phi_long),
+                             y_long=np.where(onset, chb.y_long, ch.y_long))
     out = []
     for phi, y, sigma in ((ch.phi_long, ch.y_long, config.sigma_x), (ch.phi_lat, ch.y_lat, config.sigma_y)):
         d = (y - 0.5 * phi) * np.sign(phi)
@@ -218,7 +271,7 @@ def grip_of(config: SlipMapConfig, params: VehicleParams, friction: dict[str, fl
 
 def evidence_from_kinematics(
     kin: KinematicOutput, ax, ay, steer, params: VehicleParams, config: SlipMapConfig,
-    braking=None,
+    braking: Braking | None = None,
 ) -> SlipMapEvidence:
     """:func:`evidence` (or :func:`saturation_evidence`, with the prefilter's ``braking``)
     of the kinematic stage's output (one sample or arrays)."""
@@ -244,7 +297,8 @@ def prefilter(
     t : ndarray, shape (T,)
         Sample times [s].
     tau : float
-        Time constant [s].
+        Time constant [s] of the slips and accelerations (the braking indicators have
+        their own).
     dt0 : float
         Step before the first sample [s].
     state : ndarray, shape (PREFILTER_SIZE,)
@@ -254,13 +308,14 @@ def prefilter(
     -------
     kin, ax, ay
         Filtered, arrays with leading axis time.
-    braking : ndarray, shape (T,)
-        The low-passed braking indicator ``ax < 0`` (in [0, 1]).
+    braking : Braking
+        The low-passed braking indicators.
     state : ndarray, shape (PREFILTER_SIZE,)
         Filter state after the last sample.
     """
     st = np.array(state, dtype=float)
-    y = _prefilter_kernel(_pack(kin, ax, ay), np.ascontiguousarray(t, dtype=float), float(tau),
-                          float(dt0), st)
+    taus = np.full(PREFILTER_SIZE, float(tau))
+    taus[PF_HARD] = BRAKING_ONSET_TAU
+    y = _prefilter_kernel(_pack(kin, ax, ay), np.ascontiguousarray(t, dtype=float), taus, float(dt0), st)
     kin_f, ax_f, ay_f, braking = _unpack(kin, y)
     return kin_f, ax_f, ay_f, braking, st
