@@ -26,7 +26,9 @@ With ``--accuracy --multibody`` the acceptance figures on the multi-body snow sl
 both vehicles (seeds 0-4; ``--option KEY=VALUE`` sets filter options), with ``--accuracy
 --realdata`` the honesty figures on every recording in ``../shared/data``
 (docs/gpssm.md). With ``--accuracy --fast-vs-truth`` the fast mode against the truth beside
-the exact mode, seeds 0-4, on the paper study and the multi-body snow slaloms.
+the exact mode, seeds 0-4, on the paper study and the multi-body snow slaloms (with
+``--control`` the exact mode with another Monte Carlo stream in its place: the same
+criterion on an estimator that has the exact mode's distribution).
 
 With ``--speed`` the speed table of the compiled step (N = 200; m = 20, the default
 basis and m = 100; exact and fast; the median of ``--reps`` runs), beside the same cases
@@ -37,7 +39,7 @@ particles-innermost layout against the present one; ``--many``
 
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_gpssm.py [--quick | --speed
 [--reps 5] [--baseline REV] | --parts | --layout | --many | --accuracy
-[--seeds 0,1,2,3,4] [--multibody | --realdata | --fast-vs-truth]]``
+[--seeds 0,1,2,3,4] [--multibody | --realdata | --fast-vs-truth [--control]]]``
 (one core).
 """
 
@@ -241,29 +243,36 @@ def realdata(seeds=(0, 1, 2)) -> None:
             f"{ax} {bands_overlap(b)}" for ax, b in bands.items()))
 
 
-def fast_vs_truth(seeds=(0, 1, 2, 3, 4)) -> None:
+def fast_vs_truth(seeds=(0, 1, 2, 3, 4), control: bool = False) -> None:
     """The fast mode judged against the truth: per seed, the exact and the fast mode's
     curve MAE and band coverage at the end (the 0.5-deg bins the truth visited 20 times),
     on the paper study (the project's snow slalom, ``tensor:10x10``, drive and filter
     seeded alike) and on the multi-body snow slaloms of both vehicles (the command's
     defaults); then, per case and axle, whether the fast mode's MAE of every seed lies
     within the exact mode's seed-to-seed range (at most its largest) and its coverage is no
-    worse than the exact mode's worst seed."""
+    worse than the exact mode's worst seed.
+
+    ``control``: the same criterion applied to the exact mode itself with another
+    Monte Carlo stream (filter seed + 1000, the drives unchanged) in place of the fast
+    mode, i.e. to an estimator with the exact mode's distribution: how often the
+    criterion fails on Monte Carlo noise alone."""
     alpha = np.radians(np.linspace(-20, 20, 161))
     cases = [("paper study snow-slalom tensor:10x10", None, {"basis": "tensor:10x10"})]
     cases += [(f"multi-body snow-slalom {veh}", veh, {}) for veh in MB_VEHICLES]
+    second, offset = ("exact", 1000) if control else ("fast", 0)
+    name2 = "exact+1000" if control else "fast"
     for label, veh, options in cases:
-        figs = {mode: {"front": [], "rear": []} for mode in ("exact", "fast")}
+        figs = {mode: {"front": [], "rear": []} for mode in ("exact", name2)}
         for seed in seeds:
             if veh is None:
                 drive = simulate_scenario("snow-slalom", seed=seed)
             else:
                 drive = simulate_scenario("snow-slalom", seed=seed, engine="multibody", vehicle=veh, cache=True)
             line = []
-            for mode in ("exact", "fast"):
-                cfg = GPSSMConfig.from_options({"particles": 200, "linalg": mode, **options})
+            for mode, linalg, fseed in (("exact", "exact", seed), (name2, second, seed + offset)):
+                cfg = GPSSMConfig.from_options({"particles": 200, "linalg": linalg, **options})
                 t0 = time.perf_counter()
-                _, cv = run_filter(drive, cfg, seed=seed, curve_times=(1e9,), curve_alpha=alpha)
+                _, cv = run_filter(drive, cfg, seed=fseed, curve_times=(1e9,), curve_alpha=alpha)
                 wall = time.perf_counter() - t0
                 acc = curve_accuracy(next(iter(cv.values())), drive)
                 for axle in ("front", "rear"):
@@ -274,11 +283,11 @@ def fast_vs_truth(seeds=(0, 1, 2, 3, 4)) -> None:
             print(f"{label} seed {seed}: " + "; ".join(line), flush=True)
         for axle in ("front", "rear"):
             ex = np.array(figs["exact"][axle])
-            fa = np.array(figs["fast"][axle])
+            fa = np.array(figs[name2][axle])
             within = bool(fa[:, 0].max() <= ex[:, 0].max())
             cover = bool(fa[:, 1].min() >= ex[:, 1].min())
             print(f"  {label} {axle}: exact MAE {ex[:, 0].min():.4f}-{ex[:, 0].max():.4f}, coverage worst "
-                  f"{ex[:, 1].min():.2f}; fast MAE {fa[:, 0].min():.4f}-{fa[:, 0].max():.4f}, coverage worst "
+                  f"{ex[:, 1].min():.2f}; {name2} MAE {fa[:, 0].min():.4f}-{fa[:, 0].max():.4f}, coverage worst "
                   f"{fa[:, 1].min():.2f}: MAE within the exact range {within}, coverage no worse {cover}",
                   flush=True)
 
@@ -598,6 +607,8 @@ def main() -> None:
     ap.add_argument("--speed-json", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--fast-vs-truth", action="store_true",
                     help="with --accuracy: the fast and exact modes against the truth, seeds 0-4")
+    ap.add_argument("--control", action="store_true",
+                    help="with --fast-vs-truth: the exact mode with another Monte Carlo stream in place of the fast mode")
     ap.add_argument("--option", action="append", default=[], help="KEY=VALUE filter option (--multibody)")
     ap.add_argument("--seeds", default=None, help="drives and filter seeds of --accuracy (e.g. 0,1,2,3,4)")
     args = ap.parse_args()
@@ -624,7 +635,7 @@ def main() -> None:
         realdata(tuple(int(v) for v in (args.seeds or "0,1,2").split(",")))
         return
     if args.accuracy and args.fast_vs_truth:
-        fast_vs_truth(tuple(int(v) for v in (args.seeds or "0,1,2,3,4").split(",")))
+        fast_vs_truth(tuple(int(v) for v in (args.seeds or "0,1,2,3,4").split(",")), control=args.control)
         return
     if args.accuracy and args.multibody:
         seeds = tuple(int(v) for v in (args.seeds or "0,1,2,3,4").split(","))
