@@ -23,7 +23,9 @@ the drive and the filter take the same seed; the paper's basis also in the fast 
 its error against the truth, beside the exact mode's).
 
 With ``--accuracy --multibody`` the acceptance figures on the multi-body snow slaloms of
-both vehicles (seeds 0-4; ``--option KEY=VALUE`` sets filter options), with ``--accuracy
+both vehicles (seeds 0-4; ``--option KEY=VALUE`` sets filter options; ``--streams
+0,1000,2000`` runs each drive with those offsets added to the filter's seed and prints a
+summary over the Monte Carlo streams), with ``--accuracy
 --realdata`` the honesty figures on every recording in ``../shared/data``
 (docs/gpssm.md). With ``--accuracy --fast-vs-truth`` the fast mode against the truth beside
 the exact mode, seeds 0-4, on the paper study and the multi-body snow slaloms (with
@@ -39,7 +41,8 @@ particles-innermost layout against the present one; ``--many``
 
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_gpssm.py [--quick | --speed
 [--reps 5] [--baseline REV] | --parts | --layout | --many | --accuracy
-[--seeds 0,1,2,3,4] [--multibody | --realdata | --fast-vs-truth [--control]]]``
+[--seeds 0,1,2,3,4] [--multibody [--streams 0,1000,2000] | --realdata | --fast-vs-truth
+[--control]]]``
 (one core).
 """
 
@@ -202,6 +205,39 @@ def multibody(seeds=(0, 1, 2, 3, 4), vehicles=MB_VEHICLES, options=None) -> None
         for axle in ("front", "rear"):
             print(f"  {veh} {axle}: final peak bands of seeds {list(seeds)} overlap pairwise: "
                   f"{bands_overlap(bands[axle])}")
+
+
+def multibody_streams(offsets=(0, 1000, 2000), vehicles=MB_VEHICLES, options=None) -> None:
+    """The multi-body acceptance over Monte Carlo streams: each snow slalom (seeds 0-4) run
+    with filter seeds ``seed + offset`` for every offset (the drives unchanged), then one
+    line: the runs whose curve MAE exceeds 0.02 or whose band coverage falls below 0.9 on
+    an axle, the worst MAE and coverage, the peaks observed, and the largest lower bound
+    above the true peak (at any time)."""
+    from roadgrip.estimators.gpssm.accuracy import honesty_figures
+
+    options = dict(options or {})
+    alpha = np.radians(np.linspace(-20, 20, 161))
+    rows = []
+    for veh in vehicles:
+        for seed in range(5):
+            drive = simulate_scenario("snow-slalom", seed=seed, engine="multibody", vehicle=veh, cache=True)
+            for off in offsets:
+                cfg = GPSSMConfig.from_options({"particles": 200, **options})
+                table, cv = run_filter(drive, cfg, seed=seed + off, curve_times=(1e9,), curve_alpha=alpha)
+                h = honesty_figures(drive, table, next(iter(cv.values())))
+                f, r = h["front"], h["rear"]
+                rows.append((veh, seed, off, f["mae"], f["coverage"], r["mae"], r["coverage"], h["vy_rmse"],
+                             f["observed"], r["observed"], f["lower_excess"], r["lower_excess"]))
+                print(f"{veh} seed {seed} filter seed {seed + off}: front MAE {f['mae']:.4f} cov {f['coverage']:.2f} "
+                      f"{'obs' if f['observed'] else 'n/o'}, rear MAE {r['mae']:.4f} cov {r['coverage']:.2f} "
+                      f"{'obs' if r['observed'] else 'n/o'}, vy rmse {h['vy_rmse']:.3f}, gain "
+                      f"{table['ay_gain'].iloc[-1]:.3f}", flush=True)
+    a = np.array([x[3:] for x in rows], float)
+    miss = [f"{x[0]} {x[1]}/{x[1] + x[2]}" for x in rows if max(x[3], x[5]) > 0.02 or min(x[4], x[6]) < 0.9]
+    print(f"{len(rows)} runs {options}: MAE > 0.02 or coverage < 0.9 on {len(miss)} {miss}; worst MAE front "
+          f"{a[:, 0].max():.4f} rear {a[:, 2].max():.4f}; worst coverage front {a[:, 1].min():.2f} rear "
+          f"{a[:, 3].min():.2f}; peaks observed front {int(a[:, 5].sum())} rear {int(a[:, 6].sum())}; largest "
+          f"lower - true front {a[:, 7].max():+.3f} rear {a[:, 8].max():+.3f}; vy rmse max {a[:, 4].max():.3f}")
 
 
 def realdata(seeds=(0, 1, 2)) -> None:
@@ -607,6 +643,8 @@ def main() -> None:
     ap.add_argument("--speed-json", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--fast-vs-truth", action="store_true",
                     help="with --accuracy: the fast and exact modes against the truth, seeds 0-4")
+    ap.add_argument("--streams", default=None,
+                    help="with --accuracy --multibody: filter-seed offsets, e.g. 0,1000,2000 (Monte Carlo streams)")
     ap.add_argument("--control", action="store_true",
                     help="with --fast-vs-truth: the exact mode with another Monte Carlo stream in place of the fast mode")
     ap.add_argument("--option", action="append", default=[], help="KEY=VALUE filter option (--multibody)")
@@ -646,7 +684,10 @@ def main() -> None:
                 opts[k] = float(v) if "." in v or "e" in v else int(v)
             except ValueError:
                 opts[k] = v
-        multibody(seeds, options=opts)
+        if args.streams:
+            multibody_streams(tuple(int(v) for v in args.streams.split(",")), options=opts)
+        else:
+            multibody(seeds, options=opts)
         return
     if args.accuracy:
         accuracy(tuple(int(v) for v in (args.seeds or "0,1").split(",")))

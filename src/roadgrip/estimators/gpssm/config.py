@@ -218,7 +218,7 @@ class GPSSMConfig(EstimatorConfig):
     max_sideslip: float | None = None
     slip_limit: float | None = None
     ay_gain_sigma: float = 0.1
-    ay_gain_walk: float = 0.003
+    ay_gain_walk: float = 0.01
     ay_gain_gate: float = 1.0
     axle_loads: str = "static"
     max_sideslip_ratio: float = 0.5
