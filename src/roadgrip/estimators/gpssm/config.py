@@ -157,7 +157,11 @@ class GPSSMConfig(EstimatorConfig):
         :func:`roadgrip.vehicle.params.axle_loads`) in eq. 7-8, where the drive has ``ax``.
     ay_gain_walk : float
         Random-walk std of the gain [1/sqrt(s)] (artificial dynamics of a static
-        parameter in a particle filter, so that resampling does not exhaust it).
+        parameter in a particle filter, so that resampling does not exhaust it). With
+        0.003 a gain that the particles settled on wrongly in the first manoeuvres (0.92
+        against 1.11 on a multi-body slalom) took the rest of the drive to walk back, and
+        the friction learned meanwhile was 20 % high (6 of 30 Monte Carlo runs missed
+        the curve acceptance; none with 0.01, docs/gpssm.md).
     ay_gain_gate : float
         ``|a_y|`` [m/s²] below which a step does not weigh the particles' gains: every
         particle then takes the weighted mean gain of the last step in eq. 8. Near zero
