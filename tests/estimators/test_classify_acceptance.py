@@ -161,10 +161,5 @@ DART_NAMES = (
 @pytest.mark.realdata
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("name", DART_NAMES)
-def test_dart_leave_one_out(dart_accuracy, method, name, request):
-    if method == "slipmap" and name.startswith("car_1_Datarecording_09_09_2024_16_53_03"):
-        request.applymarker(pytest.mark.xfail(strict=True, reason=(
-            "measured 84 %: on this negative-steer run the lateral acceleration at the "
-            "start of the ramp (1-1.6 m/s) stays below what the calibrated tire gives at "
-            "the estimated slip angles, and the slip map calls it low")))
+def test_dart_leave_one_out(dart_accuracy, method, name):
     assert dart_accuracy[(method, name)] >= 0.9

@@ -4,6 +4,10 @@ A handful of physical parameters, each fitted where the data determine it, so th
 calibration transfers to other drives of the same car (no grid search over classifier
 settings scored on the labelled drives themselves):
 
+0. the zero errors of the kinematic stage's slip angles (steering offset, a yawed pose
+   frame), from the intercept of slip angle against lateral acceleration in the linear
+   range, pooled over all drives (:func:`fit_slip_angle_offsets`); the later steps see
+   the slip angles less these offsets, as the classifiers do;
 1. per channel the normalised stiffness and the accelerometer gain (and longitudinally the
    road load ``r0 + r2 vx^2``, linear least squares inside), by least squares of the
    measured acceleration against the model at each drive's class friction, over the
@@ -42,6 +46,7 @@ from roadgrip.estimators.classify.brls_config import (
 from roadgrip.estimators.classify.brls_kernel import brls_batch
 from roadgrip.estimators.classify.frontend import FIRST_STEP_S
 from roadgrip.estimators.classify.grip_model import (
+    ALPHA_OFFSET_MAX,
     LONG_LATERAL_GATE,
     UNCALIBRATED_MODEL_ERROR,
     GripModel,
@@ -62,7 +67,7 @@ from roadgrip.inference.kinematic import (
     drive_lateral_acceleration,
 )
 
-__all__ = ["fit_class_friction", "fit_grip_model", "saturation_calibration"]
+__all__ = ["fit_class_friction", "fit_grip_model", "fit_slip_angle_offsets", "saturation_calibration"]
 
 STIFFNESS_PRIOR = 0.2
 """Standard deviation of the log stiffness around the vehicle's parameters."""
@@ -73,6 +78,18 @@ MODEL_ERROR_MIN = 0.05
 EFFECTIVE_SAMPLES = 0.1
 """Fraction of the samples counted as independent in the fit (neighbouring samples at
 100 Hz share their errors)."""
+
+ZERO_SLIP_ACCEL = 1.5
+"""Lateral acceleration [m/s²] below which the slip-angle zero errors are fitted: about
+0.15 g, inside the linear range of every surface the classes cover (the slip angles
+there are small and proportional to the lateral acceleration whatever the friction)."""
+
+ZERO_SLIP_MIN_SAMPLES = 50
+"""Fewest samples below :data:`ZERO_SLIP_ACCEL` (and moving) for a zero-error fit."""
+
+ZERO_SLIP_MIN_SPREAD = 0.3
+"""Smallest standard deviation of the lateral acceleration over those samples [m/s²]:
+below it the intercept is not separated from the slope."""
 
 _SCALES = np.geomspace(0.6, 1.6, 25)
 _GAINS = np.linspace(0.85, 1.3, 19)
@@ -184,6 +201,47 @@ def fit_grip_model(
     return base, fitted
 
 
+def fit_slip_angle_offsets(
+    data: Sequence[tuple[Drive, str, KinematicOutput, NDArray]], min_speed: float = 0.5,
+) -> tuple[float, float, dict[str, Any]]:
+    """Zero errors of the kinematic stage's slip angles [rad], from the near-linear samples.
+
+    Per axle the intercept of the least-squares line ``alpha = s ay + b`` over the moving
+    samples (``|vx| >= min_speed``) of every labelled drive, whatever its class, with
+    ``|ay| <`` :data:`ZERO_SLIP_ACCEL`: there a tire's slip angle is proportional to its
+    lateral force on any surface, so the line passes through zero unless the estimated
+    slip angle carries a constant error (steering offset, a yawed pose frame, a biased
+    lateral velocity). Pooling turns in both directions separates the intercept from the
+    slope. Without :data:`ZERO_SLIP_MIN_SAMPLES` such samples spread by
+    :data:`ZERO_SLIP_MIN_SPREAD` the offsets are 0. Each is clipped to
+    :data:`~roadgrip.estimators.classify.grip_model.ALPHA_OFFSET_MAX`.
+
+    Returns
+    -------
+    offset_f, offset_r : float
+        To subtract from the front and rear slip angles [rad].
+    fit : dict
+        Samples, whether fitted, the offsets [deg] and the slopes [deg/(m/s²)].
+    """
+    ay, af, ar = [], [], []
+    for _drive, _lab, kin, a in data:
+        use = (np.abs(np.asarray(kin.vx, float)) >= min_speed) & (np.abs(a) < ZERO_SLIP_ACCEL)
+        use &= np.isfinite(a) & np.isfinite(kin.alpha_f) & np.isfinite(kin.alpha_r)
+        ay.append(np.asarray(a, float)[use])
+        af.append(np.asarray(kin.alpha_f, float)[use])
+        ar.append(np.asarray(kin.alpha_r, float)[use])
+    a = np.concatenate(ay)
+    if a.size < ZERO_SLIP_MIN_SAMPLES or float(np.std(a)) < ZERO_SLIP_MIN_SPREAD:
+        return 0.0, 0.0, {"samples": int(a.size), "fitted": False}
+    x = np.column_stack([a, np.ones_like(a)])
+    (sf, bf), *_ = np.linalg.lstsq(x, np.concatenate(af), rcond=None)
+    (sr, br), *_ = np.linalg.lstsq(x, np.concatenate(ar), rcond=None)
+    bf, br = (float(np.clip(b, -ALPHA_OFFSET_MAX, ALPHA_OFFSET_MAX)) for b in (bf, br))
+    return bf, br, {"samples": int(a.size), "fitted": True,
+                    "offset_deg": [float(np.degrees(bf)), float(np.degrees(br))],
+                    "slope_deg_per_mps2": [float(np.degrees(sf)), float(np.degrees(sr))]}
+
+
 FRICTION_GRID = np.round(np.arange(0.1, 1.51, 0.025), 3)
 """Peak frictions tried when a class's friction is estimated from its drives."""
 
@@ -258,13 +316,18 @@ def saturation_calibration(
     base = saturation_config(lateral=True)
     data = [(d, lab, kin, drive_lateral_acceleration(d, kin, base.lateral_acceleration, kinematic))
             for d, lab, kin in drives]
-    model, fitted = fit_grip_model(data, friction, base.min_speed, base.slip_filter_tau_s)
+    off_f, off_r, zero = fit_slip_angle_offsets(data, base.min_speed)
+    # the tire fits see the slip angles as the classifiers will (less the zero errors)
+    level = [(d, lab, kin._replace(alpha_f=kin.alpha_f - off_f, alpha_r=kin.alpha_r - off_r), ay)
+             for d, lab, kin, ay in data]
+    model, fitted = fit_grip_model(level, friction, base.min_speed, base.slip_filter_tau_s)
     if estimate_friction:
-        friction = fit_class_friction(data, model, base.min_speed, base.slip_filter_tau_s)
+        friction = fit_class_friction(level, model, base.min_speed, base.slip_filter_tau_s)
         if not friction["high"] > friction["low"]:
             raise ValueError(f"calibration failed: the 'high' drives show no more friction than the "
                              f"'low' ones ({friction}); give the friction as DRIVE:LABEL=MU")
-        model, fitted = fit_grip_model(data, friction, base.min_speed, base.slip_filter_tau_s)
+        model, fitted = fit_grip_model(level, friction, base.min_speed, base.slip_filter_tau_s)
+    model = replace(model, alpha_offset_f=off_f, alpha_offset_r=off_r)
     cfg = replace(base, grip=model)
     positions, pooled = _median_positions(cfg, data)
     on = {}
@@ -281,7 +344,7 @@ def saturation_calibration(
                   hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf)
     sm = replace(slipmap_saturation(model, hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf,
                                     lateral=on["lat"]), longitudinal=on["long"])
-    diag = {"model": "saturation", "grip_fit": fitted, "friction": dict(friction),
+    diag = {"model": "saturation", "grip_fit": fitted, "slip_angle_zero": zero, "friction": dict(friction),
             "friction_estimated": bool(estimate_friction), "median_positions": positions,
             "class_median_positions": pooled,
             "long_channel": "on" if on["long"] else "off", "lat_channel": "on" if on["lat"] else "off"}

@@ -47,6 +47,7 @@ from roadgrip.constants import GRAVITY
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = [
+    "ALPHA_OFFSET_MAX",
     "BRAKING_ACCEL",
     "BRAKING_MIN_SPEED",
     "LONG_LATERAL_GATE",
@@ -66,6 +67,10 @@ __all__ = [
 UNCALIBRATED_MODEL_ERROR = 0.25
 """Relative model error of the uncalibrated model (stiffness from the vehicle's
 parameters, unknown accelerometer gains from pitch and roll) [-]."""
+
+ALPHA_OFFSET_MAX = 0.1
+"""Largest slip-angle zero error a model accepts [rad] (about 6 degrees: beyond it the
+kinematic stage or the steering signal is broken, not offset)."""
 
 
 @dataclass(frozen=True)
@@ -103,6 +108,13 @@ class GripModel:
         over the multi-body drives' stops).
     model_error_x, model_error_y : float
         Relative model error ``eps`` of the longitudinal / lateral channel [-].
+    alpha_offset_f, alpha_offset_r : float
+        Zero errors of the kinematic stage's front and rear slip angles [rad], which
+        :func:`channels` subtracts: a steering-angle offset, a yaw misalignment of the
+        pose or a bias of the lateral velocity shift the slip angles by a constant that
+        a tire model would read as a change of stiffness, and, on a turn in one
+        direction, as a change of grip (0 without a calibration;
+        :func:`roadgrip.estimators.classify.fit.fit_slip_angle_offsets`).
     """
 
     c_long: float
@@ -121,6 +133,8 @@ class GripModel:
     resistance_2: float = 0.0
     lateral_speed_noise: float = 0.02
     speed_noise: float = 0.1
+    alpha_offset_f: float = 0.0
+    alpha_offset_r: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("c_long", "c_lat", "gain_x", "gain_y", "accel_noise"):
@@ -137,6 +151,11 @@ class GripModel:
         for name in ("model_error_x", "model_error_y"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise ValueError(f"grip model {name} must be >= 0, got {getattr(self, name)!r}")
+        for name in ("alpha_offset_f", "alpha_offset_r"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and abs(v) <= ALPHA_OFFSET_MAX):
+                raise ValueError(f"grip model {name} must be finite and within +-{ALPHA_OFFSET_MAX} rad, "
+                                 f"got {v!r}")
 
     def to_dict(self) -> dict[str, Any]:
         return {k: float(v) for k, v in asdict(self).items()}
@@ -359,7 +378,9 @@ def channels(
     if brake.any():  # both axles' own slips, not the driven one's against the free wheels
         kf_b, kr_b = axle_slips(np.atleast_2d(kin.kappa), np.atleast_2d(kin.wheels_valid))
         kf, kr = np.where(brake, kf_b, kf), np.where(brake, kr_b, kr)
-    cp = class_predictions(kf, kr, kin.alpha_f, kin.alpha_r, steer, ax, params, model, vx)
+    alpha_f = np.asarray(kin.alpha_f, float) - model.alpha_offset_f
+    alpha_r = np.asarray(kin.alpha_r, float) - model.alpha_offset_r
+    cp = class_predictions(kf, kr, alpha_f, alpha_r, steer, ax, params, model, vx)
     # the longitudinal channel in straight-line traction or braking, without the slip angles
     zero = np.zeros_like(np.atleast_1d(kf))
     cpx = class_predictions(kf, kr, zero, zero, np.atleast_1d(steer), ax, params, model, vx)
