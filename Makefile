@@ -3,7 +3,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-fast fuzz kernels lint bench clean
+.PHONY: demo test test-fast fuzz kernels clean-kernels lint bench clean
 
 $(BIN)/python:
 	@test -n "$(PYTHON)" || { echo "error: no python3.11 or python3 on PATH"; exit 1; }
@@ -48,5 +48,11 @@ lint: $(STAMP)
 bench: $(STAMP)
 	for f in benchmarks/bench_*.py; do $(BIN)/python $$f || exit 1; done
 
-clean:
+# numba invalidates a cached kernel only when its own module's file changes, not when a
+# module it calls, or reads a constant from, does: after such an edit the cache runs the old code.
+clean-kernels:
+	find src -name '*.nbi' -delete
+	find src -name '*.nbc' -delete
+
+clean: clean-kernels
 	rm -rf $(VENV) report .pytest_cache

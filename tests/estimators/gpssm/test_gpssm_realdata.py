@@ -1,4 +1,5 @@
-"""GP-SSM on the real DART recordings (JetRacer on two floors); skipped without the data."""
+"""GP-SSM on the real recordings: DART (JetRacer on two floors) and FrictionMaps (F1/10);
+skipped without the data."""
 
 from pathlib import Path
 
@@ -6,7 +7,12 @@ import numpy as np
 import pytest
 
 from roadgrip.estimators.gpssm import GPSSMConfig, drive_vx, run_filter
-from roadgrip.io.presets import dart_options, options_for_drive, preset_options
+from roadgrip.io.presets import (
+    dart_options,
+    frictionmaps_options,
+    options_for_drive,
+    preset_options,
+)
 
 DART_OPTIONS = dart_options()
 DATA = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "dart"
@@ -67,11 +73,13 @@ ALL_DART = sorted(DATA.glob("*/*.csv")) if DATA.exists() else []
 FRICTIONMAPS = DATA.parent / "frictionmaps"
 
 
-def _honesty(d, cfg, seeds):
+def _honesty(d, cfg, seeds, coverage=None, raw_floor=False):
     """Runs of the filter with the given seeds, each checked: no |vy| past 0.5 vx that is
     not flagged diverged, no upper bound below the sustained |a_y|/g of the filter's own
     lateral acceleration, no peak (observed or not) below that floor over the learned
-    accelerometer gain less floor_margin; returns the final peak bands per axle."""
+    accelerometer gain less floor_margin, with ``coverage`` the vy band covering the error
+    against the pose's ``vy_pose`` on at least that share of the samples, with ``raw_floor``
+    no observed peak below the floor as read; returns the final peak bands per axle."""
     from roadgrip.estimators.gpssm import drive_inputs
     from roadgrip.estimators.gpssm.accuracy import honesty_figures
 
@@ -79,11 +87,15 @@ def _honesty(d, cfg, seeds):
     bands = {"front": [], "rear": []}
     for seed in seeds:
         t, _ = run_filter(d, cfg, seed=seed)
-        h = honesty_figures(d, t, ay=ay)
+        h = honesty_figures(d, t, ay=ay, vy_ref=d.col("vy_pose") if coverage is not None else None)
         assert h["vy_runaway"] == 0, seed
+        if coverage is not None:
+            assert h["vy_coverage"] >= coverage, (seed, h["vy_coverage"])
         floor_gain = t["floor"].to_numpy() / t["ay_gain"].to_numpy()
         for axle in bands:
             assert h[axle]["upper_below_floor"] == 0, (seed, axle)
+            if raw_floor:
+                assert h[axle]["observed_below_floor"] == 0, (seed, axle)
             obs = t[f"peak_observed_{axle}"].to_numpy(bool)
             assert not np.any(obs & (t[f"mu_{axle}"].to_numpy() < floor_gain - cfg.floor_margin)), (seed, axle)
             assert (t[f"mu_{axle}_lower"] <= t[f"mu_{axle}"] + 1e-12).all()
@@ -115,3 +127,24 @@ def test_frictionmaps_recordings_flag_what_they_cannot_follow(name):
         pytest.skip(f"frictionmaps data not found at {path}")
     d = read_drive(path, format="frictionmaps")
     _honesty(d, GPSSMConfig(particles=200), (0,))
+
+
+@pytest.mark.parametrize("name", ["DS1", "DS2", "DS3", "DS4", "DS5"])
+def test_frictionmaps_recordings_with_their_preset_are_honest_and_seeds_overlap(name):
+    """With the data set's preset (the lateral velocity from the localisation, the
+    accelerometer's gain fixed): the vy band covers the error against the pose's vy on
+    90 % of the samples, no upper bound and no observed peak below the sustained |a_y|/g
+    as read, and the final bands of seeds 0-4 overlap."""
+    from roadgrip.estimators.gpssm.accuracy import bands_overlap
+    from roadgrip.io import read_drive
+
+    path = FRICTIONMAPS / name
+    if not path.exists():
+        pytest.skip(f"frictionmaps data not found at {path}")
+    d = read_drive(path, format="frictionmaps")
+    assert options_for_drive(d) == frictionmaps_options()
+    cfg = GPSSMConfig.from_options({"particles": 200, **preset_options("gpssm", d)})
+    # with the gain fixed the floor over the gain is the floor as read
+    bands = _honesty(d, cfg, (0, 1, 2, 3, 4), coverage=0.9, raw_floor=True)
+    for axle, b in bands.items():
+        assert bands_overlap(b), (axle, b)

@@ -400,9 +400,7 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
     floor_gain = floor_raw / max(e_gain, 1e-6)
     moving = vx >= cst.min_speed
     measured = not math.isnan(vy_meas)
-    vy_std = wk.e[_E_VY_STD]
-    if not measured:
-        vy_std = math.sqrt(vy_std**2 + (cst.slip_sigma * vx) ** 2)
+    vy_std = math.sqrt(wk.e[_E_VY_STD] ** 2 + (cst.slip_sigma * vx) ** 2)
     if not moving:
         gap = abs(vy_meas - e_vy) if measured else cst.max_sideslip_ratio * cst.min_speed
         vy_std = max(vy_std, gap / _Z95)

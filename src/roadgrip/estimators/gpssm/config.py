@@ -100,8 +100,9 @@ class GPSSMConfig(EstimatorConfig):
         friction information near standstill) and the lateral velocity is set to zero.
     vy_source : {'none', 'pose'}
         ``'pose'``: the lateral velocity is measured (the body-axis projection of the
-        pose derivative, :func:`drive_vy`, e.g. from motion capture) and every particle
-        takes it instead of its propagated value. The slip angles are then measured
+        pose derivative, or the drive's ``vy_pose`` column, :func:`drive_vy`, e.g. from
+        motion capture) and every particle takes it instead of its propagated value (a
+        NaN sample, e.g. at a jump of the localisation, is no measurement). The slip angles are then measured
         rather than inferred; the friction is learned from the lateral acceleration and
         the yaw dynamics against them.
     ay_source : {'imu', 'kinematic'}
@@ -117,8 +118,10 @@ class GPSSMConfig(EstimatorConfig):
         measurement noise is widened by ``sqrt(k)`` for ``k`` sub-steps per sample.
     slip_sigma : float
         Slip-angle uncertainty of the state estimate added to the curve band [rad]
-        (:func:`posterior_curves`); about the error of the lateral-velocity estimate over
-        the speed (0.05 m/s at 12 m/s is 0.24 deg on the simulated snow drive).
+        (:func:`posterior_curves`); about the error of the lateral-velocity estimate, or of
+        its measurement (``vy_source='pose'``), over the speed (0.05 m/s at 12 m/s is
+        0.24 deg on the simulated snow drive). ``slip_sigma |vx|`` is in the reported
+        ``vy_std`` (:mod:`~roadgrip.estimators.gpssm.guard`).
     curve_sigma_floor : float
         Standard deviation [-] added in quadrature to every particle's function posterior
         in the curve band and the peak band: the error of representing a tire curve with a

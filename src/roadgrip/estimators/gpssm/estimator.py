@@ -49,7 +49,9 @@ def prepare(drive: Any, config: GPSSMConfig) -> Prepared:
     with interpolated sub-steps (``recorded=False``) where the sample interval exceeds
     ``config.max_dt``; ``info.derived['substeps']`` is their number per interval."""
     data, keep, k = upsample_inputs(
-        drive_inputs(drive, config.vx_source, config.vy_source, config.ay_source), config.max_dt)
+        drive_inputs(drive, config.vx_source, config.vy_source, config.ay_source,
+                     max_sideslip_ratio=config.max_sideslip_ratio, min_speed=config.min_speed),
+        config.max_dt)
     samples = [Sample(*row, recorded=bool(kept)) for row, kept in zip(data, keep, strict=True)]
     return Prepared(DriveInfo.from_drive(drive, substeps=int(k)), samples)
 

@@ -25,9 +25,11 @@ Physics floor
     peak more than ``floor_margin`` below it is reported as not observed (the learned
     curve contradicts the data), and no ``mu_*`` is reported below it.
 Lateral-velocity band
-    Without a measured lateral velocity the particle spread after resampling
-    under-represents the error of ``vy``: ``vy_std`` includes ``slip_sigma |vx|`` in
-    quadrature (the slip-angle error the curve band assumes too).
+    ``vy_std`` includes ``slip_sigma |vx|`` in quadrature, the slip-angle error the curve
+    band assumes too: without a measured lateral velocity the particle spread after
+    resampling under-represents the error of ``vy``; with one (``vy_source='pose'``) every
+    particle takes the measurement, which has its own error (small for motion capture, 0.1-0.16 m/s
+    for the F1/10 localisation, :func:`roadgrip.io.presets.frictionmaps_options`).
 Collapsed weights
     A step whose effective sample size is below 1.5 particles resamples copies of one
     particle, whose spread says nothing, and the copies stay nearly equal for some steps
@@ -138,9 +140,7 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
     vx = float(sample.vx)
     moving = vx >= config.min_speed
     measured_vy = not math.isnan(sample.vy)
-    vy_std = est.vy_std
-    if not measured_vy:
-        vy_std = math.sqrt(vy_std**2 + (config.slip_sigma * vx) ** 2)
+    vy_std = math.sqrt(est.vy_std**2 + (config.slip_sigma * vx) ** 2)
     if not moving:
         # near standstill the filter holds vy at 0: its band is what a measurement says
         # against that, or a sideslip of max_sideslip_ratio at min_speed

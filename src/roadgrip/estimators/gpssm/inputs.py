@@ -78,7 +78,10 @@ def drive_vx(drive: Any, source: str = "auto") -> NDArray[np.float64]:
 def drive_vy(drive: Any, source: str = "pose") -> NDArray[np.float64]:
     """Measured body lateral velocity [m/s] (``GPSSMConfig.vy_source``).
 
-    ``'pose'``: ``-sin(psi) dx/dt + cos(psi) dy/dt`` (central differences of the pose,
+    ``'pose'``: the drive's ``vy_pose`` column where it has one (a reader's body velocity
+    from the pose, NaN where the pose jumps or has a gap, as
+    :mod:`roadgrip.io.frictionmaps` writes it: a NaN sample is no measurement), else
+    ``-sin(psi) dx/dt + cos(psi) dy/dt`` (central differences of the pose,
     :func:`roadgrip.signals.pose_velocity`);
     ``'none'``: NaN, no measurement.
     """
@@ -86,16 +89,26 @@ def drive_vy(drive: Any, source: str = "pose") -> NDArray[np.float64]:
         return np.full(drive.n, np.nan)
     if source != "pose":
         raise ValueError(f"vy source must be 'none' or 'pose', got {source!r}")
+    if drive.has("vy_pose"):
+        return np.asarray(drive.col("vy_pose"), float)
     return pose_velocity(drive)[1]
 
 
 def drive_inputs(
-    drive: Any, vx_source: str = "auto", vy_source: str = "none", ay_source: str = "imu"
+    drive: Any, vx_source: str = "auto", vy_source: str = "none", ay_source: str = "imu",
+    *, max_sideslip_ratio: float | None = None, min_speed: float = 0.0,
 ) -> NDArray[np.float64]:
     """Columns ``t, ay, yaw_rate, steer, vx, vy, ax`` of a drive as an array (n, 7), the
     fields of :class:`Sample` (``vy`` NaN unless ``vy_source`` measures it; ``ay`` the
     accelerometer or, with ``ay_source='kinematic'``, ``r vx + dvy/dt``; ``ax`` the
-    accelerometer's, NaN without one)."""
+    accelerometer's, NaN without one).
+
+    With ``max_sideslip_ratio`` (``GPSSMConfig.max_sideslip_ratio``), a measured lateral
+    velocity beyond ``max_sideslip_ratio vx`` at ``min_speed`` [m/s] or faster is no
+    measurement (NaN): no car that is not spinning out moves so, and a localisation that
+    jumps without the reader noticing does (the F1/10 recordings' ``vy_pose`` reaches
+    3 m/s at 3-5 m/s for a sample or two). The filter then propagates its own there.
+    """
     drive.require("t", "yaw_rate", "steer", why="inputs of the GP-SSM filter")
     vx, vy = drive_vx(drive, vx_source), drive_vy(drive, vy_source)
     if ay_source == "kinematic":
@@ -106,6 +119,8 @@ def drive_inputs(
         drive.require("ay", why="the lateral acceleration of the GP-SSM filter")
         ay = drive.col("ay")
     ax = drive.col("ax") if drive.has("ax") else np.full(drive.n, np.nan)
+    if max_sideslip_ratio is not None:
+        vy = np.where((vx >= min_speed) & (np.abs(vy) > max_sideslip_ratio * np.abs(vx)), np.nan, vy)
     return np.column_stack([drive.col("t"), ay, drive.col("yaw_rate"), drive.col("steer"), vx, vy, ax])
 
 

@@ -164,7 +164,8 @@ def _chunk_samples(state: StreamState, chunk: Any) -> tuple[NDArray, NDArray]:
     """The chunk's filter samples (n', 8) (``sample_array`` layout, sub-steps included)
     and its last input row."""
     config = state.ctx.config
-    data = drive_inputs(chunk, config.vx_source, config.vy_source, config.ay_source)
+    data = drive_inputs(chunk, config.vx_source, config.vy_source, config.ay_source,
+                        max_sideslip_ratio=config.max_sideslip_ratio, min_speed=config.min_speed)
     if not len(data):
         raise ValueError("a chunk of the drive has no samples")
     k = state.ctx.substeps
