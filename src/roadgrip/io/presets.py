@@ -87,12 +87,14 @@ def frictionmaps_options() -> dict[str, Any]:
     return dict(_FRICTIONMAPS)
 
 
+_BY_FORMAT = {"dart": _DART, "frictionmaps": _FRICTIONMAPS}
+
+
 def options_for_drive(drive: Any) -> dict[str, Any]:
     """The preset options of a drive's data set: :func:`dart_options` for a drive read
     with ``format='dart'``, :func:`frictionmaps_options` for ``format='frictionmaps'``,
     else none."""
-    fmt = drive.meta.extra.get("format")
-    return dart_options() if fmt == "dart" else frictionmaps_options() if fmt == "frictionmaps" else {}
+    return dict(_BY_FORMAT.get(drive.meta.extra.get("format"), {}))
 
 
 def preset_options(method: str, drive: Any) -> dict[str, Any]:

@@ -29,7 +29,8 @@ from roadgrip.estimators.gpssm.stepping import step_unthreaded
 from roadgrip.estimators.protocol import DriveInfo, Prepared
 from roadgrip.vehicle.params import VehicleParams
 
-__all__ = ["GPSSM", "FilterState", "init", "prepare", "prior_band", "run", "run_block", "run_filter", "step"]
+__all__ = ["GPSSM", "FilterState", "config_inputs", "init", "prepare", "prior_band", "run", "run_block", "run_filter",
+           "step"]
 
 PROGRESS_EVERY = 50
 """Output rows between two calls of the progress callback."""
@@ -44,14 +45,18 @@ class FilterState(NamedTuple):
     state: GPSSMState | None
 
 
+def config_inputs(drive: Any, config: GPSSMConfig) -> NDArray[np.float64]:
+    """:func:`~roadgrip.estimators.gpssm.inputs.drive_inputs` of a drive (or a chunk of one)
+    with ``config``'s sources and its plausibility bound on a measured ``vy``, shape (n, 7)."""
+    return drive_inputs(drive, config.vx_source, config.vy_source, config.ay_source,
+                        max_sideslip_ratio=config.max_sideslip_ratio, min_speed=config.min_speed)
+
+
 def prepare(drive: Any, config: GPSSMConfig) -> Prepared:
     """The filter's input samples of a drive (:class:`~roadgrip.estimators.gpssm.inputs.Sample`),
     with interpolated sub-steps (``recorded=False``) where the sample interval exceeds
     ``config.max_dt``; ``info.derived['substeps']`` is their number per interval."""
-    data, keep, k = upsample_inputs(
-        drive_inputs(drive, config.vx_source, config.vy_source, config.ay_source,
-                     max_sideslip_ratio=config.max_sideslip_ratio, min_speed=config.min_speed),
-        config.max_dt)
+    data, keep, k = upsample_inputs(config_inputs(drive, config), config.max_dt)
     samples = [Sample(*row, recorded=bool(kept)) for row, kept in zip(data, keep, strict=True)]
     return Prepared(DriveInfo.from_drive(drive, substeps=int(k)), samples)
 

@@ -32,9 +32,9 @@ from numpy.typing import NDArray
 
 from roadgrip.blas_threads import one_blas_thread
 from roadgrip.estimators.gpssm.config import GPSSMConfig
-from roadgrip.estimators.gpssm.estimator import rows_table, run_block
+from roadgrip.estimators.gpssm.estimator import config_inputs, rows_table, run_block
 from roadgrip.estimators.gpssm.guard import Guard
-from roadgrip.estimators.gpssm.inputs import drive_inputs, substeps, upsample_inputs
+from roadgrip.estimators.gpssm.inputs import substeps, upsample_inputs
 from roadgrip.estimators.gpssm.posterior import CurvePosterior, posterior_curves
 from roadgrip.estimators.gpssm.state import Context, GPSSMState, copy_state
 from roadgrip.estimators.protocol import DriveInfo
@@ -164,8 +164,7 @@ def _chunk_samples(state: StreamState, chunk: Any) -> tuple[NDArray, NDArray]:
     """The chunk's filter samples (n', 8) (``sample_array`` layout, sub-steps included)
     and its last input row."""
     config = state.ctx.config
-    data = drive_inputs(chunk, config.vx_source, config.vy_source, config.ay_source,
-                        max_sideslip_ratio=config.max_sideslip_ratio, min_speed=config.min_speed)
+    data = config_inputs(chunk, config)
     if not len(data):
         raise ValueError("a chunk of the drive has no samples")
     k = state.ctx.substeps
