@@ -168,6 +168,24 @@ def accuracy(seeds=(0, 1)) -> None:
 MB_VEHICLES = ("ford-escort", "vw-vanagon")
 
 
+def _mb_slalom(veh: str, seed: int):
+    return simulate_scenario("snow-slalom", seed=seed, engine="multibody", vehicle=veh, cache=True)
+
+
+def _multibody_run(drive, filter_seed: int, options: dict):
+    """A multi-body drive through the filter (``filter_seed``, N = 200, ``options``): the
+    table, the honesty figures with the final curve against the truth, and the wall time
+    [s]."""
+    from roadgrip.estimators.gpssm.accuracy import honesty_figures
+
+    cfg = GPSSMConfig.from_options({"particles": 200, **options})
+    t0 = time.perf_counter()
+    table, cv = run_filter(drive, cfg, seed=filter_seed, curve_times=(1e9,),
+                           curve_alpha=np.radians(np.linspace(-20, 20, 161)))
+    wall = time.perf_counter() - t0
+    return table, honesty_figures(drive, table, next(iter(cv.values()))), wall
+
+
 def multibody(seeds=(0, 1, 2, 3, 4), vehicles=MB_VEHICLES, options=None) -> None:
     """The acceptance figures on the multi-body snow slaloms (truth that is not the
     filter's model): per vehicle, seed and axle the curve MAE and band coverage over the
@@ -183,13 +201,8 @@ def multibody(seeds=(0, 1, 2, 3, 4), vehicles=MB_VEHICLES, options=None) -> None
     for veh in vehicles:
         bands = {"front": [], "rear": []}
         for seed in seeds:
-            drive = simulate_scenario("snow-slalom", seed=seed, engine="multibody", vehicle=veh, cache=True)
-            cfg = GPSSMConfig.from_options({"particles": 200, **options})
-            t0 = time.perf_counter()
-            table, cv = run_filter(drive, cfg, seed=seed, curve_times=(1e9,),
-                                   curve_alpha=np.radians(np.linspace(-20, 20, 161)))
-            wall = time.perf_counter() - t0
-            h = honesty_figures(drive, table, next(iter(cv.values())))
+            drive = _mb_slalom(veh, seed)
+            table, h, wall = _multibody_run(drive, seed, options)
             hp = honesty_figures(drive, table, vy_ref=pose_velocity(drive)[1])
             ndiv = int(table["diverged"].sum()) if "diverged" in table else 0
             print(f"{veh} seed {seed}: vy rmse {h['vy_rmse']:.3f} m/s, vy std covers truth {h['vy_coverage']:.2f} "
@@ -213,18 +226,13 @@ def multibody_streams(offsets=(0, 1000, 2000), vehicles=MB_VEHICLES, options=Non
     line: the runs whose curve MAE exceeds 0.02 or whose band coverage falls below 0.9 on
     an axle, the worst MAE and coverage, the peaks observed, and the largest lower bound
     above the true peak (at any time)."""
-    from roadgrip.estimators.gpssm.accuracy import honesty_figures
-
     options = dict(options or {})
-    alpha = np.radians(np.linspace(-20, 20, 161))
     rows = []
     for veh in vehicles:
         for seed in range(5):
-            drive = simulate_scenario("snow-slalom", seed=seed, engine="multibody", vehicle=veh, cache=True)
+            drive = _mb_slalom(veh, seed)
             for off in offsets:
-                cfg = GPSSMConfig.from_options({"particles": 200, **options})
-                table, cv = run_filter(drive, cfg, seed=seed + off, curve_times=(1e9,), curve_alpha=alpha)
-                h = honesty_figures(drive, table, next(iter(cv.values())))
+                table, h, _ = _multibody_run(drive, seed + off, options)
                 f, r = h["front"], h["rear"]
                 rows.append((veh, seed, off, f["mae"], f["coverage"], r["mae"], r["coverage"], h["vy_rmse"],
                              f["observed"], r["observed"], f["lower_excess"], r["lower_excess"]))
@@ -303,7 +311,7 @@ def fast_vs_truth(seeds=(0, 1, 2, 3, 4), control: bool = False) -> None:
             if veh is None:
                 drive = simulate_scenario("snow-slalom", seed=seed)
             else:
-                drive = simulate_scenario("snow-slalom", seed=seed, engine="multibody", vehicle=veh, cache=True)
+                drive = _mb_slalom(veh, seed)
             line = []
             for mode, linalg, fseed in (("exact", "exact", seed), (name2, second, seed + offset)):
                 cfg = GPSSMConfig.from_options({"particles": 200, "linalg": linalg, **options})
