@@ -109,10 +109,12 @@ def fleet_cmd(
     png: Annotated[Path | None, typer.Option(help="Also write a PNG heat map.")] = None,
 ) -> None:
     """Estimate many drives in parallel on Dask and merge them into one friction map."""
+    from roadgrip.cli.options import check_vehicle
     from roadgrip.estimators import get
     from roadgrip.mapping.fleet import FleetConfig, fleet_map
 
     _check(output, html, png, cell, decay_hours, workers)
+    check_vehicle(vehicle)  # refused before the cluster starts, as an unknown method is
     get(method)  # an unknown method is refused before the cluster starts
     config = FleetConfig(method=method, cell=cell, h3_resolution=h3_resolution, tau=decay_hours * 3600.0,
                          cells=cells, origin=_origin(origin), vehicle=vehicle)

@@ -27,9 +27,11 @@ __all__ = [
     "check_input",
     "check_output",
     "check_seed",
+    "check_vehicle",
     "gpssm_memory",
     "parse_curve_times",
     "proc_kib",
+    "vehicle_presets",
 ]
 
 SEED_MAX = 2**32 - 1
@@ -109,6 +111,33 @@ def check_folder_output(path: str | Path, option: str) -> None:
             raise ValueError(f"{option}: folder {parent} is not writable (for {p})")
 
 
+def vehicle_presets() -> str:
+    """The shipped vehicle presets, comma-separated, in their registry's order
+    (:data:`roadgrip.vehicle.params.PRESETS`): the one list that ``--vehicle``'s help and
+    its error name."""
+    from roadgrip.vehicle.params import PRESETS
+
+    return ", ".join(PRESETS)
+
+
+def check_vehicle(vehicle: str | None, option: str = "--vehicle") -> None:
+    """``vehicle`` (None: the drive's own) is a preset or a valid vehicle YAML file."""
+    if vehicle is None:
+        return
+    from roadgrip.vehicle.params import PRESETS, load_vehicle
+
+    if vehicle in PRESETS:
+        return
+    p = Path(vehicle)
+    if p.suffix not in (".yaml", ".yml") and not p.exists():  # what load_vehicle reads as a file
+        raise ValueError(f"{option}: unknown vehicle {vehicle!r}: not a preset ({vehicle_presets()}) "
+                         "nor a YAML file")
+    try:
+        load_vehicle(vehicle)
+    except ValueError as exc:
+        raise ValueError(f"{option}: {exc}") from None
+
+
 def check_drive_args(path: str | None, fmt: str | None, vehicle: str | None,
                      topics: str | None = None, channels: str | None = None) -> None:
     """The drive arguments shared by every command that reads a drive: the file exists,
@@ -118,13 +147,7 @@ def check_drive_args(path: str | None, fmt: str | None, vehicle: str | None,
     if fmt is not None and fmt not in FORMATS:
         raise ValueError(f"--format: unknown format {fmt!r}; expected one of {', '.join(FORMATS)}")
     check_input(path)
-    if vehicle is not None:
-        from roadgrip.vehicle.params import load_vehicle
-
-        try:
-            load_vehicle(vehicle)
-        except ValueError as exc:
-            raise ValueError(f"--vehicle: {exc}") from None
+    check_vehicle(vehicle)
     if channels is not None:
         check_input(channels, "--channels")
     if topics is not None and (topics.endswith((".yaml", ".yml")) or os.sep in topics):

@@ -8,9 +8,9 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from roadgrip.cli._common import app, console
+from roadgrip.cli._common import PlainHelpTyper, app, console
 
-vehicle_app = typer.Typer(no_args_is_help=True, help="Vehicle descriptions: presets and a YAML template.")
+vehicle_app = PlainHelpTyper(no_args_is_help=True, help="Vehicle descriptions: presets and a YAML template.")
 app.add_typer(vehicle_app, name="vehicle")
 
 
