@@ -13,13 +13,15 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
+from rich.table import Table
 
 from roadgrip.cli._common import ChannelsOpt, FormatOpt, TopicsOpt, VehicleOpt, app, console
 
 if TYPE_CHECKING:
     from roadgrip.estimators.classify import Calibration
 
-__all__ = ["calibrate", "parse_labelled", "read_calibration", "split_window", "write_calibration"]
+__all__ = ["calibrate", "calibration_table", "parse_labelled", "read_calibration", "split_window",
+           "write_calibration"]
 
 
 def write_calibration(cal: Calibration, path: str | Path) -> None:
@@ -110,34 +112,89 @@ def parse_labelled(args: Sequence[str]) -> tuple[list[tuple[str, str]], dict[str
     return pairs, {k: float(np.mean(v)) for k, v in given.items()}
 
 
-def _print_calibration(cal: Calibration, output: Path) -> None:
-    b = cal.brls
-    if b.grip is not None:
-        g = b.grip
-        console.print(
-            f"saturation model: stiffness long {g.c_long:.3g}, lat {g.c_lat:.3g} /unit slip; gains "
-            f"{g.gain_x:.3g}, {g.gain_y:.3g}; class friction high {g.mu_high:.3g}, low {g.mu_low:.3g}; "
-            f"model error {g.model_error_x:.2g}, {g.model_error_y:.2g}"
-        )
-    for name, ch in (("longitudinal", b.long), ("lateral", b.lat)):
-        state = "on" if ch.enabled else "off"
-        console.print(
-            f"bRLS {name}: {state}; reference high {ch.ref_high:.4g}, low {ch.ref_low:.4g}, "
-            f"threshold {ch.threshold:.4g}, gamma {ch.gamma:.3g}"
-        )
-    if cal.slipmap is not None and cal.slipmap.model == "saturation":
-        sm = cal.slipmap
-        console.print(f"slipmap: saturation model; longitudinal map {'on' if sm.longitudinal else 'off'}, "
-                      f"lateral map {'on' if sm.lateral else 'off'}; low-pass {sm.lowpass_tau_s:.3g} s")
-    elif cal.slipmap is not None:
-        sm = cal.slipmap
-        console.print(
-            f"slipmap: mid-friction peaks long {sm.long_curve.D:.3g}, "
-            f"lat {sm.lat_curve.D:.3g}; low-pass {sm.lowpass_tau_s:.3g} s"
-        )
-    d: dict[str, Any] = cal.to_dict()
-    console.print(f"fit: {d['diagnostics']} {d['slipmap'].get('fit', {})}")
-    console.print(f"wrote {output}")
+UNITS = {
+    "c_long": "1/unit slip", "c_lat": "1/rad", "mu_high": "-", "mu_low": "-",
+    "gain_x": "-", "gain_y": "-", "gain": "-", "model_error_x": "-", "model_error_y": "-",
+    "model_error": "-", "relative_residual": "-", "stiffness_over_parameters": "-",
+    "fraction_in_labelled_class": "-", "resistance_0": "m/s²", "resistance_2": "1/m",
+    "road_load": "m/s², 1/m", "alpha_offset_f": "rad", "alpha_offset_r": "rad",
+    "offset_deg": "deg", "slope_deg_per_mps2": "deg/(m/s²)", "D": "-",
+}
+"""Units of the calibration's entries by their last key, as the calibration file holds them."""
+
+GRIP_FITTED = ("c_long", "c_lat", "mu_high", "mu_low", "gain_x", "gain_y", "model_error_x",
+               "model_error_y", "resistance_0", "resistance_2", "alpha_offset_f", "alpha_offset_r")
+"""The saturation model's parameters that ``roadgrip calibrate`` fits or sets from the drives."""
+
+
+def _unit(path: Sequence[str]) -> str:
+    """The unit of the entry at ``path`` of the calibration file ('' where none is known)."""
+    key, parent = path[-1], (path[-2] if len(path) > 1 else "")
+    if key == "stiffness":  # diagnostics.grip_fit.{x, y}.stiffness
+        return {"x": UNITS["c_long"], "y": UNITS["c_lat"]}.get(parent, "")
+    if parent == "friction":
+        return "-"
+    if key.endswith("_s"):
+        return "s"
+    return UNITS.get(key, "")
+
+
+def _value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if v is None:
+        return "unknown"
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    if isinstance(v, (list, tuple)):
+        return ", ".join(_value(x) for x in v)
+    return str(v)
+
+
+def _leaves(value: Any, path: tuple[str, ...]) -> list[tuple[tuple[str, ...], Any]]:
+    """(path, value) of every entry of a nested dictionary; a list of scalars is one entry,
+    a list of dictionaries is entered by index."""
+    if isinstance(value, dict):
+        return [leaf for k, v in value.items() for leaf in _leaves(v, (*path, str(k)))]
+    if isinstance(value, (list, tuple)) and any(isinstance(v, dict) for v in value):
+        return [leaf for i, v in enumerate(value) for leaf in _leaves(v, (*path, str(i)))]
+    return [(path, value)]
+
+
+def calibration_table(cal: Calibration, title: str = "calibration") -> Table:
+    """The calibration as a table of parameter, value and unit, parameters named by their
+    place in the calibration file: the fitted model, each classifier's channels, then the
+    fit's diagnostics."""
+    from rich.text import Text
+
+    doc = cal.to_dict()
+    brls, slipmap = doc["brls"], doc["slipmap"]
+    sections: list[list[tuple[tuple[str, ...], Any]]] = []
+    if brls.get("grip"):
+        sections.append([(("brls", "grip", k), brls["grip"][k]) for k in GRIP_FITTED])
+    sections.append([(("brls", ch, k), brls[ch][k]) for ch in ("long", "lat")
+                     for k in ("enabled", "ref_high", "ref_low", "threshold", "gamma")])
+    config = slipmap.get("config")
+    if config is not None:
+        keys = ["longitudinal", "lateral"] if config.get("model") == "saturation" else []
+        rows = [(("slipmap", "config", k), config[k]) for k in keys]
+        rows += [(("slipmap", "config", c, "D"), config[c]["D"]) for c in ("long_curve", "lat_curve")
+                 if config.get("model") != "saturation"]
+        rows.append((("slipmap", "config", "lowpass_tau_s"), config["lowpass_tau_s"]))
+        sections.append(rows)
+    sections.append(_leaves(doc["diagnostics"], ("diagnostics",)) + _leaves(slipmap.get("fit") or {},
+                                                                            ("slipmap", "fit")))
+    table = Table(title=title)
+    table.add_column("parameter", no_wrap=True)
+    table.add_column("value", justify="right")
+    table.add_column("unit")
+    for rows in sections:
+        for path, value in rows:
+            if value == {}:  # an empty section of the file
+                continue
+            table.add_row(Text(".".join(path)), Text(_value(value)), Text(_unit(path)))
+        table.add_section()
+    return table
 
 
 @app.command()
@@ -169,4 +226,6 @@ def calibrate(
         labelled.append((drive, label))
     cal = learn(labelled, friction=friction)
     write_calibration(cal, output)
-    _print_calibration(cal, output)
+    console.print(calibration_table(cal, f"calibration of {cal.vehicle or 'the vehicle'} "
+                                         f"({len(pairs)} labelled drives)"))
+    console.print(f"wrote {output}")
