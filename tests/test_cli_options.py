@@ -189,3 +189,30 @@ def test_output_named_csv_is_written_as_csv(drive_file, tmp_path):
     ref = pd.read_parquet(parquet)
     assert list(table.columns) == list(ref.columns) and len(table) == len(ref) == 500
     np.testing.assert_allclose(table["mu_front"].to_numpy(), ref["mu_front"].to_numpy(), rtol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def estimates_file(drive_file, tmp_path_factory) -> Path:
+    """The output of `roadgrip estimate` (bRLS) on the test drive."""
+    out = tmp_path_factory.mktemp("estimates") / "estimates.parquet"
+    res = CliRunner().invoke(app, ["estimate", str(drive_file), "--method", "brls", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    return out
+
+
+@pytest.mark.parametrize("args", [
+    ["estimate", "{est}", "--method", "cascade", "-o", "{tmp}/e.parquet"],
+    ["estimate", "{est}", "--method", "cascade", "-o", "{tmp}/e.parquet", "--vehicle", "sedan"],
+    ["estimate", "{est}", "--method", "brls", "-o", "{tmp}/e.parquet", "--stream"],
+    ["info", "{est}"],
+    ["calibrate", "{est}:high", "{drive}:low", "-o", "{tmp}/c.yaml"],
+], ids=["estimate", "estimate --vehicle", "estimate --stream", "info", "calibrate"])
+def test_an_estimates_file_given_as_a_drive_is_called_an_estimates_table(args, estimates_file, drive_file,
+                                                                         tmp_path):
+    args = [a.format(est=estimates_file, drive=drive_file, tmp=tmp_path) for a in args]
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code != 0
+    message = str(res.exception)
+    assert message == ("estimates.parquet is an estimates table (output of `roadgrip estimate --method brls`), "
+                       "not a drive: pass the drive it was estimated from"), message
+    assert not (tmp_path / "e.parquet").exists() and not (tmp_path / "c.yaml").exists()

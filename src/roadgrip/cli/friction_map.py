@@ -27,6 +27,7 @@ if TYPE_CHECKING:
 def _estimates_table(path: str, vehicle: str | None, fmt: str | None,
                      topics: str | None = None, channels: str | None = None) -> tuple[pd.DataFrame, str]:
     """The estimates of ``path``: an estimates Parquet file as written, a drive through the cascade."""
+    from roadgrip.cli.options import ESTIMATE_KEY
     from roadgrip.estimators import EstimateResult, run_estimator
 
     p = Path(path)
@@ -34,7 +35,7 @@ def _estimates_table(path: str, vehicle: str | None, fmt: str | None,
         import pyarrow.parquet as pq
 
         md = pq.read_schema(str(p)).metadata or {}
-        if b"roadgrip_estimate" in md:
+        if ESTIMATE_KEY in md:
             res = EstimateResult.read_parquet(p)
             return res.table, f"estimates ({res.method})"
     drive = load_drive(path, fmt, vehicle, topics, channels)

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = [
+    "ESTIMATE_KEY",
     "SEED_MAX",
     "available_memory",
     "check_cell",
@@ -25,6 +26,7 @@ __all__ = [
     "check_folder_output",
     "check_gpssm_resources",
     "check_input",
+    "check_not_estimates",
     "check_output",
     "check_seed",
     "check_vehicle",
@@ -138,15 +140,53 @@ def check_vehicle(vehicle: str | None, option: str = "--vehicle") -> None:
         raise ValueError(f"{option}: {exc}") from None
 
 
+ESTIMATE_KEY = b"roadgrip_estimate"
+"""Schema metadata key of an estimates Parquet file
+(:meth:`roadgrip.estimators.base.EstimateResult.to_parquet`)."""
+
+
+def check_not_estimates(path: str | Path | None) -> None:
+    """``path`` is not an estimates file (the output of ``roadgrip estimate``) given as a drive.
+
+    An estimates table has no drive metadata, so the reader would ask for the vehicle,
+    which does not help: the drive the estimates came from is what is needed.
+    """
+    if path is None:
+        return
+    p = Path(path)
+    if not (p.is_file() and p.suffix.lower() in (".parquet", ".pq")):
+        return
+    import json
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        md = pq.read_schema(str(p)).metadata or {}
+    except (pa.ArrowException, OSError):
+        return  # not readable as Parquet: the reader says why
+    if ESTIMATE_KEY not in md:
+        return
+    try:
+        method = json.loads(md[ESTIMATE_KEY]).get("method")
+    except (ValueError, AttributeError):
+        method = None
+    by = f" --method {method}" if isinstance(method, str) else ""
+    raise ValueError(f"{p.name} is an estimates table (output of `roadgrip estimate{by}`), not a drive: "
+                     "pass the drive it was estimated from")
+
+
 def check_drive_args(path: str | None, fmt: str | None, vehicle: str | None,
                      topics: str | None = None, channels: str | None = None) -> None:
-    """The drive arguments shared by every command that reads a drive: the file exists,
-    the format is known, the vehicle is a preset or a valid YAML file, the map files exist."""
+    """The drive arguments shared by every command that reads a drive: the file exists and
+    is not an estimates table, the format is known, the vehicle is a preset or a valid YAML
+    file, the map files exist."""
     from roadgrip.io.read import FORMATS
 
     if fmt is not None and fmt not in FORMATS:
         raise ValueError(f"--format: unknown format {fmt!r}; expected one of {', '.join(FORMATS)}")
     check_input(path)
+    check_not_estimates(path)
     check_vehicle(vehicle)
     if channels is not None:
         check_input(channels, "--channels")

@@ -178,6 +178,7 @@ def stream_estimate(path: str | Path, output: str | Path, method: str = "cascade
     import pyarrow as pa
     import pyarrow.parquet as pq
 
+    from roadgrip.cli.options import ESTIMATE_KEY
     from roadgrip.estimators import get
 
     if method == "cascade":
@@ -210,7 +211,7 @@ def stream_estimate(path: str | Path, output: str | Path, method: str = "cascade
                             "derived": {k: v for k, v in res.info.derived.items()
                                         if isinstance(v, int | float | str | bool)}}
                     md = dict(arrow.schema.metadata or {})
-                    md[b"roadgrip_estimate"] = json.dumps(meta, default=str).encode()
+                    md[ESTIMATE_KEY] = json.dumps(meta, default=str).encode()
                     schema = arrow.schema.with_metadata(md)
                     writer = pq.ParquetWriter(str(out), schema)
                 writer.write_table(arrow.cast(schema))
