@@ -212,3 +212,99 @@ def test_report_command_with_a_benchmark_folder(tmp_path):
     # the benchmark section shows the folder's table (4 rows, one failed)
     assert text.count("<tr") - text.count("<tr><th") >= 4 and "error: RuntimeError: diverged" in text
     assert "friction-drive-gpssm.png" in text
+
+
+# -- captions say what the figures draw ----------------------------------------------------------
+def _captions(path: Path) -> dict[str, str]:
+    """Figure file name -> caption."""
+    import html
+    import re
+
+    text = path.read_text(encoding="utf-8")
+    return {m.group(2): html.unescape(m.group(1))
+            for m in re.finditer(r"<figcaption>(.*?) \((\S+\.png)\)</figcaption>", text)}
+
+
+def _real_like(drive: Drive) -> Drive:
+    """The same drive as a recording gives it: no truth, no true slip angles, no surface labels."""
+    df = drive.data.drop(columns=["alpha_f_true", "alpha_r_true", "mu_true", "surface"])
+    return Drive.from_frame(df, PRESETS["sedan"], source="recording.csv")
+
+
+def _truthless_records(drive, reference=None):
+    """The GP-SSM and bRLS records of :func:`_records`, on a drive without truth (curves without it too)."""
+    friction, classes = _records(_drive())[:2]
+    res = friction.result
+    res = EstimateResult(res.method, res.table, res.meta, res.curves.drop(columns="mu_true"))
+    friction = RunRecord(Case("rec", "gpssm", "gpssm"), "ok", drive, res)
+    classes = RunRecord(Case("rec", "brls", "brls", reference=reference), "ok", drive, classes.result)
+    return [friction, classes]
+
+
+def test_captions_with_truth_name_the_truth_and_the_histogram(report):
+    caps = _captions(report)
+    friction = caps["friction-hand-gpssm.png"]
+    curves = caps["curves-hand-gpssm.png"]
+    assert "true peak dashed" in friction and "no ground truth" not in friction
+    assert "truth dashed" in curves and "grey: histogram of the visited (true) slip angles" in curves
+    assert "true class dashed" in caps["classification-hand-brls.png"]
+
+
+def test_captions_without_truth_mention_no_truth_and_no_histogram(tmp_path):
+    drive = _real_like(_drive())
+    caps = _captions(build_report(_truthless_records(drive), tmp_path))
+    friction = caps["friction-rec-gpssm.png"]
+    curves = caps["curves-rec-gpssm.png"]
+    classes = caps["classification-rec-brls.png"]
+    for cap in (friction, curves, classes):
+        assert "no ground truth" in cap
+        assert "dashed" not in cap and "histogram" not in cap and "grey" not in cap
+
+
+def test_caption_of_a_floor_label_calls_it_so(tmp_path):
+    drive = _real_like(_drive())
+    caps = _captions(build_report(_truthless_records(drive, reference="high"), tmp_path))
+    assert "the floor's label dashed" in caps["classification-rec-brls.png"]
+
+
+def test_captions_follow_the_figure_not_the_inputs():
+    """A truth that is NaN throughout draws nothing, and the caption says so."""
+    from roadgrip.plots.signals import plot_friction_trace
+    from roadgrip.report.builder import friction_caption
+
+    tab = _records(_drive(100))[0].result.table
+    nan = np.full(len(tab), np.nan)
+    assert "true peak dashed" in friction_caption("x", plot_friction_trace(tab, {"front": tab["mu_front"],
+                                                                                  "rear": tab["mu_rear"]}))
+    assert "no ground truth" in friction_caption("x", plot_friction_trace(tab, {"front": nan, "rear": nan}))
+
+
+# -- the demo says whether the real data were found and used ---------------------------------------
+def test_demo_notes_say_the_real_data_were_found_but_not_used(tmp_path, monkeypatch):
+    from roadgrip.evaluate.cases import DEMO
+    from roadgrip.report import demo_notes
+
+    monkeypatch.setenv("ROADGRIP_SHARED_DATA", str(tmp_path))
+    notes = demo_notes(DEMO, [], seed=0, wall=1.0)
+    text = " | ".join(notes)
+    assert f"real data: found at {tmp_path.resolve()}, not used" in text
+    assert "real data: no" not in text and "real data: yes" not in text
+
+
+def test_demo_notes_say_the_real_data_were_not_found(tmp_path, monkeypatch):
+    from roadgrip.evaluate.cases import DEMO
+    from roadgrip.report import demo_notes
+
+    monkeypatch.setenv("ROADGRIP_SHARED_DATA", str(tmp_path / "missing"))
+    assert any(n.startswith("real data: not found") for n in demo_notes(DEMO, [], seed=0, wall=1.0))
+
+
+def test_demo_notes_say_the_real_data_were_used(tmp_path, monkeypatch):
+    from roadgrip.evaluate.cases import QUICK
+    from roadgrip.report import demo_notes
+
+    monkeypatch.setenv("ROADGRIP_SHARED_DATA", str(tmp_path))
+    rec = RunRecord(Case("dart:high:0909-1412", "brls", "brls", path=str(tmp_path / "a.csv"), format="dart",
+                         reference="high"), "ok")
+    notes = demo_notes(QUICK, [rec], seed=0, wall=1.0)
+    assert f"real data: used, 1 drive from {tmp_path.resolve()} (dart:high:0909-1412)" in notes

@@ -2,6 +2,10 @@
 ``plots.cascade``, ``plots.maps``, ``plots.signals``); all use the non-interactive
 Agg backend and label friction in absolute units (force over load, not normalised).
 
+Shared by the families: the friction colour scales and the look of cells without data
+(``plots.scales``), the standstill threshold below which slip angles are not drawn
+(``plots.standstill``) and titles shortened to fit their figure (``plots.titles``).
+
 :func:`plot_estimate` draws the figure of one estimator run; each method's module
 exposes ``plot_result(drive, result, path)``.
 """

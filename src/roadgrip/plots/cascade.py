@@ -1,4 +1,9 @@
-"""Figures of the Kalman cascade: velocities, axle forces, slip angles and axle friction."""
+"""Figures of the Kalman cascade: velocities, axle forces, slip angles and axle friction.
+
+Slip angles are drawn only where the speed is at least the cascade's ``v_min``: below it
+the cascade makes no friction update, and a slip angle, a ratio of two small speeds,
+reaches tens of degrees at walking pace (:mod:`roadgrip.plots.standstill`).
+"""
 
 from __future__ import annotations
 
@@ -6,25 +11,45 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
 from roadgrip.drive import Drive
 from roadgrip.estimators.base import EstimateResult
+from roadgrip.plots.standstill import min_speed
+from roadgrip.plots.titles import fit_suptitle
 
-__all__ = ["plot_result"]
+__all__ = ["cascade_figure", "plot_result"]
+
+
+def _spans(ax, t: np.ndarray, mask: np.ndarray, label: str) -> None:
+    """Shade the time spans where ``mask`` holds (one legend entry)."""
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+    for k, (a, b) in enumerate(zip(edges[::2], edges[1::2], strict=True)):
+        ax.axvspan(t[a], t[min(b, len(t) - 1)], color="0.85", lw=0, label=label if k == 0 else None)
 
 
 def plot_result(drive: Drive, result: EstimateResult, path: str | Path) -> None:
-    """Write a PNG with the three stages' estimates over time (truth where simulated).
+    """Write :func:`cascade_figure` as a PNG to ``path``."""
+    fig = cascade_figure(drive, result)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def cascade_figure(drive: Drive, result: EstimateResult) -> Figure:
+    """The three stages' estimates over time (truth where simulated).
 
     Panels: ``vx, vy`` [m/s] (with ``vy_pose`` where the drive has a pose
-    velocity); axle lateral forces ``Fyf, Fyr`` [N]; slip angles
-    [deg]; friction ``mu_front, mu_rear`` [-] in absolute units with their 95 %
-    bands, the excited samples marked, and ``mu_true`` when the drive has it.
+    velocity); axle lateral forces ``Fyf, Fyr`` [N]; slip angles [deg], where the
+    estimated speed is at least the run's ``v_min`` (slower spans shaded); friction
+    ``mu_front, mu_rear`` [-] in absolute units with their 95 % bands, the excited
+    samples marked, and ``mu_true`` when the drive has it.
     """
     tab = result.table
     df = drive.data
     t = tab["t"].to_numpy()
-    fig, axes = plt.subplots(4, 1, figsize=(12, 11), sharex=True, constrained_layout=True)
+    v_min = min_speed(result)
+    slow = ~(np.abs(tab["vx"].to_numpy(float)) >= v_min)
+    fig, axes = plt.subplots(4, 1, figsize=(12, 11), sharex=True, layout="constrained")
 
     ax = axes[0]
     ax.plot(t, tab["vx"], label="vx (stage 2)", color="C0")
@@ -53,10 +78,13 @@ def plot_result(drive: Drive, result: EstimateResult, path: str | Path) -> None:
     ax.legend(loc="upper right", ncol=4, fontsize=8)
 
     ax = axes[2]
+    if slow.any():
+        _spans(ax, t, slow, f"vx < {v_min:g} m/s: not shown")
     for col, c in (("alpha_f", "C2"), ("alpha_r", "C3")):
-        ax.plot(t, np.degrees(tab[col]), color=c, label=col)
+        ax.plot(t, np.where(slow, np.nan, np.degrees(tab[col].to_numpy(float))), color=c, label=col)
         if f"{col}_true" in df.columns:
-            ax.plot(t, np.degrees(df[f"{col}_true"]), color=c, ls="--", lw=0.8, label=f"{col}_true")
+            ax.plot(t, np.where(slow, np.nan, np.degrees(df[f"{col}_true"].to_numpy(float))), color=c,
+                    ls="--", lw=0.8, label=f"{col}_true")
     ax.set_ylabel("slip angle [deg]")
     ax.legend(loc="upper right", ncol=4, fontsize=8)
 
@@ -75,6 +103,5 @@ def plot_result(drive: Drive, result: EstimateResult, path: str | Path) -> None:
     ax.set_xlabel("time [s]")
     ax.set_ylim(0.0, max(1.3, float(np.nanmax(tab[["mu_front", "mu_rear"]].to_numpy())) + 0.1))
     ax.legend(loc="upper right", ncol=3, fontsize=8)
-    fig.suptitle(f"Kalman cascade (paper 003): {drive.meta.source}")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    fit_suptitle(fig, f"Kalman cascade (paper 003): {drive.meta.source}", fontsize=11)
+    return fig

@@ -20,6 +20,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from roadgrip.plots.scales import draw_no_data, friction_scale, no_data_handle, std_scale
+
 __all__ = [
     "figure_png",
     "plot_classification",
@@ -113,7 +115,8 @@ def plot_friction_trace(table: pd.DataFrame, truth: dict[str, np.ndarray] | None
         Contract columns ``t``, ``mu_front``, ``mu_rear``, ``mu_*_lower/upper``,
         optionally ``peak_observed_*`` and ``excited``.
     truth : dict, optional
-        ``{'front': (n,), 'rear': (n,)}`` true peak friction at the table's times.
+        ``{'front': (n,), 'rear': (n,)}`` true peak friction at the table's times
+        (an axle whose truth is NaN throughout draws none).
     """
     t = table["t"].to_numpy(float)
     fig, axes = plt.subplots(2, 1, figsize=(10, 5), sharex=True)
@@ -137,7 +140,7 @@ def plot_friction_trace(table: pd.DataFrame, truth: dict[str, np.ndarray] | None
                 ax.fill_between(t, 0, 0.03, where=unobs, color="#868e96", lw=0,
                                 transform=ax.get_xaxis_transform(),
                                 label="peak not observed: μ is a lower bound")
-        if truth is not None and axle in truth:
+        if truth is not None and axle in truth and np.isfinite(np.asarray(truth[axle], float)).any():
             ax.plot(t, truth[axle], "k--", lw=1.0, label="true peak")
         ax.set_ylabel(f"μ {axle} [-]")
         top = np.nanmax(np.r_[hi[np.isfinite(hi)], 1.2]) if np.isfinite(hi).any() else 1.2
@@ -180,7 +183,8 @@ def plot_curves(curves: pd.DataFrame, visited: dict[str, np.ndarray] | None = No
                 ax.plot(a, c["mu_true"], "k--", lw=1.0, label="truth")
         if visited is not None and axle in visited and len(visited[axle]):
             ax2 = ax.twinx()
-            ax2.hist(np.degrees(visited[axle]), bins=60, color="#adb5bd", alpha=0.4)
+            ax2.hist(np.degrees(visited[axle]), bins=60, color="#adb5bd", alpha=0.4,
+                     label="visited slip angles")
             ax2.set_yticks([])
             ax.set_zorder(ax2.get_zorder() + 1)
             ax.patch.set_visible(False)
@@ -196,7 +200,8 @@ def plot_curves(curves: pd.DataFrame, visited: dict[str, np.ndarray] | None = No
 
 def plot_classification(table: pd.DataFrame, truth_class: np.ndarray | None = None,
                         signals: dict[str, np.ndarray] | None = None,
-                        title: str = "grip classification") -> Figure:
+                        title: str = "grip classification", *,
+                        truth_label: str = "true class (high/low)") -> Figure:
     """Grip class and grip index over time, with the excitation flag and the truth.
 
     Parameters
@@ -205,6 +210,8 @@ def plot_classification(table: pd.DataFrame, truth_class: np.ndarray | None = No
         Contract columns ``t``, ``grip_class``, ``grip_index``, ``excited``.
     truth_class : ndarray of str, optional
         True class at the table's times.
+    truth_label : str
+        Its legend entry (a real drive's reference is a label of the floor, not a truth).
     signals : dict, optional
         Name -> (n,) signal to draw above the trace (e.g. ``ax``, ``ay``).
     """
@@ -233,7 +240,7 @@ def plot_classification(table: pd.DataFrame, truth_class: np.ndarray | None = No
         ax.plot(t, np.where(exc, 1.04, np.nan), color="#f59f00", lw=3, label="excited")
     if truth_class is not None:
         ax.step(t, np.where(np.asarray(truth_class) == "high", 0.95, 0.05), where="post",
-                color="#364fc7", ls="--", lw=1.0, label="true class (high/low)")
+                color="#364fc7", ls="--", lw=1.0, label=truth_label)
     ax.set_ylim(-0.02, 1.08)
     ax.set_ylabel("grip index [-]")
     ax.set_xlabel("time [s]")
@@ -245,8 +252,13 @@ def plot_classification(table: pd.DataFrame, truth_class: np.ndarray | None = No
 
 
 def plot_map(cells: pd.DataFrame, cell_size: float, path: tuple[np.ndarray, np.ndarray] | None = None,
-             *, min_obs: int = 1, vmax: float = 1.2, title: str = "friction map") -> Figure:
+             *, min_obs: int = 1, title: str = "friction map") -> Figure:
     """Heat map of cell friction (absolute μ) and of its standard deviation.
+
+    Colours are the shared scales of :mod:`roadgrip.plots.scales` (the ``roadgrip map``
+    figure uses the same). Cells with fewer than ``min_obs`` observations, and the
+    area around the observed cells that the axes show, are drawn as no data (hatched
+    grey) in both panels.
 
     Parameters
     ----------
@@ -255,14 +267,14 @@ def plot_map(cells: pd.DataFrame, cell_size: float, path: tuple[np.ndarray, np.n
     cell_size : float
         Cell edge [m].
     path : (x, y), optional
-        Driven path [m], drawn as a thin line.
+        Driven path [m], drawn as a thin line; the axes cover it.
     min_obs : int
-        Cells with fewer observations are drawn as unobserved (grey).
+        Fewest observations of a cell with data.
     """
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.8))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 5.2), layout="constrained")
     x = cells["x"].to_numpy(float)
     y = cells["y"].to_numpy(float)
-    obs = cells["n_obs"].to_numpy(float) >= min_obs
+    obs = cells["n_obs"].to_numpy(float) >= max(min_obs, 1)
     # Cells onto a raster (cell centres sit on a lattice of pitch cell_size).
     if len(x):
         ix = np.round((x - x.min()) / cell_size).astype(int)
@@ -270,28 +282,34 @@ def plot_map(cells: pd.DataFrame, cell_size: float, path: tuple[np.ndarray, np.n
         shape = (iy.max() + 1, ix.max() + 1)
         extent = (x.min() - cell_size / 2, x.min() + (shape[1] - 0.5) * cell_size,
                   y.min() - cell_size / 2, y.min() + (shape[0] - 0.5) * cell_size)
-    for ax, col, label, cmap, hi in ((axes[0], "mu_mean", "μ [-] (absolute)", "RdYlGn", vmax),
-                                     (axes[1], "mu_std", "μ std [-]", "magma_r", 0.3)):
-        norm = matplotlib.colors.Normalize(0.0, hi)
-        cm = plt.get_cmap(cmap).with_extremes(bad="#dee2e6")
+    bounds = [list(extent)] if len(x) else []
+    if path is not None:
+        px, py = np.asarray(path[0], float), np.asarray(path[1], float)
+        ok = np.isfinite(px) & np.isfinite(py)
+        if ok.any():
+            bounds.append([px[ok].min(), px[ok].max(), py[ok].min(), py[ok].max()])
+    for ax, col, label, (cmap, norm) in ((axes[0], "mu_mean", "μ [-] (absolute)", friction_scale()),
+                                         (axes[1], "mu_std", "μ std [-]", std_scale())):
+        draw_no_data(ax)
         if len(x):
             img = np.full(shape, np.nan)
             v = cells[col].to_numpy(float)
             img[iy[obs], ix[obs]] = v[obs]
-            ax.imshow(np.ma.masked_invalid(img), origin="lower", extent=extent, cmap=cm, norm=norm,
-                      interpolation="nearest")
-            ax.set_facecolor("#dee2e6")
+            ax.imshow(img, origin="lower", extent=extent, cmap=cmap, norm=norm, interpolation="nearest")
         if path is not None:
-            ax.plot(path[0], path[1], color="k", lw=0.4, alpha=0.5)
-        if len(x):
-            ax.set_xlim(extent[0], extent[1])
-            ax.set_ylim(extent[2], extent[3])
+            ax.plot(path[0], path[1], color="k", lw=0.4, alpha=0.5, label="driven path")
+        if bounds:
+            b = np.asarray(bounds)
+            ax.set_xlim(b[:, 0].min() - cell_size, b[:, 1].max() + cell_size)
+            ax.set_ylim(b[:, 2].min() - cell_size, b[:, 3].max() + cell_size)
         ax.set_aspect("equal")
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
-        fig.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cm), ax=ax, label=label, shrink=0.8)
-    axes[0].set_title("mean (grey: no excited observation)", fontsize=9)
+        fig.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax, label=label, shrink=0.8,
+                     extend="max")
+    axes[0].set_title("posterior mean", fontsize=9)
     axes[1].set_title("uncertainty", fontsize=9)
+    handles = [no_data_handle(), *axes[0].get_lines()[:1]]
+    fig.legend(handles=handles, loc="outside lower center", ncol=len(handles), fontsize=8)
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
     return fig

@@ -15,8 +15,9 @@
 
 from __future__ import annotations
 
+import re
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,7 @@ import pandas as pd
 
 from roadgrip.report.builder import SECTIONS, build_report
 
-__all__ = ["SECTIONS", "build_report", "run_demo", "write_report"]
+__all__ = ["SECTIONS", "build_report", "demo_notes", "real_data_note", "run_demo", "write_report"]
 
 
 def _kind(path: Path) -> str:
@@ -150,6 +151,60 @@ def write_report(inputs, output, *, on_run: Callable[[str, str], None] | None = 
                         extra_drives={n: d for n, (d, _) in drives.items()})
 
 
+def real_data_note(records: Sequence, settings) -> str:
+    """One line saying whether the shared real data were found, and whether they were used.
+
+    Parameters
+    ----------
+    records : sequence of RunRecord
+        The runs of the report; a run of a real drive has a ``case.path``.
+    settings : BenchSettings
+        The settings the runs were made with (``real_data``: run them where present).
+
+    Returns
+    -------
+    str
+        ``'real data: used, ...'``, ``'real data: found at ROOT, not used (...)'`` or
+        ``'real data: not found (...)'``; the root is
+        :func:`roadgrip.evaluate.cases.real_data_root`.
+    """
+    import os
+
+    from roadgrip.evaluate.cases import real_data_root
+
+    root = real_data_root()
+    used = sorted({r.case.drive for r in records if getattr(r.case, "path", None)})
+    if used:
+        where = f" from {root}" if root is not None else ""
+        return f"real data: used, {len(used)} drive{'s' * (len(used) != 1)}{where} ({', '.join(used)})"
+    if root is None:
+        env = os.environ.get("ROADGRIP_SHARED_DATA")
+        if env:
+            return f"real data: not found ($ROADGRIP_SHARED_DATA={env} is no folder)"
+        return ("real data: not found (no $ROADGRIP_SHARED_DATA, no ../shared/data beside the "
+                "checkout or the working directory)")
+    if not settings.real_data:
+        return f"real data: found at {root}, not used (the '{settings.name}' settings simulate every drive)"
+    return f"real data: found at {root}, but none of its drives ran"
+
+
+def demo_notes(settings, records: Sequence, *, seed: int, wall: float) -> list[str]:
+    """The settings section of the demo report: settings, scenarios, real data, timing, failures."""
+    # the settings line without its 'real data: yes/no' (a flag, not whether data were found
+    # and used): :func:`real_data_note` says that
+    described = re.sub(r";\s*real data: (yes|no)\b", "", settings.describe())
+    notes = [
+        f"seed {seed}; {described}",
+        "scenarios simulated with ground truth; every estimator run where it applies "
+        "(snow-slalom: GP-SSM; dry-gravel-dry: bRLS and slip-map classifier; "
+        "f1tenth-patches: Kalman cascade and friction grid)",
+        real_data_note(records, settings),
+        f"estimation and scoring took {wall:.1f} s",
+    ]
+    notes += [f"{r.case.drive} / {r.case.label}: {r.status}" for r in records if r.status != "ok"]
+    return notes
+
+
 def run_demo(out, *, seed: int = 0, settings=None, on_case=None, on_done=None) -> tuple[Path, pd.DataFrame]:
     """``roadgrip demo``: simulate the scenarios, run every estimator, benchmark, report.
 
@@ -177,14 +232,6 @@ def run_demo(out, *, seed: int = 0, settings=None, on_case=None, on_done=None) -
     t0 = time.perf_counter()
     table, records = bench(out, settings, seed=seed, on_case=on_case, on_done=on_done)
     wall = time.perf_counter() - t0
-    notes = [
-        f"seed {seed}; {settings.describe()}",
-        "scenarios simulated with ground truth; every estimator run where it applies "
-        "(snow-slalom: GP-SSM; dry-gravel-dry: bRLS and slip-map classifier; "
-        "f1tenth-patches: Kalman cascade and friction grid)",
-        f"estimation and scoring took {wall:.1f} s",
-    ]
-    missing = [r for r in records if r.status != "ok"]
-    notes += [f"{r.case.drive} / {r.case.label}: {r.status}" for r in missing]
+    notes = demo_notes(settings, records, seed=seed, wall=wall)
     path = build_report(records, out, title="roadgrip demo report", notes=notes)
     return path, table

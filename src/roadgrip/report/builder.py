@@ -110,6 +110,59 @@ def _has_class(rec: RunRecord) -> bool:
     return rec.case.method in CLASSIFIERS or (tab["grip_class"].astype(str) != "unknown").any()
 
 
+def _drawn(fig) -> set[str]:
+    """Legend labels of everything drawn in ``fig`` (what a caption may mention)."""
+    out = set()
+    for ax in fig.axes:
+        for artist in (*ax.lines, *ax.collections, *ax.patches, *ax.containers):
+            label = str(artist.get_label())
+            if label and not label.startswith("_"):
+                out.add(label)
+    return out
+
+
+def friction_caption(label: str, fig) -> str:
+    """Caption of a friction trace (:func:`roadgrip.plots.signals.plot_friction_trace`):
+    the parts the figure draws, and only those."""
+    drawn = _drawn(fig)
+    parts = [f"{label}: peak friction per axle with its 95 % band"]
+    if "excited" in drawn:
+        parts.append("excited samples shaded yellow")
+    if "peak not observed: μ is a lower bound" in drawn:
+        parts.append("grey strip: peak not observed, μ is a lower bound")
+    parts.append("true peak dashed" if "true peak" in drawn else "no ground truth")
+    return "; ".join(parts)
+
+
+def curves_caption(label: str, fig) -> str:
+    """Caption of learned tire curves (:func:`roadgrip.plots.signals.plot_curves`)."""
+    drawn = _drawn(fig)
+    parts = [f"{label}: posterior mean curves with 95 % bands at the stored times"]
+    parts.append("truth dashed" if "truth" in drawn else "no ground truth")
+    if "visited slip angles" in drawn:
+        parts.append("grey: histogram of the visited (true) slip angles")
+    return "; ".join(parts)
+
+
+def classification_caption(label: str, fig) -> str:
+    """Caption of a classification trace (:func:`roadgrip.plots.signals.plot_classification`)."""
+    drawn = _drawn(fig)
+    parts = [f"{label}: class (shaded) and grip index"]
+    if "excited" in drawn:
+        parts.append("excitation (orange bar)")
+    if _TRUE_CLASS in drawn:
+        parts.append("true class dashed")
+    elif _FLOOR_CLASS in drawn:
+        parts.append("the floor's label dashed")
+    else:
+        parts.append("no ground truth")
+    return "; ".join(parts)
+
+
+_TRUE_CLASS = "true class (high/low)"
+_FLOOR_CLASS = "floor label (high/low)"
+
+
 def _figures(records: Sequence[RunRecord], extra_drives: dict) -> _Page:
     from roadgrip.plots import signals as P
 
@@ -132,35 +185,35 @@ def _figures(records: Sequence[RunRecord], extra_drives: dict) -> _Page:
         if _has_mu(tab):
             shown = tab if rec.case.method in PEAK_FLAG_METHODS else tab.drop(
                 columns=["peak_observed_front", "peak_observed_rear"], errors="ignore")
-            page.add("friction", f"{label}: peak friction per axle, 95 % band, true peak dashed",
-                     P.plot_friction_trace(shown, _truth_peaks(rec), title=label), label)
+            fig = P.plot_friction_trace(shown, _truth_peaks(rec), title=label)
+            page.add("friction", friction_caption(label, fig), fig, label)
         curves = rec.result.curves
         if curves is not None and len(curves):
             visited = None
             if rec.drive is not None and rec.drive.has("alpha_f_true", "alpha_r_true"):
                 visited = {"front": rec.drive.col("alpha_f_true"), "rear": rec.drive.col("alpha_r_true")}
-            page.add("curves", f"{label}: posterior mean curves with 95 % bands at the stored times; "
-                     "truth dashed; grey: histogram of visited slip angles",
-                     P.plot_curves(curves, visited, title=label), label)
+            fig = P.plot_curves(curves, visited, title=label)
+            page.add("curves", curves_caption(label, fig), fig, label)
         if _has_class(rec):
-            truth = None
+            truth, truth_label = None, _TRUE_CLASS
             if rec.drive is not None and rec.drive.has_truth:
                 pk = _truth_peaks(rec)
                 truth = M.truth_grip_class(pk["front"]) if pk else None
             elif rec.case.reference is not None:
-                truth = np.full(len(tab), rec.case.reference)
+                truth, truth_label = np.full(len(tab), rec.case.reference), _FLOOR_CLASS
             sig = None
             if rec.drive is not None and rec.drive.n == len(tab) and rec.drive.has("ax", "ay"):
                 sig = {"ax": rec.drive.col("ax"), "ay": rec.drive.col("ay")}
-            page.add("classification", f"{label}: class (shaded), grip index, excitation and truth",
-                     P.plot_classification(tab, truth, sig, title=label), label)
+            fig = P.plot_classification(tab, truth, sig, title=label, truth_label=truth_label)
+            page.add("classification", classification_caption(label, fig), fig, label)
         if rec.map_cells is not None and len(rec.map_cells):
             size = float(rec.map_cells.attrs.get("cell_size", 0.5))
             path = None
             if rec.drive is not None and rec.drive.has("x", "y"):
                 path = (rec.drive.col("x"), rec.drive.col("y"))
             page.add("map", f"{label}: cell mean friction (absolute) and its standard deviation; "
-                     f"cell {size:g} m", P.plot_map(rec.map_cells, size, path, title=label), label)
+                     f"cell {size:g} m; hatched grey: no data",
+                     P.plot_map(rec.map_cells, size, path, title=label), label)
     return page
 
 
