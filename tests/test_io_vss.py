@@ -135,7 +135,22 @@ def test_rules_on_hand_made_tables():
     # classifiers: the class's friction reference, nothing while 'unknown'
     tab = pd.DataFrame({"t": [0.0, 0.1, 0.2], "mu_front": np.nan, "grip_class": ["unknown", "high", "low"],
                         "excited": [False, True, True]})
+    # the bounds follow from the class split (0.7), never from the references: 'high'
+    # has no upper claim, 'low' no lower claim without a demonstrated floor
     r = vss_records(tab, "brls", (0.6, 1.0))
     assert r[0] == {"t": 0.0}
-    assert r[1] == pytest.approx({"t": 0.1, MP: 100.0, LB: 80.0, UB: 100.0})
-    assert r[2] == pytest.approx({"t": 0.2, MP: 60.0, LB: 60.0, UB: 80.0})
+    assert r[1] == pytest.approx({"t": 0.1, MP: 100.0, LB: 70.0})
+    assert r[2] == pytest.approx({"t": 0.2, MP: 60.0, UB: 70.0})
+    # calibrated on DART's floors (0.84 / 0.35): 'low' with a floor of 0.31 used
+    r = vss_records(tab.assign(grip_floor=[0.0, 0.0, 0.31]), "brls", (0.35, 0.84))
+    assert r[2] == pytest.approx({"t": 0.2, MP: 35.0, LB: 31.0, UB: 70.0})
+    # a diverged sample makes no claim in any output
+    tab = _axle_table(mu_front=[0.3], mu_rear=[0.3], mu_front_lower=[0.28], mu_rear_lower=[0.28],
+                      mu_front_upper=[0.33], mu_rear_upper=[0.33], peak_observed_front=[True],
+                      peak_observed_rear=[True], diverged=[True])
+    assert vss_records(tab, "gpssm", (0.0, 2.0)) == [{"t": 0.0}]
+    # the cascade's road band never ends below the friction the car demonstrably used
+    tab = _axle_table(mu_front=[0.5], mu_rear=[0.5], mu_front_std=[0.2], mu_rear_std=[0.2],
+                      grip_floor=[0.6])
+    r = vss_records(tab, "cascade", (0.0, 2.0))[0]
+    assert r[LB] == pytest.approx(60.0) and r[MP] >= r[LB]

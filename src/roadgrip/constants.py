@@ -19,3 +19,16 @@ Z95 = 1.959963984540054
 
 ``mean ± Z95 std`` is the central 95 % interval of a normal estimate.
 """
+
+GRIP_CLASS_SPLIT = 0.7
+"""Peak friction [-] that separates the grip classes, the one split of the project.
+
+A surface whose peak friction is at least this is 'high' grip, below it 'low'
+(between gravel, 0.6, and wet asphalt, 0.75). The classifiers' published bounds
+follow from it ('high': at least the split; 'low': below it) and the honesty rule
+(:mod:`roadgrip.evaluate.honesty`) judges grip classes against it.
+"""
+
+FRICTION_MAX = 2.0
+"""Upper end of a friction band that claims nothing [-]: no tire-road peak friction
+reaches it (racing slicks on a dry track stay below 1.8 without downforce)."""

@@ -199,16 +199,27 @@ def test_lateral_acceleration_setting_is_validated():
     assert BRLSConfig.from_dict(default_config().to_dict()).lateral_acceleration == "auto"
 
 
-def test_summary_maps_the_class_to_its_friction_reference():
-    fr = {"high": 0.9, "low": 0.3}
+def test_summary_bounds_follow_from_the_class_definition_not_the_references():
+    # the references are typical values, not bounds: 'low' on the DART tape floor
+    # (about 0.35, references 0.84 / 0.35) was published as LowerBound 0.595 (the
+    # references' midpoint), above the truth
+    from roadgrip.constants import FRICTION_MAX, GRIP_CLASS_SPLIT
+
+    fr = {"high": 0.84, "low": 0.35}
     t = pd.DataFrame({"grip_class": ["unknown", "high"], "grip_index": [0.5, 0.9]})
     s = common.summary_meta(t, fr)
-    assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.9, 0.6, 0.9)
+    assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.84, GRIP_CLASS_SPLIT, FRICTION_MAX)
     s = common.summary_meta(t.assign(grip_class=["high", "low"]), fr)
-    assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.3, 0.3, 0.6)
+    assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.35, 0.0, GRIP_CLASS_SPLIT)
+    # with the demonstrated floor in the table, 'low' is at least the floor
+    s = common.summary_meta(t.assign(grip_class=["high", "low"], grip_floor=[0.1, 0.4]), fr)
+    assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.4, 0.4, GRIP_CLASS_SPLIT)
+    # 'unknown' claims nothing
     s = common.summary_meta(t.assign(grip_class=["high", "unknown"]), fr)
-    assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.6, 0.3, 0.9)
+    assert (s["LowerBound"], s["UpperBound"]) == (0.0, FRICTION_MAX)
     assert s["FractionHigh"] == 0.5
+    # a 'high' reference below the split is held at the split: the class claims >= split
+    assert common.class_band("high", {"high": 0.6, "low": 0.3})[0] == GRIP_CLASS_SPLIT
 
 
 def test_calibration_file_roundtrip_and_errors(tmp_path):

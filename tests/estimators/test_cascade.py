@@ -219,6 +219,9 @@ def test_upper_bound_never_below_the_sustained_lateral_acceleration(drive06):
     for axle in ("front", "rear"):
         assert np.all(tab[f"mu_{axle}_upper"] >= floor)
     assert res.meta["summary"]["UpperBound"] >= floor[-1]
+    # and the road summary's lower end is at least the demonstrated floor too
+    assert res.meta["summary"]["LowerBound"] >= floor[-1]
+    assert res.meta["summary"]["MostProbable"] >= floor[-1]
 
 
 def test_run_columns_and_option_checks(drive06, tmp_path):

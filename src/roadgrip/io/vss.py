@@ -11,7 +11,8 @@ One JSON object per output sample (estimate row), e.g.::
 line where the estimator does not know it; it is never clamped nor filled in:
 
 * nothing is written before the estimator has seen its first excited sample
-  (``excited``), nor while a classifier says ``grip_class == 'unknown'``;
+  (``excited``), nor while a classifier says ``grip_class == 'unknown'``, nor at a
+  sample flagged ``diverged`` (it makes no claim);
 * an estimator that flags the peak (:data:`PEAK_FLAGGING_METHODS`: gpssm) gives
   ``MostProbable`` and ``UpperBound`` only once both axles' peaks are observed
   (before, ``mu_*`` is a lower bound and the upper end the physical limit); its
@@ -23,11 +24,13 @@ line where the estimator does not know it; it is never clamped nor filled in:
 
 The road value combines the two axles as ``meta['summary']`` does
 (``docs/output-contract.md``): with per-axle standard deviations (``mu_*_std``,
-the cascade) the precision-weighted mean with ``+-Z95`` of its deviation (the lower
-end at least 0, the upper at least ``grip_floor``); without (gpssm) the smaller axle
-mean and the union of the axle bands. Classifiers (``grip_class``) map ``'high'`` /
-``'low'`` to the upper / lower end of the prior band (their friction references),
-with the band from the references' midpoint, as their summary does.
+the cascade) the precision-weighted mean with ``+-Z95`` of its deviation, both ends
+at least ``grip_floor`` (the friction the car demonstrably used); without (gpssm) the
+smaller axle mean and the union of the axle bands. Classifiers (``grip_class``)
+publish the band their class claims (:func:`roadgrip.estimators.classify.common.class_band`):
+'high' ``LowerBound`` = the class split :data:`~roadgrip.constants.GRIP_CLASS_SPLIT`
+and no upper bound; 'low' ``UpperBound`` = the split and ``LowerBound`` = ``grip_floor``
+where the table has one; ``MostProbable`` the class's reference held inside that band.
 """
 
 from __future__ import annotations
@@ -40,7 +43,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from roadgrip.constants import Z95
+from roadgrip.constants import GRIP_CLASS_SPLIT, Z95
 
 __all__ = ["PEAK_FLAGGING_METHODS", "VSS_PREFIX", "vss_records", "write_vss"]
 
@@ -61,8 +64,9 @@ def _combined(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         wr = 1.0 / table["mu_rear_std"].to_numpy(float) ** 2
         mp = (wf * mf + wr * mr) / (wf + wr)
         sd = 1.0 / np.sqrt(wf + wr)
-        floor = table["grip_floor"].to_numpy(float) if "grip_floor" in table.columns else 0.0
-        return mp, np.maximum(mp - Z95 * sd, 0.0), np.maximum(mp + Z95 * sd, floor)
+        floor = np.nan_to_num(table["grip_floor"].to_numpy(float)) if "grip_floor" in table.columns else 0.0
+        lo = np.maximum(mp - Z95 * sd, floor)
+        return np.maximum(mp, lo), lo, np.maximum(mp + Z95 * sd, floor)
     lo = np.minimum(table["mu_front_lower"].to_numpy(float), table["mu_rear_lower"].to_numpy(float))
     up = np.maximum(table["mu_front_upper"].to_numpy(float), table["mu_rear_upper"].to_numpy(float))
     return np.minimum(mf, mr), lo, up
@@ -111,13 +115,19 @@ def vss_records(
         values["UpperBound"] = np.where(observed | (informed & (up < p_up - _TOL)), up, np.nan)
     elif "grip_class" in table.columns:
         cls = table["grip_class"].astype(str).to_numpy()
-        mid = 0.5 * (p_lo + p_up)
+        floor = table["grip_floor"].to_numpy(float) if "grip_floor" in table.columns else np.zeros(n)
+        floor = np.clip(np.nan_to_num(floor), 0.0, GRIP_CLASS_SPLIT)
         hi, low = cls == "high", cls == "low"
-        values["MostProbable"] = np.where(hi, p_up, np.where(low, p_lo, np.nan))
-        values["LowerBound"] = np.where(hi, mid, np.where(low, p_lo, np.nan))
-        values["UpperBound"] = np.where(hi, p_up, np.where(low, mid, np.nan))
+        values["MostProbable"] = np.where(hi, max(p_up, GRIP_CLASS_SPLIT),
+                                          np.where(low, np.clip(p_lo, floor, GRIP_CLASS_SPLIT), np.nan))
+        values["LowerBound"] = np.where(hi, GRIP_CLASS_SPLIT, np.where(low & (floor > 0.0), floor, np.nan))
+        values["UpperBound"] = np.where(low, GRIP_CLASS_SPLIT, np.nan)
     else:
         raise ValueError("an estimate table needs mu_front/mu_rear or grip_class for VSS output")
+    if "diverged" in table.columns:  # a diverged sample makes no claim
+        div = table["diverged"].to_numpy(bool)
+        for key in values:
+            values[key] = np.where(div, np.nan, values[key])
     records: list[dict[str, float]] = []
     for i in range(n):
         rec: dict[str, float] = {"t": float(t[i])}

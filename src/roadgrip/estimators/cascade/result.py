@@ -89,14 +89,16 @@ def summary(row: Mapping[str, Any]) -> dict[str, float]:
     """VSS-style summary of one output row: both axles combined by inverse-variance weights.
 
     ``MostProbable`` is the weighted mean of ``mu_front`` and ``mu_rear``,
-    the bounds ``± Z95`` of its standard deviation (lower clipped at 0, upper
-    at least the row's ``grip_floor``).
+    the bounds ``± Z95`` of its standard deviation; all three at least the row's
+    ``grip_floor`` (the friction the car demonstrably used, 0 without).
     """
     wf, wr = 1.0 / row["mu_front_std"] ** 2, 1.0 / row["mu_rear_std"] ** 2
     mp = (wf * row["mu_front"] + wr * row["mu_rear"]) / (wf + wr)
     sd = 1.0 / np.sqrt(wf + wr)
-    return {"MostProbable": float(mp), "LowerBound": float(max(mp - Z95 * sd, 0.0)),
-            "UpperBound": float(max(mp + Z95 * sd, row.get("grip_floor", 0.0)))}
+    floor = float(row.get("grip_floor", 0.0))
+    lo = max(mp - Z95 * sd, floor, 0.0)
+    return {"MostProbable": float(max(mp, lo)), "LowerBound": float(lo),
+            "UpperBound": float(max(mp + Z95 * sd, floor))}
 
 
 def diagnostics(table: pd.DataFrame, out: NDArray[np.float64], derived: Mapping[str, Any]) -> dict[str, Any]:

@@ -1,7 +1,7 @@
 """Pieces shared by the two friction-state classifiers of paper 002 (bRLS and slip map).
 
-* the peak-friction references of the two classes and the VSS-style summary
-  (:func:`summary_meta`, :func:`prior_band`);
+* the peak-friction references of the two classes, the band a class claims and the
+  VSS-style summary (:func:`class_band`, :func:`summary_meta`, :func:`prior_band`);
 * the class labels of a run (:func:`classes`);
 * the settling rule of the calibration scores (:func:`settled`);
 * the first-order low-pass used as prefilter (:func:`lowpass`).
@@ -17,12 +17,14 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from roadgrip.constants import FRICTION_MAX, GRIP_CLASS_SPLIT
 from roadgrip.tire import SURFACES
 
 __all__ = [
     "CALIBRATION_SETTLING_S",
     "CLASS_SWITCH_PENALTY",
     "DEFAULT_FRICTION",
+    "class_band",
     "classes",
     "classifier_diagnostics",
     "extra_switches",
@@ -69,23 +71,44 @@ def prior_band(friction: Mapping[str, float] | None = None) -> tuple[float, floa
     return float(fr["low"]), float(fr["high"])
 
 
+def class_band(grip_class: str, friction: Mapping[str, float] | None = None,
+               floor: float = 0.0) -> tuple[float, float, float]:
+    """``(most probable, lower, upper)`` peak friction [-] that a class claims.
+
+    The bounds follow from the class definition, not from the class references
+    (which are typical values, not bounds): 'high' is at least
+    :data:`~roadgrip.constants.GRIP_CLASS_SPLIT` with no upper claim
+    (:data:`~roadgrip.constants.FRICTION_MAX`); 'low' is below the split and at
+    least ``floor``, the friction the car demonstrably used (0 without). The most
+    probable value is the class's reference, held inside that band. 'unknown'
+    claims nothing: ``[0, FRICTION_MAX]`` around the references' midpoint.
+
+    >>> class_band("low", {"high": 0.84, "low": 0.35}, floor=0.31)
+    (0.35, 0.31, 0.7)
+    >>> class_band("high", {"high": 0.6, "low": 0.3})
+    (0.7, 0.7, 2.0)
+    """
+    fr = friction or DEFAULT_FRICTION
+    split = GRIP_CLASS_SPLIT
+    if grip_class == "high":
+        return max(float(fr["high"]), split), split, FRICTION_MAX
+    if grip_class == "low":
+        lo = min(max(float(floor), 0.0), split)
+        return min(max(float(fr["low"]), lo), split), lo, split
+    return 0.5 * (float(fr["high"]) + float(fr["low"])), 0.0, FRICTION_MAX
+
+
 def summary_meta(table: pd.DataFrame, friction: Mapping[str, float] | None = None) -> dict[str, Any]:
     """``meta['summary']`` of a classification run.
 
-    VSS-style friction (the output contract): the final class mapped to its
-    friction reference, ``MostProbable = friction[class]`` with the band
-    ``[mid, high]`` for 'high' and ``[low, mid]`` for 'low' (``mid`` halfway
-    between the references); while 'unknown', ``MostProbable = mid`` and the
-    band spans both references. Also the final class and grip index and the
-    share of time in each class.
+    VSS-style friction (the output contract): the band the final class claims
+    (:func:`class_band`, with the table's ``grip_floor`` where it has one), and the
+    final class and grip index and the share of time in each class.
     """
-    fr = friction or DEFAULT_FRICTION
-    hi, lo = fr["high"], fr["low"]
-    mid = 0.5 * (hi + lo)
     last = table.iloc[-1]
     cls = table["grip_class"].astype(str).to_numpy()
-    final = str(last["grip_class"])
-    band = {"high": (hi, mid, hi), "low": (lo, lo, mid)}.get(final, (mid, lo, hi))
+    floor = float(last["grip_floor"]) if "grip_floor" in table.columns else 0.0
+    band = class_band(str(last["grip_class"]), friction, floor)
     return {
         "MostProbable": float(band[0]),
         "LowerBound": float(band[1]),
