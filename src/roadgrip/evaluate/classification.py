@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from roadgrip.constants import GRIP_CLASS_SPLIT
 from roadgrip.drive import Drive
 
 __all__ = ["ChangeScores", "surface_change_scores", "true_classes"]
@@ -43,13 +44,13 @@ class ChangeScores:
     unknown_fraction: float
 
 
-def true_classes(drive: Drive, mu_split: float = 0.75) -> NDArray[np.str_]:
+def true_classes(drive: Drive, mu_split: float = GRIP_CLASS_SPLIT) -> NDArray[np.str_]:
     """'high' where ``mu_true >= mu_split``, else 'low' (shape (T,))."""
     return np.where(drive.col("mu_true") >= mu_split, "high", "low")
 
 
 def surface_change_scores(
-    drive: Drive, grip_class: NDArray, util_min: float = 0.6, mu_split: float = 0.75
+    drive: Drive, grip_class: NDArray, util_min: float = 0.6, mu_split: float = GRIP_CLASS_SPLIT
 ) -> ChangeScores:
     """Score the per-sample classes ``grip_class`` (shape (T,)) of a simulated drive."""
     cls = np.asarray(grip_class).astype(str)

@@ -48,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from roadgrip.constants import GRIP_CLASS_SPLIT
 from roadgrip.evaluate._arrays import as_1d as _f
 from roadgrip.evaluate._arrays import same_length as _same_len
 from roadgrip.truth import has_parametric_truth
@@ -72,8 +73,9 @@ __all__ = [
     "truth_grip_class",
 ]
 
-GRIP_THRESHOLD = 0.7
-"""Default true peak friction [-] that separates 'high' from 'low' grip."""
+GRIP_THRESHOLD = GRIP_CLASS_SPLIT
+"""Default true peak friction [-] that separates 'high' from 'low' grip (the project's one
+class split, :data:`roadgrip.constants.GRIP_CLASS_SPLIT`)."""
 
 
 
