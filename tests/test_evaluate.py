@@ -262,7 +262,8 @@ def _stand_in(method, drive, options=None, *, seed=0, progress=None):
     if options.get("offset"):
         for c in ("mu_front", "mu_front_lower", "mu_front_upper"):
             tab[c] = tab[c] + options["offset"]
-    return EstimateResult(method, conform(tab), {})
+    # the prior band of the VSS lines, which the honesty rule reads for a method it does not know
+    return EstimateResult(method, conform(tab), {"prior_band": (0.0, 2.0)})
 
 
 @pytest.fixture
@@ -286,7 +287,7 @@ def test_suite_runs_scores_and_isolates_failures(stand_ins):
     g, b = recs[0].metrics, recs[1].metrics
     assert abs(g["peak_err_f"]) < 0.1 and g["mu_band_cov"] > 0.99
     assert b["class_acc"] == pytest.approx(1 - 20 / 800)  # 1 s late at 20 Hz
-    assert b["max_delay_s"] == pytest.approx(1.0)
+    assert b["delay_change_s"] == pytest.approx(1.0) and b["delay_exc_s"] == pytest.approx(1.0)
     assert b["switches"] == 1
 
 
@@ -309,14 +310,16 @@ def test_narrow_wrong_estimates_count_as_confident_wrong_claims(stand_ins):
     # a method without peak flags (as the cascade): its mu is a claim of the peak, judged as one
     ok = suite.run_suite([suite.Case("hand", "brls-free", "mu-method")], suite.QUICK,
                          drives={"hand": drive})[0]
+    assert ok.status == "ok" and gp.status == "ok"
     assert ok.metrics["conf_wrong"] < 0.01 and "peak_err_f" in ok.metrics
+    assert ok.metrics["wrong_claims"] == 0.0 and gp.metrics["wrong_claims"] > 0.5
 
 
 def test_bench_is_reproducible_by_seed_and_writes_markdown_and_csv(stand_ins, tmp_path):
     suite = stand_ins
     cases = [suite.Case("hand", "gpssm", "gpssm"), suite.Case("hand", "brls", "brls")]
     drives = {"hand": _hand_drive()}
-    acc = ["peak_err_f", "peak_err_r", "mu_band_cov", "class_acc", "max_delay_s", "conf_wrong"]
+    acc = ["peak_err_f", "peak_err_r", "mu_band_cov", "class_acc", "delay_exc_s", "conf_wrong", "wrong_claims"]
     a = suite.bench(tmp_path / "a", suite.QUICK, seed=1, cases=cases, drives=drives)[0][acc]
     b = suite.bench(tmp_path / "b", suite.QUICK, seed=1, cases=cases, drives=drives)[0][acc]
     c = suite.bench(tmp_path / "c", suite.QUICK, seed=2, cases=cases, drives=drives)[0][acc]

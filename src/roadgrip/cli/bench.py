@@ -16,9 +16,9 @@ from roadgrip.cli._common import app, console
 
 def bench_renderable(table, title: str = "benchmark") -> Group:
     """Terminal rendering of a benchmark table: per run one line of speed and status,
-    one line of accuracy (a wide table does not fit a terminal; this stays readable
-    at 80 columns)."""
-    from roadgrip.evaluate.table import accuracy_summary, format_cell
+    one line of accuracy and one of the honesty rule's figures (a wide table does not fit
+    a terminal; this stays readable at 80 columns)."""
+    from roadgrip.evaluate.table import accuracy_summary, format_cell, honesty_summary
 
     lines = [Text(title, style="bold")]
     for _, row in table.iterrows():
@@ -30,9 +30,9 @@ def bench_renderable(table, title: str = "benchmark") -> Group:
             head.append(f"  {row['status']}", style="red" if str(row["status"]).startswith("error")
                         else "yellow")
         lines.append(head)
-        acc = accuracy_summary(row)
-        if acc:
-            lines.append(Text("    " + acc))
+        for summary in (accuracy_summary(row), honesty_summary(row)):
+            if summary:
+                lines.append(Text("    " + summary))
     return Group(*lines)
 
 

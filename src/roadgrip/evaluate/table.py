@@ -14,9 +14,11 @@ from roadgrip.evaluate.cases import BenchSettings, RunRecord
 __all__ = [
     "BENCH_COLUMNS",
     "COLUMN_NOTES",
+    "DELAY_KEYS",
     "accuracy_summary",
     "bench_table",
     "format_cell",
+    "honesty_summary",
     "suite_notes",
     "table_markdown",
     "write_outputs",
@@ -29,37 +31,61 @@ BENCH_COLUMNS: dict[str, tuple[str, str]] = {
     "rtf": ("real-time ×", "{:,.0f}"),
     "curve_mae": ("curve MAE", "{:.3f}"),
     "curve_cov": ("curve band cov.", "{:.0%}"),
+    "mu_band_cov": ("μ band cov.", "{:.0%}"),
     "peak_err_f": ("peak err. front", "{:+.3f}"),
     "peak_err_r": ("peak err. rear", "{:+.3f}"),
     "peak_ref_err": ("peak − reference", "{:+.3f}"),
-    "mu_band_cov": ("μ band cov.", "{:.0%}"),
+    "abstained": ("abstained", "{:.0%}"),
     "class_acc": ("class acc.", "{:.0%}"),
+    "abstained_exc": ("abstained (excited)", "{:.0%}"),
     "class_acc_exc": ("class acc. (excited)", "{:.0%}"),
-    "max_delay_s": ("max delay [s]", "{:.2f}"),
+    "delay_change_s": ("max delay from change [s]", "{:.2f}"),
+    "delay_exc_s": ("max delay from excitation [s]", "{:.2f}"),
     "switches": ("switches", "{:.0f}"),
     "conf_wrong": ("confident wrong", "{:.1%}"),
+    "wrong_claims": ("wrong claims", "{:.2%}"),
+    "informative": ("informative", "{:.0%}"),
+    "diverged": ("diverged", "{:.1%}"),
     "map_cells": ("map cells", "{:.0f}"),
     "map_mae": ("map MAE", "{:.3f}"),
     "map_cov95": ("map 95 % cov.", "{:.0%}"),
 }
 """Metric key -> (column header, format) of the benchmark table."""
 
+DELAY_KEYS = ("delay_change_s", "delay_exc_s")
+"""Delay columns: ``inf`` there is a change that was never detected."""
+
 
 COLUMN_NOTES = (
+    "Excited (one definition for the whole table, from the drive, not from the estimator's own "
+    "flag): the measured horizontal acceleration sqrt(ax² + ay²) has stayed ≥ 2 m/s² for ≥ 0.3 s "
+    "(roadgrip.evaluate.metrics.truth_excitation); it is used by the (excited) columns and the "
+    "delays. "
     "Columns: curve MAE / band cov. = worst over axles and times (t = 50 s and end) of the "
     "posterior-mean curve error and 95 % band coverage over 0.5° slip bins visited ≥ 20 times; "
+    "μ band cov. = fraction of time the true peak lies in the 95 % band; "
     "peak err. = final peak estimate − true peak (only where the estimator reports the peak as "
     "observed; otherwise it is judged as a lower bound in the notes); peak − reference = largest "
-    "final axle peak − the floor's approximate friction (DART: 0.8 high, 0.35 low); μ band cov. = "
-    "fraction of time the true peak lies in the 95 % band; class acc. = fraction of time "
-    "classified correctly ('unknown' counts as wrong), (excited) = on sufficiently excited "
-    "samples (|a| ≥ 2 m/s² for ≥ 0.3 s; DART: the estimator's excited samples after 10 s); max "
-    "delay = worst detection delay (the new class held ≥ 0.5 s) after the first sample the "
-    "estimator flags as excited following a surface change; confident wrong = fraction of "
+    "final observed axle peak − the floor's approximate friction (DART: 0.8 high, 0.35 low); "
+    "abstained = fraction of samples without a claim: class 'unknown', or, for the GP-SSM, the "
+    "peak observed on neither axle (its μ is then a lower bound); class acc. = fraction of the "
+    "samples with a 'high'/'low' claim that are right (abstaining is not counted as an error); "
+    "(excited) = the same on the excited samples (DART: after 10 s settling); max delay from "
+    "change / from excitation = worst over the true class changes of the time until the new class "
+    "is shown (and held ≥ 0.5 s), counted from the change and from the first excited sample after "
+    "it (0 when the class switched before that sample); 'not detected' = the class never switched "
+    "to the new one before the next change or the end; confident wrong = fraction of "
     "samples with a confident claim outside tolerance (a band no wider than 0.2 with the "
     "estimate more than 0.1 off, or a wrong 'high'/'low' class; a class held through the "
-    "unexcited seconds after a surface change counts); map = cells with ≥ 10 excited "
-    "observations, their mean absolute error and the fraction inside mean ± 1.96 std."
+    "unexcited seconds after a surface change counts); "
+    "wrong claims / informative / diverged = the project's honesty rule "
+    "(roadgrip.evaluate.honesty): wrong claims = largest share, over the output paths (axle "
+    "bands, VSS lines, class, lateral-velocity band), of the samples whose claim is wrong against "
+    "the truth (recordings: against the friction the car demonstrably used), claims right after a "
+    "true surface change excused until the data show it; informative = fraction of samples with a "
+    "band narrower than 0.5 or a class; diverged = fraction the estimator flags diverged (no claim "
+    "there); map = cells with ≥ 10 excited observations, their mean absolute error and the "
+    "fraction inside mean ± 1.96 std."
 )
 """What the benchmark columns mean (shown under the table)."""
 
@@ -81,7 +107,7 @@ def format_cell(key: str, value: Any) -> str:
     if value is None or (isinstance(value, float) and np.isnan(value)):
         return ""
     if isinstance(value, float) and np.isinf(value):
-        return "missed"
+        return "not detected" if key in DELAY_KEYS else f"{value}"
     return BENCH_COLUMNS[key][1].format(value)
 
 
@@ -96,22 +122,35 @@ def table_markdown(table: pd.DataFrame) -> str:
 
 
 _SUMMARY_KEYS = (
-    ("curve_mae", "curve MAE"), ("curve_cov", "band"), ("peak_err_f", "peak err f"),
-    ("peak_err_r", "r"), ("peak_ref_err", "peak − ref."), ("mu_band_cov", "μ band"), ("class_acc", "acc"),
-    ("class_acc_exc", "acc exc."), ("max_delay_s", "delay"), ("switches", "switches"),
-    ("conf_wrong", "conf. wrong"), ("map_mae", "map MAE"), ("map_cov95", "map cov"),
+    ("curve_mae", "curve MAE"), ("curve_cov", "band"), ("mu_band_cov", "μ band"),
+    ("peak_err_f", "peak err f"), ("peak_err_r", "r"), ("peak_ref_err", "peak − ref."),
+    ("abstained", "abstained"), ("class_acc", "acc of claims"), ("abstained_exc", "abstained exc."),
+    ("class_acc_exc", "acc exc."), ("delay_change_s", "delay from change"),
+    ("delay_exc_s", "from excitation"), ("switches", "switches"), ("conf_wrong", "conf. wrong"),
+    ("map_mae", "map MAE"), ("map_cov95", "map cov"),
 )
+_HONESTY_KEYS = (("wrong_claims", "wrong claims"), ("informative", "informative"),
+                 ("diverged", "diverged"))
 
 
-def accuracy_summary(row) -> str:
-    """The accuracy figures of one table row as one short line (for the terminal)."""
+def _summary(row, keys: Sequence[tuple[str, str]]) -> str:
     parts = []
-    for key, short in _SUMMARY_KEYS:
+    for key, short in keys:
         v = row.get(key, np.nan)
         if isinstance(v, float) and np.isnan(v):
             continue
         parts.append(f"{short} {format_cell(key, v)}")
     return ", ".join(parts)
+
+
+def accuracy_summary(row) -> str:
+    """The accuracy figures of one table row as one short line (for the terminal)."""
+    return _summary(row, _SUMMARY_KEYS)
+
+
+def honesty_summary(row) -> str:
+    """The honesty-rule figures of one table row as one short line (for the terminal)."""
+    return _summary(row, _HONESTY_KEYS)
 
 
 def write_outputs(records: Sequence[RunRecord], out_dir: Path, settings: BenchSettings,
