@@ -7,7 +7,8 @@ drive               estimators                                 scored against
 ==================  =========================================  ==============================
 snow-slalom         gpssm (tensor 10x10 exact and fast,        true curves, true peak
                     separable, odd separable)
-dry-gravel-dry      brls, slipmap                              true grip class, changes
+dry-gravel-dry      gpssm (the variant of straight-cruise),    true peak, true grip class,
+                    brls, slipmap                              changes
 f1tenth-patches     cascade (+ friction grid)                  true peak, true cell friction
 straight-cruise     all                                        no confident claim may be made
 DART high / low     gpssm, brls, slipmap (calibrated on the    floor label (high 0.8, low 0.35)
@@ -19,6 +20,9 @@ The true curve is the drive's parametric tire, or, for a drive that states its t
 binned (a multi-body model), its binned ``Fy / Fz`` in the same 0.5 deg slip bins
 (:func:`roadgrip.truth.true_curve`); the true peak is the tire's or else the
 ``mu_true`` column (:func:`roadgrip.evaluate.metrics.true_peak_series`).
+Every run is also judged by the project's honesty rule
+(:func:`roadgrip.evaluate.honesty.score_result`): against the truth where there is
+one, against the friction the car demonstrably used on the recordings.
 
 :mod:`roadgrip.evaluate.suite` runs the cases, :mod:`roadgrip.evaluate.scoring`
 scores each run and :mod:`roadgrip.evaluate.table` writes the table.
@@ -97,7 +101,7 @@ class BenchSettings:
     gpssm_variants : tuple of str
         Row labels of :data:`GPSSM_VARIANTS` to run on snow-slalom.
     gpssm_other : str
-        The variant run on straight-cruise and the real data.
+        The variant run on dry-gravel-dry, straight-cruise and the real data.
     multibody : tuple of (scenario, vehicle)
         Drives of the independent multi-body engine, each its own rows
         (drive name ``'<scenario>:mb:<vehicle>'``).
@@ -245,7 +249,7 @@ def default_cases(settings: BenchSettings) -> list[Case]:
     gp_other = Case("", settings.gpssm_other, "gpssm", *GPSSM_VARIANTS[settings.gpssm_other])
     sim_methods = {
         "snow-slalom": gp,
-        "dry-gravel-dry": [Case("", m, m) for m in CLASSIFIERS],
+        "dry-gravel-dry": [gp_other, *[Case("", m, m) for m in CLASSIFIERS]],
         "f1tenth-patches": [Case("", "cascade", "cascade")],
         "straight-cruise": [gp_other, *[Case("", m, m) for m in CLASSIFIERS],
                             Case("", "cascade", "cascade")],

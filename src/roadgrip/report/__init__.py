@@ -196,7 +196,7 @@ def demo_notes(settings, records: Sequence, *, seed: int, wall: float) -> list[s
     notes = [
         f"seed {seed}; {described}",
         "scenarios simulated with ground truth; every estimator run where it applies "
-        "(snow-slalom: GP-SSM; dry-gravel-dry: bRLS and slip-map classifier; "
+        "(snow-slalom: GP-SSM; dry-gravel-dry: GP-SSM, bRLS and slip-map classifier; "
         "f1tenth-patches: Kalman cascade and friction grid)",
         real_data_note(records, settings),
         f"estimation and scoring took {wall:.1f} s",
