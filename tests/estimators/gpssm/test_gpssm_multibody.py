@@ -51,25 +51,22 @@ def test_curves_within_002_and_covered(runs):
 
 
 def test_saturated_peaks_observed_and_on_the_truth(runs):
-    # the front peaks: observed at the end and within 0.03 of the truth on every run. The
-    # rear: observed on 7 of 10 runs and within 0.03 there; on ford-escort seeds 0-2 the
-    # learned rear peak lies more than floor_margin below the physics floor over the
-    # learned gain (0.29-0.30, the raw accelerometer's 0.34 over a gain of 1.14-1.16), and
-    # the peak is reported as not observed: the floor as the estimate, a lower bound of
-    # 0.24 and the upper band at peak_max (8 of 10 before the gain gate: not observed on
-    # seeds 2 and 4)
-    n_rear = 0
+    # the front peaks: observed at the end and within 0.03 of the truth on every run (the
+    # data pass them and show the drop). The rear curves peak in their last visited bins:
+    # the data never show the curve past its maximum, so no rear peak is reported observed
+    # (7 of 10 were before the drop test: a maximum at the data's edge, where the prior
+    # bends the mean down, counted as passed); each reports a lower bound no more than
+    # 0.05 below the truth and the upper band at peak_max
     for (veh, seed), (_, _, h) in runs.items():
         for axle in AXLES:
             f = h[axle]
             assert f["saturated"], (veh, seed, axle)
-            if f["observed"]:
+            if axle == "front":
+                assert f["observed"], (veh, seed, f)
                 assert abs(f["mu"] - f["true_peak"]) <= 0.03, (veh, seed, axle, f)
-            else:
-                assert axle == "rear", (veh, seed, f)
-                assert f["upper"] == GPSSMConfig.peak_max and f["lower"] <= f["true_peak"]
-            n_rear += axle == "rear" and f["observed"]
-    assert n_rear >= 7
+            elif not f["observed"]:
+                assert f["upper"] == GPSSMConfig.peak_max, (veh, seed, f)
+                assert f["true_peak"] - 0.05 <= f["lower"] <= f["true_peak"], (veh, seed, f)
 
 
 def test_no_lower_bound_above_the_true_peak(runs):

@@ -139,6 +139,7 @@ class Consts(NamedTuple):
     floor2: float
     peak_max: float
     narrow: float
+    ell: float
     slip_sigma: float
     max_sideslip_ratio: float
     diverge_time: float
@@ -329,7 +330,7 @@ def run_steps(p, lin, st, wk, blk, cst, basis, pt, rng, out):  # pragma: no cove
                     break
         peak_summary(PeakPosterior(wk.M, wk.Lam, p.logw, wk.vpk), PeakGrid(wk.feats, pt.prior, pt.grid, pt.where, pt.col),
                      wk.a_vis, PeakParams(max(sc[_NU] - d - 1.0, 1.0), cst.margin, _Z95, cst.floor2, cst.peak_max,
-                                          cst.narrow), wk.pk)
+                                          cst.narrow, cst.ell), wk.pk)
         pk = wk.pk
         ess = e[_E_ESS]
         resampled = ess <= cst.ess_threshold * N

@@ -73,7 +73,7 @@ def _consts(ctx: Context) -> tuple[bk.Consts, gk.BasisTables, bk.PeakTables]:
             bin_width=float(config.bin_width), peak_visits=int(config.peak_visits),
             excitation_slip=float(config.excitation_slip), margin=float(config.peak_margin),
             floor2=float(config.curve_sigma_floor**2), peak_max=float(config.peak_max),
-            narrow=float(config.peak_narrow), slip_sigma=float(config.slip_sigma),
+            narrow=float(config.peak_narrow), ell=float(config.basis.ell), slip_sigma=float(config.slip_sigma),
             max_sideslip_ratio=float(config.max_sideslip_ratio), diverge_time=float(config.diverge_time),
             floor_margin=float(config.floor_margin), veh=ctx.veh,
         )

@@ -66,6 +66,7 @@ class PeakParams(NamedTuple):
     floor2: float
     peak_max: float
     narrow: float
+    ell: float
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
@@ -294,7 +295,8 @@ def peak_summary(post, pg, a_vis, prm, out):  # pragma: no cover - compiled
         half-width [-] of an observed peak; ``z95``;
         ``floor2`` the variance [-] added to every particle's (``curve_sigma_floor²``:
         the basis truncation error, which moves the peak of a represented curve too);
-        ``peak_max`` the upper band of a peak that was not observed.
+        ``peak_max`` the upper band of a peak that was not observed; ``ell`` the kernel
+        length scale [rad] (the correlation of the truncation error at two slip angles).
     out : (2, PEAK.SIZE) rows front/rear, slots of :class:`PEAK`
     """
     M, Lam, logw, vpk = post.M, post.Lam, post.logw, post.vpk
@@ -359,7 +361,30 @@ def peak_summary(post, pg, a_vis, prm, out):  # pragma: no cover - compiled
             var_in = max(vpk[n, g, col[ax, 0]], 0.0) * Lam[n, g, r, r] / qdof + floor2
             pv += w[n] * (((vis[n] if candidate else peaks[n]) - pm) ** 2 + var_in)
         hi = pm + z95 * math.sqrt(max(pv, 0.0))
-        observed = candidate and z95 * math.sqrt(max(pv, 0.0)) <= prm.narrow
+        # the data demonstrate the drop: at some visited slip at least ``margin`` past the
+        # peak the curve is lower than at the peak by more than z95 standard deviations
+        # of the difference (the particles' spread of it and the basis truncation error's,
+        # correlated over the kernel length scale ``ell``): never because the prior bends
+        # the mean down at the edge of the data
+        # (or the data pass it by a kernel length scale, past the reach of the edge's pull:
+        # a flat-topped curve saturated over several degrees has no drop to show)
+        dropped = a_vis[ax] >= a_pk + prm.ell - 1e-12
+        if candidate and z95 * math.sqrt(max(pv, 0.0)) <= prm.narrow and not dropped:
+            for k in range(jmax + 1, ng):
+                if grid[k] >= a_vis[ax] or dropped:
+                    break
+                if grid[k] < a_pk + margin - 1e-12:
+                    continue
+                dm = 0.0
+                for n in range(N):
+                    dm += w[n] * (prior[jmax] + C[n, jmax] - prior[k] - C[n, k])
+                dk = (grid[k] - a_pk) / prm.ell
+                dv = 2.0 * floor2 * (1.0 - math.exp(-0.5 * dk * dk))
+                for n in range(N):
+                    dn = prior[jmax] + C[n, jmax] - prior[k] - C[n, k]
+                    dv += w[n] * (dn - dm) ** 2
+                dropped = dm > z95 * math.sqrt(max(dv, 0.0))
+        observed = dropped and candidate and z95 * math.sqrt(max(pv, 0.0)) <= prm.narrow
         a_band = a_pk
         if observed:
             mu_hat = pm

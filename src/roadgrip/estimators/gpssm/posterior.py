@@ -185,6 +185,15 @@ def peak_estimates(
         pv = float(w @ ((peaks - pm) ** 2 + var_in))
         hi = pm + Z95 * math.sqrt(max(pv, 0.0))
         observed = bool(candidate and Z95 * math.sqrt(max(pv, 0.0)) <= config.peak_narrow)
+        if observed and a_vis < a_pk + config.basis.ell - 1e-12:
+            # the data demonstrate the drop past the peak, or pass it by a kernel length
+            # scale (kernel_ops.peak_summary)
+            past = np.flatnonzero((grid >= a_pk + config.peak_margin - 1e-12) & inside & (np.arange(len(grid)) > j))
+            drops = curves[:, [j]] - curves[:, past]  # (N, k)
+            dm = w @ drops
+            dk = (grid[past] - a_pk) / config.basis.ell
+            dv = w @ (drops - dm) ** 2 + 2.0 * config.curve_sigma_floor**2 * (1.0 - np.exp(-0.5 * dk**2))
+            observed = bool(np.any(dm > Z95 * np.sqrt(np.maximum(dv, 0.0))))
         a_band = a_pk
         if observed:
             mu_hat, lo = pm, pm - Z95 * math.sqrt(max(pv, 0.0))
