@@ -3,7 +3,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-fast fuzz kernels clean-kernels lint bench clean
+.PHONY: demo test verify test-fast fuzz kernels clean-kernels lint bench clean
 
 $(BIN)/python:
 	@test -n "$(PYTHON)" || { echo "error: no python3.11 or python3 on PATH"; exit 1; }
@@ -22,16 +22,26 @@ demo: $(STAMP)
 kernels: $(STAMP)
 	$(BIN)/python tests/compile_kernels.py
 
+# The contract a newcomer runs (README): lint, the import layers, then every unit, property,
+# contract and estimator-check test with the short accuracy and honesty checks (the short
+# honesty matrix, short multi-body and real-data runs). Everything marked `slow` is left
+# to `make verify`.
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/lint-imports --no-cache
 	$(BIN)/python tests/compile_kernels.py
-	$(BIN)/python -m pytest -n 2 --durations=15
+	$(BIN)/python -m pytest -n 2 -m "not slow" --durations=15
 
-# Without the slow tests and those reading ../shared/data.
+# The full acceptance: the tests marked `slow` (the multi-body acceptance, every real
+# recording at full length, long and streamed drives, the full honesty matrix).
+verify: $(STAMP)
+	$(BIN)/python tests/compile_kernels.py
+	$(BIN)/python -m pytest -n 2 -m "slow" --durations=25
+
+# The edit loop: without the slow tests, those reading ../shared/data and the honesty matrix.
 test-fast: $(STAMP)
 	$(BIN)/python tests/compile_kernels.py
-	$(BIN)/python -m pytest -n 2 -m "not slow and not realdata" --durations=15
+	$(BIN)/python -m pytest -n 2 -m "not slow and not realdata and not matrix" --durations=15
 
 # The generated bad-input corpus at full size (tests/test_fuzz_inputs.py): more than 10,000
 # derandomised cases over readers, validation, vehicle files, the grid and the estimators

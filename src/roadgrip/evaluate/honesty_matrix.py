@@ -37,9 +37,9 @@ __all__ = ["METHODS", "DriveSpec", "corpus", "load_drive", "matrix", "run_cell"]
 METHODS = ("gpssm", "cascade", "brls", "slipmap")
 """Every estimator of the project."""
 
-SHORT_S = {"snow-slalom": 40.0, "dry-gravel-dry": 130.0, "f1tenth-patches": 40.0,
+SHORT_S = {"snow-slalom": 40.0, "dry-gravel-dry": 80.0, "f1tenth-patches": 40.0,
            "straight-cruise": 20.0, "figure-eight": 60.0}
-"""Simulated durations [s] of the short corpus (dry-gravel-dry keeps its gravel segment)."""
+"""Simulated durations [s] of the short corpus (dry-gravel-dry: 60 s dry, 20 s on gravel)."""
 
 SHORT_RECORDING_S = 60.0
 """Length [s] of each recording in the short corpus (its first minute)."""

@@ -1,0 +1,54 @@
+"""The honesty matrix: every estimator on the drives of the corpus, judged by one rule
+(roadgrip.evaluate.honesty). The short corpus runs in ``make test``, the full one in
+``make verify`` (marked slow).
+
+A cell is honest when at most 0.1 % of its samples carry a wrong claim on any output
+path and its final summary is not wrong. The cells listed in ``KNOWN_DISHONEST`` are
+open faults of the estimators (issue 31), each named with its measured cause: the test
+fails when any other cell is dishonest, and when a listed cell has become honest (so the
+list only shrinks)."""
+
+from __future__ import annotations
+
+import pytest
+
+from roadgrip.evaluate.honesty_matrix import METHODS, corpus, load_drive, run_cell
+
+KNOWN_DISHONEST = {
+    # the GP-SSM's lateral velocity runs away at 30-60 m/s and its band does not say so
+    # (short corpus: 80 % of the samples miss the INS vy by more than the band)
+    ("revs", "gpssm"): "vy band excludes the INS lateral velocity",
+    # the lateral velocity runs away to -4.5 m/s (truth 0) at 30-50 s at 20 m/s, under the
+    # |vy| > 0.5 vx divergence test, with a std of 0.07 m/s; on the wrong slip angles the
+    # front peak is then observed at 0.555 [0.525, 0.584] on dry asphalt of 1.0
+    ("sim:dry-gravel-dry:0", "gpssm"): "vy runaway not flagged: vy band and front peak band wrong",
+}
+
+
+def _specs(size):
+    return {s.name: s for s in corpus(size)}
+
+
+SHORT = _specs("short")
+
+
+def _check(spec, method):
+    drive, vy_ref = load_drive(spec)
+    cell = run_cell(method, drive, vy_ref)
+    key = (spec.name, method)
+    line = (f"{spec.name} {method}: wrong axle {cell['wrong_axle']:.4f} vss {cell['wrong_vss']:.4f} "
+            f"class {cell['wrong_class']:.4f} vy {cell['wrong_vy']:.4f} summary wrong {cell['summary_wrong']}")
+    print(line)
+    if key in KNOWN_DISHONEST:
+        assert not cell["honest"], f"{line}: now honest, remove it from KNOWN_DISHONEST"
+    else:
+        assert cell["honest"], line
+
+
+pytestmark = pytest.mark.matrix
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("name", sorted(SHORT))
+def test_short_matrix_cell_is_honest(name, method):
+    _check(SHORT[name], method)
