@@ -20,6 +20,7 @@ Every method runs on every drive with the data set's presets
 
 from __future__ import annotations
 
+import re
 import time
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass
@@ -56,7 +57,7 @@ class DriveSpec:
     ----------
     name : str
         Row name (``'sim:<scenario>:<seed>'``, ``'mb:<vehicle>:<scenario>:<seed>'``,
-        ``'dart:<file stem>'``, ``'frictionmaps:DSn'``, ``'revs'``).
+        ``'dart:<MMDD-HHMMSS>'``, ``'frictionmaps:DSn'``, ``'revs'``).
     scenario, vehicle, seed, duration :
         The simulation (``vehicle`` set: the multi-body engine); ``duration`` [s], None
         for the scenario's own.
@@ -81,14 +82,14 @@ def corpus(size: str = "full") -> list[DriveSpec]:
         raise ValueError(f"matrix size must be 'full' or 'short', got {size!r}")
     short = size == "short"
     specs: list[DriveSpec] = []
-    for sc in SCENARIOS:
-        if sc == "figure-eight":  # a multi-body scenario only
+    for sc, scenario in SCENARIOS.items():
+        if scenario.engines == ("multibody",):
             continue
         for seed in (0,) if short else (0, 1, 2):
             specs.append(DriveSpec(f"sim:{sc}:{seed}", sc, None, seed, SHORT_S.get(sc) if short else None))
     for vehicle in MB_VEHICLES[:1] if short else MB_VEHICLES:
-        for sc in SCENARIOS:
-            if short and sc not in ("snow-slalom", "dry-gravel-dry"):
+        for sc, scenario in SCENARIOS.items():
+            if "multibody" not in scenario.engines or short and sc not in ("snow-slalom", "dry-gravel-dry"):
                 continue
             for seed in (0,) if short else (0, 1):
                 specs.append(DriveSpec(f"mb:{vehicle}:{sc}:{seed}", sc, vehicle, seed,
@@ -97,7 +98,9 @@ def corpus(size: str = "full") -> list[DriveSpec]:
     if root is not None:
         dart = sorted((root / "dart").glob("*/*.csv"))
         for f in dart[:1] if short else dart:
-            specs.append(DriveSpec(f"dart:{f.stem[-20:]}", path=str(f), format="dart",
+            stamp = re.search(r"(\d\d)_(\d\d)_\d{4}_(\d\d)_(\d\d)_(\d\d)", f.stem)
+            label = "{}{}-{}{}{}".format(*stamp.groups()) if stamp else f.stem
+            specs.append(DriveSpec(f"dart:{label}", path=str(f), format="dart",
                                    duration=SHORT_RECORDING_S if short else None))
         runs = sorted(p for p in (root / "frictionmaps").glob("DS*") if p.is_dir())
         for p in runs[:1] if short else runs:

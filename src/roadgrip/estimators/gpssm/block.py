@@ -143,6 +143,9 @@ class Consts(NamedTuple):
     slip_sigma: float
     max_sideslip_ratio: float
     diverge_time: float
+    slide_slip: float
+    slide_mu: float
+    relearn_time: float
     floor_margin: float
     veh: VehicleConstants
 
@@ -407,7 +410,17 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
         vy_std = max(vy_std, gap / _Z95)
     runaway = moving and not measured and abs(e_vy) > cst.max_sideslip_ratio * vx
     yaw_gap = abs(yaw_meas - e_yr) > _YAW_SIGMAS * math.hypot(cst.sigma_r, e_yr_std)
-    if moving and (yaw_gap or ess < _ESS_COLLAPSED):
+    # slip angles the lateral acceleration contradicts (guard._slide_gap)
+    slide_gap = False
+    a_f, a_r = row[6], row[7]
+    if not measured and min(abs(a_f), abs(a_r)) > cst.slide_slip and a_f * a_r > 0.0:
+        head, tail = int(sc[_HEAD]), int(sc[_TAIL])
+        s_ay = 0.0
+        for j in range(head, tail):
+            s_ay += gay[j]
+        ay_mean = s_ay / (tail - head) if tail > head else 0.0
+        slide_gap = math.copysign(ay_mean / max(e_gain, 1e-6), a_f) < cst.slide_mu * GRAVITY
+    if moving and (yaw_gap or slide_gap or ess < _ESS_COLLAPSED):
         if math.isnan(sc[_BAD]):
             sc[_BAD] = t
     else:
@@ -448,6 +461,11 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
             obs = False
             hi = cst.peak_max
         mu = max(mu, floor_gain)
+        if t < sc[_UNTIL] - cst.diverge_time + cst.relearn_time:
+            # relearning after a re-initialisation (guard.guard_step)
+            obs = False
+            lo = min(lo, floor_gain)
+            hi = cst.peak_max
         if diverged:
             obs = False
             lo = 0.0

@@ -75,6 +75,8 @@ def _consts(ctx: Context) -> tuple[bk.Consts, gk.BasisTables, bk.PeakTables]:
             floor2=float(config.curve_sigma_floor**2), peak_max=float(config.peak_max),
             narrow=float(config.peak_narrow), ell=float(config.basis.ell), slip_sigma=float(config.slip_sigma),
             max_sideslip_ratio=float(config.max_sideslip_ratio), diverge_time=float(config.diverge_time),
+            slide_slip=float(config.slide_slip), slide_mu=float(config.slide_mu),
+            relearn_time=float(config.relearn_time),
             floor_margin=float(config.floor_margin), veh=ctx.veh,
         )
         grid = np.linspace(0.0, min(config.peak_range, config.alpha_limit), config.peak_grid)

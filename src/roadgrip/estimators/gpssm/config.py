@@ -178,9 +178,24 @@ class GPSSMConfig(EstimatorConfig):
         lateral state is re-initialised (:mod:`roadgrip.estimators.gpssm.guard`); 0.5 is
         about 27 deg of body sideslip.
     diverge_time : float
-        Seconds [s] of a yaw rate no particle explains, or of collapsed weights, before a
+        Seconds [s] of a yaw rate no particle explains, of collapsed weights, or of slip
+        angles the measured lateral acceleration contradicts (``slide_slip``), before a
         step is flagged ``diverged``; and how long the output stays flagged after the
         re-initialisation.
+    slide_slip, slide_mu : float
+        Both estimated axle slip angles beyond ``slide_slip`` [rad] with one sign while
+        the car's lateral acceleration over the last second (over the learned
+        accelerometer gain) is below ``slide_mu g`` [-] in that direction: no tire carries
+        less than ``slide_mu`` of its load at such a slip angle (ice about 0.05), so the
+        lateral state is wrong, at any speed (a drift of ``vy`` to -3.9 m/s at 12.8 m/s,
+        -17 deg of sideslip in straight driving, passed the ``max_sideslip_ratio`` test).
+        Counted like a yaw rate no particle explains.
+    relearn_time : float
+        Seconds [s] after a re-initialisation during which no peak is reported observed
+        and the lower bands are the physics floor: the curve learned on the wrong lateral
+        state stays in the statistics until forgetting renews them (0.9998 per step is
+        about 5000 steps, 200 s at 25 Hz). A drift on the dry-gravel-dry drive taught a
+        front peak of 0.55 on dry asphalt of 1.0, reported observed after the recovery.
     floor_margin : float
         An observed peak more than this [-] below the sustained ``|a_y| / g`` (over the
         learned accelerometer gain) is reported as not observed.
@@ -230,6 +245,9 @@ class GPSSMConfig(EstimatorConfig):
     axle_loads: str = "static"
     max_sideslip_ratio: float = 0.5
     diverge_time: float = 1.0
+    slide_slip: float = math.radians(6.0)
+    slide_mu: float = 0.03
+    relearn_time: float = 200.0
     floor_margin: float = 0.01
     peak_max: float = 2.0
 
@@ -256,7 +274,7 @@ class GPSSMConfig(EstimatorConfig):
             raise ValueError(f"max_sideslip must be in (0, pi/2) rad or None, got {self.max_sideslip!r}")
         for name in ("sigma_w0", "sigma_ay", "sigma_yaw_rate", "sigma_vy0", "peak_range",
                      "bin_width", "slip_sigma", "curve_sigma_floor", "max_dt", "min_speed", "peak_max",
-                     "max_sideslip_ratio", "diverge_time", "floor_margin", "peak_margin",
+                     "max_sideslip_ratio", "diverge_time", "slide_slip", "slide_mu", "relearn_time", "floor_margin", "peak_margin",
                      "peak_narrow"):
             v = getattr(self, name)
             if not np.isfinite(v) or v <= 0:

@@ -9,14 +9,18 @@ Divergence
     The step is flagged ``diverged`` when the estimated lateral velocity leaves what any
     car not spinning out allows (``|vy| > max_sideslip_ratio vx``, 0.5 vx is about
     27 deg of body sideslip), or when no particle explains the yaw rate
-    (``|r_meas - r_est|`` above ``5 sqrt(sigma_r² + yaw_rate_std²)``) or the weights
-    have collapsed (effective sample size below 1.5) for ``diverge_time`` seconds in a
-    row. A flagged step reports the prior band ``[0, peak_max]`` for both peaks, not
+    (``|r_meas - r_est|`` above ``5 sqrt(sigma_r² + yaw_rate_std²)``), or the estimated
+    slip angles contradict the measured lateral acceleration (both axles past
+    ``slide_slip`` with one sign while the last second's mean ``a_y`` is below
+    ``slide_mu g`` that way: a tire that slides carries force), or the weights have
+    collapsed (effective sample size below 1.5) for ``diverge_time`` seconds in a row. A flagged step reports the prior band ``[0, peak_max]`` for both peaks, not
     observed, ``vy_std`` at least ``max(sigma_vy0, |vy|)``, and the particles' lateral
     velocity and yaw rate are re-initialised as at
     the start (``vy ~ N(0, sigma_vy0²)``, the yaw rate from the gyro); the learned
     statistics are kept. The output stays flagged for ``diverge_time`` after the
-    re-initialisation while the state settles.
+    re-initialisation while the state settles, and for ``relearn_time`` after it no peak
+    is reported observed and the lower bands are the physics floor (the statistics still
+    hold the curve learned on the wrong lateral state until forgetting renews them).
 Physics floor
     ``floor`` is the largest ``|mean a_y| / g`` over a full trailing second of recorded
     samples up to the step: the friction the car demonstrably used. No upper bound is reported below it
@@ -149,7 +153,9 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
     # divergence
     runaway = moving and not measured_vy and abs(est.vy) > config.max_sideslip_ratio * vx
     yaw_gap = abs(sample.yaw_rate - est.yaw_rate) > _YAW_SIGMAS * math.hypot(ctx.sigma_yaw_rate, est.yaw_rate_std)
-    if moving and (yaw_gap or est.ess < _ESS_COLLAPSED):
+    slide_gap = not measured_vy and _slide_gap(config, est.alpha_f, est.alpha_r,
+                                               _mean(g.ay) / max(est.ay_gain, 1e-6))
+    if moving and (yaw_gap or slide_gap or est.ess < _ESS_COLLAPSED):
         if math.isnan(g.bad_since):
             g.bad_since = t
     else:
@@ -179,6 +185,10 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
         # the car demonstrably used the floor: no peak estimate below it (a small shortfall
         # of an observed peak is within the floor's noise)
         mu = max(mu, floor_gain)
+        if t < g.flagged_until - config.diverge_time + config.relearn_time:
+            # relearning after a re-initialisation: the curve still holds what was
+            # learned on the wrong lateral state
+            obs, lo, hi = False, min(lo, floor_gain), config.peak_max
         if diverged:
             obs, lo, hi = False, 0.0, config.peak_max
         rep[f"mu_{axle}"] = float(mu)
@@ -186,6 +196,18 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
         rep[f"mu_{axle}_lower"] = float(min(lo, mu))
         rep[f"mu_{axle}_upper"] = float(max(hi, g.floor_raw, mu))
     return est._replace(**rep)
+
+
+def _mean(values: list[float]) -> float:
+    return sum(values) / len(values) if values else 0.0
+
+
+def _slide_gap(config, alpha_f: float, alpha_r: float, ay_mean: float) -> bool:
+    """Both slip angles past ``slide_slip`` with one sign, and the mean lateral
+    acceleration [m/s²] below ``slide_mu g`` that way: slip the car's force contradicts."""
+    if min(abs(alpha_f), abs(alpha_r)) <= config.slide_slip or alpha_f * alpha_r <= 0.0:
+        return False
+    return math.copysign(ay_mean, alpha_f) < config.slide_mu * GRAVITY
 
 
 def _reinitialise(ctx, state, sample: Sample) -> None:
