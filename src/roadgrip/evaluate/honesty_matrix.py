@@ -89,7 +89,7 @@ def corpus(size: str = "full") -> list[DriveSpec]:
             specs.append(DriveSpec(f"sim:{sc}:{seed}", sc, None, seed, SHORT_S.get(sc) if short else None))
     for vehicle in MB_VEHICLES[:1] if short else MB_VEHICLES:
         for sc, scenario in SCENARIOS.items():
-            if "multibody" not in scenario.engines or short and sc not in ("snow-slalom", "dry-gravel-dry"):
+            if "multibody" not in scenario.engines or (short and sc not in ("snow-slalom", "dry-gravel-dry")):
                 continue
             for seed in (0,) if short else (0, 1):
                 specs.append(DriveSpec(f"mb:{vehicle}:{sc}:{seed}", sc, vehicle, seed,
