@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["body_velocity_from_pose", "white_noise_std"]
+__all__ = ["body_velocity_from_pose", "savgol_quadratic", "white_noise_std"]
 
 
 def body_velocity_from_pose(
@@ -69,8 +69,6 @@ def _rotate_to_body(xd, yd, psi):
 
 
 def _savgol_body_velocity(t, x, y, psi, window, bad):
-    from scipy.signal import savgol_filter
-
     n = len(t)
     vx = np.full(n, np.nan)
     vy = np.full(n, np.nan)
@@ -78,7 +76,6 @@ def _savgol_body_velocity(t, x, y, psi, window, bad):
         return vx, vy
     h = float(np.median(np.diff(t)))
     w = max(round(window / h) // 2 * 2 + 1, 5)
-    half = w // 2
     bad = np.zeros(n, bool) if bad is None else np.asarray(bad, bool)
     # segments between missing ticks and bad samples
     brk = np.r_[True, np.diff(t) > 1.5 * h] | bad
@@ -88,14 +85,75 @@ def _savgol_body_velocity(t, x, y, psi, window, bad):
         if len(idx) < w:
             continue
         i0, i1 = idx[0], idx[-1] + 1
-        xd = savgol_filter(x[i0:i1], w, 2, deriv=1, delta=h)
-        yd = savgol_filter(y[i0:i1], w, 2, deriv=1, delta=h)
-        bx, by = _rotate_to_body(xd, yd, savgol_filter(psi[i0:i1], w, 2))
-        # the edges use a one-sided fit: keep only the centred part
-        bx[:half] = bx[-half:] = np.nan
-        by[:half] = by[-half:] = np.nan
-        vx[i0:i1], vy[i0:i1] = bx, by
+        # only the centred fits: within half a window of the ends stays NaN
+        xd = savgol_quadratic(x[i0:i1], w, deriv=1, delta=h)
+        yd = savgol_quadratic(y[i0:i1], w, deriv=1, delta=h)
+        vx[i0:i1], vy[i0:i1] = _rotate_to_body(xd, yd, savgol_quadratic(psi[i0:i1], w))
     return vx, vy
+
+
+def savgol_quadratic(v: ArrayLike, window: int, deriv: int = 0, delta: float = 1.0) -> NDArray[np.float64]:
+    """Savitzky-Golay filter of a local quadratic fit, at the centre of each window.
+
+    The least-squares quadratic through ``window = 2 m + 1`` consecutive samples
+    ``v[i-m] .. v[i+m]``, evaluated at the middle one (Savitzky & Golay 1964): its value
+    (``deriv=0``)
+
+        ``(c_0 v[i] + sum_k c_k (v[i+k] + v[i-k]))``,
+        ``c_k = 3 (3 m² + 3 m - 1 - 5 k²) / ((2 m - 1)(2 m + 1)(2 m + 3))``,
+
+    or its slope (``deriv=1``), that of the straight-line fit,
+
+        ``sum_k k (v[i+k] - v[i-k]) / (delta m (m + 1)(2 m + 1) / 3)``,
+
+    ``k = 1 .. m``. Summed in pairs, a constant offset of ``v`` cancels exactly in the
+    slope. The interior of :func:`scipy.signal.savgol_filter` with ``polyorder=2``, to
+    rounding, without importing :mod:`scipy.signal` (0.8 s). The first and last ``m``
+    samples, where no centred window fits, are NaN.
+
+    Parameters
+    ----------
+    v : array_like, shape (n,)
+        Samples on a uniform clock.
+    window : int
+        Odd number of samples, at least 3.
+    deriv : {0, 1}
+        Value or first derivative.
+    delta : float
+        Sample spacing [s] (for ``deriv=1``).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        In the unit of ``v`` (per second for ``deriv=1``); all NaN when ``n < window``.
+
+    Examples
+    --------
+    >>> savgol_quadratic([0.0, 1.0, 4.0, 9.0, 16.0], 5, deriv=1, delta=1.0)
+    array([nan, nan,  4., nan, nan])
+    """
+    if window < 3 or window % 2 == 0:
+        raise ValueError(f"window must be an odd number of samples >= 3, got {window!r}")
+    if deriv not in (0, 1):
+        raise ValueError(f"deriv must be 0 or 1, got {deriv!r}")
+    v = np.asarray(v, float)
+    n, m = len(v), window // 2
+    out = np.full(n, np.nan)
+    if n < window:
+        return out
+    centre = v[m:n - m]
+    if deriv == 1:
+        acc = np.zeros(n - 2 * m)
+        for k in range(1, m + 1):
+            acc += k * (v[m + k:n - m + k] - v[m - k:n - m - k])
+        out[m:n - m] = acc / (delta * (m * (m + 1) * (2 * m + 1) / 3.0))
+        return out
+    norm = (2 * m - 1) * (2 * m + 1) * (2 * m + 3)
+    acc = (3.0 * (3 * m * m + 3 * m - 1) / norm) * centre
+    for k in range(1, m + 1):
+        acc += (3.0 * (3 * m * m + 3 * m - 1 - 5 * k * k) / norm) * (v[m + k:n - m + k] + v[m - k:n - m - k])
+    out[m:n - m] = acc
+    return out
 
 
 def white_noise_std(x: ArrayLike) -> float:

@@ -46,7 +46,7 @@ import numpy as np
 
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import SIGNAL_COLUMNS, TRUTH_COLUMNS, Drive
-from roadgrip.tire import FrictionModel
+from roadgrip.tire import FrictionModel, bracketed_root
 from roadgrip.truth import friction_utilisation, has_parametric_truth, utilisation_source
 from roadgrip.vehicle.params import VehicleParams
 
@@ -160,8 +160,6 @@ def slip_at_fraction_of_peak(model: FrictionModel, fraction: float = 0.8) -> flo
     float
         Slip [rad or -]; ``inf`` when the curve never gets there.
     """
-    from scipy.optimize import brentq
-
     if not 0.0 < fraction < 1.0:
         raise ValueError(f"fraction must be in (0, 1), got {fraction!r}")
     s_peak, mu_peak = model.peak()
@@ -171,7 +169,7 @@ def slip_at_fraction_of_peak(model: FrictionModel, fraction: float = 0.8) -> flo
         hi *= 2.0
         if hi > 1e3:
             return float("inf")
-    return float(brentq(lambda s: float(model.mu(s)) - target, 0.0, hi, xtol=1e-12))
+    return bracketed_root(lambda s: float(model.mu(s)) - target, 0.0, hi, xtol=1e-12)
 
 
 @dataclass(frozen=True)

@@ -29,10 +29,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from roadgrip.drive import Drive
 from roadgrip.sim.friction import (
     ConstantFriction,
     Patch,
@@ -52,10 +52,12 @@ from roadgrip.sim.maneuvers import (
     SpeedPhases,
     Straight,
 )
-from roadgrip.sim.runner import simulate
 from roadgrip.sim.sensors import SensorSpec
 from roadgrip.sim.track import ClosedTrack, TrackDriver
 from roadgrip.vehicle.params import PRESETS
+
+if TYPE_CHECKING:  # the runner (pandas, compiled kernels) is imported by the builders that run it
+    from roadgrip.drive import Drive
 
 __all__ = ["MB_VEHICLES", "SCENARIOS", "Scenario", "simulate_scenario"]
 
@@ -110,6 +112,8 @@ SNOW_SENSORS = {
 
 
 def _snow_slalom(seed: int, duration: float, progress: bool) -> Drive:
+    from roadgrip.sim.runner import simulate
+
     vehicle = PRESETS["suv"]
     snow = surface_from_preset("snow")
     man = Maneuver(
@@ -189,6 +193,8 @@ def dgd_truth(field: PiecewiseTime, labels, excited: list[dict], duration: float
 
 
 def _dry_gravel_dry(seed: int, duration: float, progress: bool) -> Drive:
+    from roadgrip.sim.runner import simulate
+
     vehicle = PRESETS["sedan"]
     rng = np.random.default_rng([seed, 2])
     labels = ("dry_asphalt", "gravel", "dry_asphalt")
@@ -213,6 +219,8 @@ def _dry_gravel_dry(seed: int, duration: float, progress: bool) -> Drive:
 # straight-cruise
 # ------------------------------------------------------------------------------------
 def _straight_cruise(seed: int, duration: float, progress: bool) -> Drive:
+    from roadgrip.sim.runner import simulate
+
     vehicle = PRESETS["sedan"]
     man = Maneuver(ConstantSpeed(20.0), Straight(ay_std=0.05, corr_time=4.0), yaw_gain=0.05)
     return simulate(
@@ -254,6 +262,8 @@ F1TENTH_SENSORS = {
 
 
 def _f1tenth_patches(seed: int, duration: float, progress: bool) -> Drive:
+    from roadgrip.sim.runner import simulate
+
     vehicle = PRESETS["f1tenth"]
     geo = F1TENTH_TRACK
     track = ClosedTrack.rounded_rectangle(geo["length"], geo["width"], geo["radius"], ds=0.05)
