@@ -83,6 +83,7 @@ def estimate(
         _stream(drive_path, output, method, vehicle, fmt, options, seed,
                 {"--plot": plot, "--vss": vss, "--curves": curves, "--align": align or None})
         return
+    check_fits(drive_path, fmt, method)
     drive = load_drive(drive_path, fmt, vehicle, topics, channels)
     if align:
         from roadgrip.cli.info import apply_alignment, estimate_delays
@@ -117,6 +118,21 @@ def estimate(
 
     console.print(summary_table(result))
     console.print(f"wrote {', '.join(str(p) for p in written)}")
+
+
+def check_fits(drive_path: str, fmt: str | None, method: str) -> None:
+    """Refuse, before reading it, a drive that would not fit in memory read whole, naming
+    ``--stream`` (:func:`roadgrip.cli.drive_memory.check_whole_read`)."""
+    from roadgrip.cli.drive_memory import check_whole_read
+
+    read = check_whole_read(drive_path, fmt, method)
+    if read is None or read.fits:
+        return
+    what = read.describe(f"read whole for {method}")
+    stream = "--stream (10-minute chunks in bounded memory; it writes the estimates only)"
+    if read.size.kind == "parquet":
+        raise ValueError(f"{what}: use {stream}")
+    raise ValueError(f"{what}: a CSV is parsed whole; convert it to Parquet and use {stream}")
 
 
 def _stream(drive_path: str, output: Path, method: str, vehicle: str | None, fmt: str | None,

@@ -44,13 +44,18 @@ def info(
     align: AlignOpt = False,
 ) -> None:
     """Duration, rates, signal ranges, tire excitation and sensor delays of a drive."""
+    from roadgrip.cli.drive_memory import check_whole_read
     from roadgrip.cli.options import check_drive_args
     from roadgrip.io import describe_drive
 
     check_drive_args(file, fmt, vehicle, topics, channels)
-    if _is_long_parquet(file, fmt):
+    read = check_whole_read(file, fmt)  # before anything is read: chunks, or one line saying why not
+    if read is not None and read.size.kind == "parquet" and (read.size.rows > LONG_ROWS or not read.fits):
         _long_info(file, vehicle, align)
         return
+    if read is not None and not read.fits:
+        raise ValueError(f"{read.describe()}: a CSV is parsed whole; convert it to Parquet, "
+                         "which `roadgrip info` reads in chunks")
     drive = load_drive(file, fmt, vehicle, topics, channels)
     delays = estimate_delays(drive)
     if align:
@@ -63,23 +68,11 @@ def info(
 
 
 LONG_ROWS = 2_000_000
-"""Canonical Parquet drives longer than this are described chunk by chunk (5.6 h at 100 Hz)."""
+"""Canonical Parquet drives longer than this are described chunk by chunk (5.6 h at 100 Hz), as are
+shorter ones that would not fit in memory read whole (:mod:`roadgrip.cli.drive_memory`)."""
 
 INFO_CHUNK_ROWS = 360_000
 """Rows per chunk of a long drive (1 h at 100 Hz); its sensor delays come from the first."""
-
-
-def _is_long_parquet(file: str, fmt: str | None) -> bool:
-    from pathlib import Path
-
-    if fmt not in (None, "canonical") or Path(file).suffix.lower() not in (".parquet", ".pq"):
-        return False
-    import pyarrow.parquet as pq
-
-    try:
-        return pq.ParquetFile(file).metadata.num_rows > LONG_ROWS
-    except Exception:  # not readable as Parquet: the reader says why
-        return False
 
 
 def _long_info(file: str, vehicle: str | None, align: bool) -> None:

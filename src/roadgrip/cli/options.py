@@ -18,7 +18,9 @@ from typing import Any
 __all__ = [
     "ESTIMATE_KEY",
     "SEED_MAX",
+    "address_space_free",
     "available_memory",
+    "cgroup_free",
     "check_cell",
     "check_choice",
     "check_drive_args",
@@ -227,15 +229,69 @@ def proc_kib(path: str, key: str) -> float | None:
 
 
 def available_memory() -> float:
-    """Memory the process may still allocate [B]: ``MemAvailable`` of ``/proc/meminfo``,
-    else the physical memory, else 8 GiB."""
+    """Memory the process may still allocate [B].
+
+    The least of ``MemAvailable`` of ``/proc/meminfo`` (else the physical memory, else
+    8 GiB), what the memory control group's limit leaves (:func:`cgroup_free`) and what
+    the address-space limit (``ulimit -v``) leaves beside this process's ``VmSize``: in a
+    container or under a ulimit, the machine's free memory is not the process's.
+    """
     avail = proc_kib("/proc/meminfo", "MemAvailable")
-    if avail is not None:
-        return avail
+    if avail is None:
+        try:
+            avail = float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+        except (ValueError, OSError, AttributeError):
+            avail = 8.0 * GIB
+    for free in (cgroup_free(), address_space_free()):
+        if free is not None:
+            avail = min(avail, free)
+    return avail
+
+
+CGROUP_FILES = (
+    ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current",
+     "/sys/fs/cgroup/memory.stat", "inactive_file"),
+    ("/sys/fs/cgroup/memory/memory.limit_in_bytes", "/sys/fs/cgroup/memory/memory.usage_in_bytes",
+     "/sys/fs/cgroup/memory/memory.stat", "total_inactive_file"),
+)
+"""Memory control group files, v2 then v1: limit, usage, statistics and the statistic of the
+reclaimable file cache counted in the usage."""
+
+
+def cgroup_free(files: tuple[tuple[str, str, str, str], ...] = CGROUP_FILES) -> float | None:
+    """What the memory control group's limit leaves [B]: the limit less the usage that is
+    not inactive file cache (None without a cgroup or a limit)."""
+    for limit_file, usage_file, stat_file, inactive_key in files:
+        try:
+            limit_text = Path(limit_file).read_text().strip()
+            usage = float(Path(usage_file).read_text())
+        except (OSError, ValueError):
+            continue
+        if limit_text == "max" or not limit_text.isdigit() or float(limit_text) >= 2.0**60:
+            return None  # v2 'max', v1's page-rounded 2**63: no limit
+        inactive = 0.0
+        try:
+            for line in Path(stat_file).read_text().splitlines():
+                key, _, value = line.partition(" ")
+                if key == inactive_key:
+                    inactive = float(value)
+        except (OSError, ValueError):
+            pass
+        return max(float(limit_text) - max(usage - inactive, 0.0), 0.0)
+    return None
+
+
+def address_space_free() -> float | None:
+    """What ``RLIMIT_AS`` (``ulimit -v``) leaves beside this process's ``VmSize`` [B]
+    (None without a limit)."""
     try:
-        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
-    except (ValueError, OSError, AttributeError):
-        return 8.0 * GIB
+        import resource
+    except ImportError:  # not Unix
+        return None
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    if soft == resource.RLIM_INFINITY or soft < 0:
+        return None
+    return max(float(soft) - (proc_kib("/proc/self/status", "VmSize") or 0.0), 0.0)
 
 
 def check_duration(duration: float | None, rate_hz: float, available: float | None = None) -> None:
