@@ -419,7 +419,7 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
         for j in range(head, tail):
             s_ay += gay[j]
         ay_mean = s_ay / (tail - head) if tail > head else 0.0
-        slide_gap = math.copysign(ay_mean / max(e_gain, 1e-6), a_f) < cst.slide_mu * GRAVITY
+        slide_gap = ay_mean / max(e_gain, 1e-6) * math.copysign(1.0, a_f) < cst.slide_mu * GRAVITY
     if moving and (yaw_gap or slide_gap or ess < _ESS_COLLAPSED):
         if math.isnan(sc[_BAD]):
             sc[_BAD] = t

@@ -207,7 +207,7 @@ def _slide_gap(config, alpha_f: float, alpha_r: float, ay_mean: float) -> bool:
     acceleration [m/s²] below ``slide_mu g`` that way: slip the car's force contradicts."""
     if min(abs(alpha_f), abs(alpha_r)) <= config.slide_slip or alpha_f * alpha_r <= 0.0:
         return False
-    return math.copysign(ay_mean, alpha_f) < config.slide_mu * GRAVITY
+    return ay_mean * math.copysign(1.0, alpha_f) < config.slide_mu * GRAVITY
 
 
 def _reinitialise(ctx, state, sample: Sample) -> None:
