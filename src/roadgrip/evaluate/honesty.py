@@ -384,8 +384,8 @@ def score_result(result: Any, drive: Any, *, prior_band: tuple[float, float] | N
     drive : Drive
         The drive it ran on.
     prior_band : (float, float), optional
-        The method's prior band for the VSS lines (default: ``meta['prior_band']`` or
-        the estimator's).
+        The method's prior band for the VSS lines (default: the estimator's
+        ``prior_band`` of the configuration in ``meta['config']``).
     vy_ref : array_like, shape (drive.n,), optional
         Reference lateral velocity of a recording [m/s].
     """

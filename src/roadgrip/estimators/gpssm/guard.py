@@ -13,7 +13,8 @@ Divergence
     slip angles contradict the measured lateral acceleration (both axles past
     ``slide_slip`` with one sign while the last second's mean ``a_y`` is below
     ``slide_mu g`` that way: a tire that slides carries force), or the weights have
-    collapsed (effective sample size below 1.5) for ``diverge_time`` seconds in a row. A flagged step reports the prior band ``[0, peak_max]`` for both peaks, not
+    collapsed (effective sample size below 1.5) for ``diverge_time`` seconds in a row.
+    A flagged step reports the prior band ``[0, peak_max]`` for both peaks, not
     observed, ``vy_std`` at least ``max(sigma_vy0, |vy|)``, and the particles' lateral
     velocity and yaw rate are re-initialised as at
     the start (``vy ~ N(0, sigma_vy0²)``, the yaw rate from the gyro); the learned
