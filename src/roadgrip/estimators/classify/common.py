@@ -30,6 +30,7 @@ __all__ = [
     "extra_switches",
     "friction_refs",
     "lowpass",
+    "mirrored_friction",
     "prior_band",
     "settled",
     "summary_meta",
@@ -63,6 +64,45 @@ def friction_refs(d: Mapping[str, Any], where: str) -> dict[str, float]:
     if not (0.0 < lo < hi):
         raise ValueError(f"{where}: friction references need 0 < low < high, got {lo}, {hi}")
     return {"high": hi, "low": lo}
+
+
+def mirrored_friction(label: str, mu: float) -> dict[str, float]:
+    """Both classes' peak-friction references from one class's: the other mirrored across the split.
+
+    A calibration from drives of one class (the usual dry baseline lap) knows that
+    class's friction ``mu`` and not the other's. The saturation model tells the classes
+    apart by the friction alone (the stiffness, the gains and the road load are the
+    car's, fitted on the labelled drives), so the other reference is placed where the
+    class split :data:`~roadgrip.constants.GRIP_CLASS_SPLIT` is their geometric mean:
+    ``mu_other = split^2 / mu``. On the slips where the low class saturates and the high
+    one does not, the predicted accelerations scale with the friction, so the class
+    position's threshold (halfway between the predictions) then lies near the split
+    (dry asphalt 1.0 gives 0.49, the gravel of the simulator's scenarios).
+
+    Parameters
+    ----------
+    label : {'high', 'low'}
+        The class whose friction is known.
+    mu : float
+        Its peak friction [-]: above the split for 'high', below it for 'low'.
+
+    Raises
+    ------
+    ValueError
+        When ``mu`` lies on the wrong side of the split for ``label``.
+
+    >>> mirrored_friction("high", 1.0)
+    {'high': 1.0, 'low': 0.49}
+    """
+    split = GRIP_CLASS_SPLIT
+    mu = float(mu)
+    if label not in ("high", "low"):
+        raise ValueError(f"calibration label must be 'high' or 'low', got {label!r}")
+    if not math.isfinite(mu) or (label == "high" and not mu > split) or (label == "low" and not 0.0 < mu < split):
+        side = "above" if label == "high" else "below"
+        raise ValueError(f"a {label!r} friction reference must lie {side} the class split {split}, got {mu}")
+    other = round(split**2 / mu, 6)
+    return {"high": mu, "low": other} if label == "high" else {"high": other, "low": mu}
 
 
 def prior_band(friction: Mapping[str, float] | None = None) -> tuple[float, float]:

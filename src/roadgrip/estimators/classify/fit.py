@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.ndimage import uniform_filter1d
 
-from roadgrip.constants import GRAVITY
+from roadgrip.constants import GRAVITY, GRIP_CLASS_SPLIT
 from roadgrip.drive import Drive
 from roadgrip.estimators.classify.brls import model_regressors
 from roadgrip.estimators.classify.brls_config import (
@@ -44,6 +44,7 @@ from roadgrip.estimators.classify.brls_config import (
     saturation_config,
 )
 from roadgrip.estimators.classify.brls_kernel import brls_batch
+from roadgrip.estimators.classify.common import DEFAULT_FRICTION, mirrored_friction, settled
 from roadgrip.estimators.classify.frontend import FIRST_STEP_S
 from roadgrip.estimators.classify.grip_model import (
     ALPHA_OFFSET_MAX,
@@ -250,17 +251,17 @@ def fit_class_friction(
     data: Sequence[tuple[Drive, str, KinematicOutput, NDArray]], model: GripModel,
     min_speed: float = 0.5, tau: float = 0.3,
 ) -> dict[str, float]:
-    """Each class's peak friction by least squares of both channels over its drives.
+    """Each labelled class's peak friction by least squares of both channels over its drives.
 
     For drives without a known friction (real data): the model with the fitted stiffness
     and gains is run at each friction of :data:`FRICTION_GRID`; a class whose drives
     never approach saturation leaves the sum of squares flat above the friction they
     used, and the smallest friction within 1 % of the best is taken (the friction the
-    drives demonstrably used, not more).
+    drives demonstrably used, not more). Only the classes of ``data`` are returned.
     """
     params = data[0][0].vehicle
     out = {}
-    for lab in ("high", "low"):
+    for lab in sorted({la for _, la, _, _ in data}):
         rows = [(*_channel_data(d, kin, ay, axis, min_speed, tau), axis)
                 for d, la, kin, ay in data if la == lab for axis in ("x", "y")]
         sse = np.zeros(FRICTION_GRID.size)
@@ -297,11 +298,43 @@ def _median_positions(cfg: BRLSConfig, data) -> tuple[list[dict[str, Any]], dict
     return out, medians
 
 
+def _labelled_friction(estimated: dict[str, float], labels: Sequence[str]) -> dict[str, float]:
+    """Both classes' references from the friction the drives demonstrated.
+
+    Two classes: as estimated (checked ordered). One class: the other mirrored across the
+    split (:func:`~roadgrip.estimators.classify.common.mirrored_friction`); a 'high' drive
+    shows only the friction it used, so its reference is at least dry asphalt's
+    (:data:`~roadgrip.estimators.classify.common.DEFAULT_FRICTION`), and a 'low' drive
+    that demonstrates a friction at or above the split is refused.
+    """
+    if len(labels) == 2:
+        if not estimated["high"] > estimated["low"]:
+            raise ValueError(f"calibration failed: the 'high' drives show no more friction than the "
+                             f"'low' ones ({estimated}); give the friction as DRIVE:LABEL=MU")
+        return dict(estimated)
+    (lab,) = labels
+    if lab == "high":
+        return mirrored_friction("high", max(estimated["high"], DEFAULT_FRICTION["high"]))
+    if not estimated["low"] < GRIP_CLASS_SPLIT:
+        raise ValueError(f"calibration failed: the 'low' drives demonstrate a friction of "
+                         f"{estimated['low']:.3g}, not below the class split {GRIP_CLASS_SPLIT}; "
+                         "are they labelled correctly?")
+    return mirrored_friction("low", estimated["low"])
+
+
 def saturation_calibration(
     drives: Sequence[tuple[Drive, str, KinematicOutput]], friction: dict[str, float],
     kinematic: KinematicConfig = KinematicConfig(), estimate_friction: bool = False,
 ) -> tuple[BRLSConfig, SlipMapConfig, dict[str, Any]]:
     """Both classifiers' settings on the fitted saturation model (module docstring).
+
+    The drives may carry both labels or one (one-class calibration: the usual dry
+    baseline lap of a car). With one label, ``friction`` must hold both references
+    (the other derived, :func:`~roadgrip.estimators.classify.common.mirrored_friction`)
+    and step 3 switches a channel on when the labelled class's median position lies on
+    its side and the classifier with that channel alone, run over each labelled drive
+    from the other class, claims no other class after
+    :data:`~roadgrip.estimators.classify.common.CALIBRATION_SETTLING_S`.
 
     With ``estimate_friction`` the classes' peak friction comes from the drives
     (:func:`fit_class_friction`, then the stiffness and gains are fitted again);
@@ -313,6 +346,7 @@ def saturation_calibration(
         When no channel is informed on the labelled drives, or none places them
         on their labelled sides.
     """
+    labels = sorted({lab for _, lab, _ in drives})
     base = saturation_config(lateral=True)
     data = [(d, lab, kin, drive_lateral_acceleration(d, kin, base.lateral_acceleration, kinematic))
             for d, lab, kin in drives]
@@ -321,11 +355,10 @@ def saturation_calibration(
     level = [(d, lab, kin._replace(alpha_f=kin.alpha_f - off_f, alpha_r=kin.alpha_r - off_r), ay)
              for d, lab, kin, ay in data]
     model, fitted = fit_grip_model(level, friction, base.min_speed, base.slip_filter_tau_s)
+    demonstrated = None
     if estimate_friction:
-        friction = fit_class_friction(level, model, base.min_speed, base.slip_filter_tau_s)
-        if not friction["high"] > friction["low"]:
-            raise ValueError(f"calibration failed: the 'high' drives show no more friction than the "
-                             f"'low' ones ({friction}); give the friction as DRIVE:LABEL=MU")
+        demonstrated = fit_class_friction(level, model, base.min_speed, base.slip_filter_tau_s)
+        friction = _labelled_friction(demonstrated, labels)
         model, fitted = fit_grip_model(level, friction, base.min_speed, base.slip_filter_tau_s)
     model = replace(model, alpha_offset_f=off_f, alpha_offset_r=off_r)
     cfg = replace(base, grip=model)
@@ -333,7 +366,16 @@ def saturation_calibration(
     on = {}
     for name in ("long", "lat"):
         hi, lo = pooled[name]["high"], pooled[name]["low"]
-        on[name] = hi is not None and lo is not None and hi > 0.5 > lo
+        if len(labels) == 2:
+            on[name] = hi is not None and lo is not None and hi > 0.5 > lo
+        elif labels == ["high"]:
+            on[name] = hi is not None and hi > 0.5
+        else:
+            on[name] = lo is not None and lo < 0.5
+    if len(labels) == 1:
+        for name in ("long", "lat"):
+            if on[name]:
+                on[name] = _holds_label(cfg, data, name)
     if not (on["long"] or on["lat"]):
         raise ValueError(
             "calibration failed: no channel of the saturation model places the labelled drives "
@@ -344,8 +386,30 @@ def saturation_calibration(
                   hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf)
     sm = replace(slipmap_saturation(model, hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf,
                                     lateral=on["lat"]), longitudinal=on["long"])
-    diag = {"model": "saturation", "grip_fit": fitted, "slip_angle_zero": zero, "friction": dict(friction),
-            "friction_estimated": bool(estimate_friction), "median_positions": positions,
-            "class_median_positions": pooled,
+    diag = {"model": "saturation", "labels": "+".join(labels), "grip_fit": fitted, "slip_angle_zero": zero,
+            "friction": dict(friction), "friction_estimated": bool(estimate_friction),
+            "median_positions": positions, "class_median_positions": pooled,
             "long_channel": "on" if on["long"] else "off", "lat_channel": "on" if on["lat"] else "off"}
+    if demonstrated is not None:
+        diag["friction_demonstrated"] = dict(demonstrated)
     return cfg, sm, diag
+
+
+def _holds_label(cfg: BRLSConfig, data, name: str) -> bool:
+    """Whether the bRLS with channel ``name`` alone, started in the other class, claims
+    nothing but the label on each labelled drive's settled samples
+    (:func:`~roadgrip.estimators.classify.common.settled`)."""
+    other = "long" if name == "lat" else "lat"
+    c = replace(cfg, **{other: replace(getattr(cfg, other), enabled=False),
+                        name: replace(getattr(cfg, name), enabled=True)},
+                hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf)
+    for drive, lab, kin, ay in data:
+        (pl, yl, pa, ya), _ = model_regressors(kin, drive.col("ax"), ay, drive.col("steer"),
+                                               drive.vehicle, c, drive.t)
+        _, o = brls_batch(drive.t, pl, yl, pa, ya,
+                          replace(c, initial_state="low" if lab == "high" else "high"))
+        judged = settled(drive.t, np.abs(np.asarray(kin.vx, float)) >= c.min_speed)
+        cls = np.asarray(o.grip_class)[judged]
+        if np.any((cls != lab) & (cls != "unknown")):
+            return False
+    return True

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -30,6 +30,7 @@ from roadgrip.estimators.classify.common import (
     extra_switches,
     friction_refs,
     lowpass,
+    mirrored_friction,
     settled,
 )
 from roadgrip.estimators.classify.fit import saturation_calibration
@@ -201,7 +202,12 @@ def calibrate(
     Parameters
     ----------
     drives : sequence of (Drive, label)
-        Labels 'high' or 'low'; both must occur.
+        Labels 'high' or 'low'. With the saturation model one label may be all
+        there is (a car's dry baseline lap, 'high'): the car's stiffness, gains and
+        road load are fitted on it, and the other class's friction reference is
+        mirrored across the class split
+        (:func:`~roadgrip.estimators.classify.common.mirrored_friction`); see
+        :func:`~roadgrip.estimators.classify.fit.saturation_calibration`.
     base : BRLSConfig, optional
         Settings kept from it (time constants, ``s0``); default :func:`default_config`.
     kinematic : KinematicConfig
@@ -210,7 +216,8 @@ def calibrate(
     lateral_regressors : sequence of {'axles', 'rear'}
         Lateral regressors tried (:func:`regressors`).
     friction : dict, optional
-        Peak-friction reference per class (``{'high': ..., 'low': ...}``); by
+        Peak-friction reference per class (``{'high': ..., 'low': ...}``; with
+        one label, that class's entry is used and the other derived); by
         default the median true friction of the drives of each class where they
         all carry simulator truth (``mu_true``); else, with the saturation model,
         estimated from the drives
@@ -236,19 +243,23 @@ def calibrate(
         and each channel's status.
     """
     labels = [lab for _, lab in drives]
+    if not labels:
+        raise ValueError("calibration needs at least one labelled drive")
     for lab in labels:
         if lab not in ("high", "low"):
             raise ValueError(f"calibration label must be 'high' or 'low', got {lab!r}")
-    if "high" not in labels or "low" not in labels:
-        raise ValueError("calibration needs at least one 'high' and one 'low' drive")
     if model not in ("saturation", "stiffness"):
         raise ValueError(f"calibration model must be 'saturation' or 'stiffness', got {model!r}")
+    one_class = len(set(labels)) == 1
+    if one_class and model != "saturation":
+        raise ValueError("the stiffness model needs at least one 'high' and one 'low' drive; "
+                         "a single class calibrates the saturation model only")
     base = base or default_config()
     kins = [(drive, lab, estimate_kinematics(drive, kinematic)) for drive, lab in drives]
     veh = kins[0][0].vehicle.name
     prov = tuple({"source": d[0].meta.source, "label": d[1], "samples": int(d[0].n)} for d in kins)
     known = friction is not None or all(d.has("mu_true") for d, _, _ in kins)
-    friction = _friction(kins, friction)
+    friction = _one_class_friction(kins, labels[0], friction) if one_class else _friction(kins, friction)
     if model == "saturation":
         cfg, sm, diag = saturation_calibration(kins, friction, kinematic, estimate_friction=not known)
         return Calibration(cfg, sm, {}, veh, prov, diag, friction_refs(diag["friction"], "calibrate"))
@@ -313,6 +324,23 @@ def calibrate(
     }
     sm, sm_fit = calibrate_section(kins, kinematic=kinematic)
     return Calibration(cfg, sm, sm_fit, veh, prov, diag, friction)
+
+
+def _one_class_friction(kins: list, label: str, friction: Mapping[str, float] | None) -> dict[str, float]:
+    """Both references from drives of one class: ``label``'s from ``friction`` (that class's
+    entry), else the median true friction of its drives where all carry simulator truth,
+    else dry asphalt's or gravel's (:data:`~roadgrip.estimators.classify.common.DEFAULT_FRICTION`,
+    the start of the estimate from the drives); the other mirrored across the split
+    (:func:`~roadgrip.estimators.classify.common.mirrored_friction`)."""
+    if friction is not None:
+        if label not in friction:
+            raise ValueError(f"calibrate: 'friction' must give the labelled class {label!r}")
+        mu = float(friction[label])
+    elif all(d.has("mu_true") for d, _, _ in kins):
+        mu = float(np.median(np.concatenate([d.col("mu_true") for d, _, _ in kins])))
+    else:
+        mu = DEFAULT_FRICTION[label]
+    return mirrored_friction(label, mu)
 
 
 def _friction(kins: list, friction: dict[str, float] | None) -> dict[str, float]:
