@@ -1,4 +1,4 @@
-"""Commands ``roadgrip vehicle template`` and ``roadgrip vehicle list``: describing a vehicle."""
+"""Commands ``roadgrip vehicle template``, ``list`` and ``fit``: describing a vehicle."""
 
 from __future__ import annotations
 
@@ -8,7 +8,16 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from roadgrip.cli._common import PlainHelpTyper, app, console
+from roadgrip.cli._common import (
+    ChannelsOpt,
+    FormatOpt,
+    PlainHelpTyper,
+    TopicsOpt,
+    VehicleOpt,
+    app,
+    console,
+    load_drive,
+)
 
 vehicle_app = PlainHelpTyper(no_args_is_help=True, help="Vehicle descriptions: presets and a YAML template.")
 app.add_typer(vehicle_app, name="vehicle")
@@ -54,3 +63,57 @@ def list_presets() -> None:
     console.print(table)
     console.print("multi-body: also a vehicle of `roadgrip simulate --engine multibody --vehicle NAME`",
                   highlight=False)
+
+
+@vehicle_app.command("fit")
+def fit(
+    file: Annotated[str, typer.Argument(help="Drive file or data-set path.")],
+    output: Annotated[Path | None, typer.Option(
+        "-o", "--output", help="Write the fitted vehicle to this .yaml file (default: print the table).")] = None,
+    fmt: FormatOpt = None,
+    vehicle: VehicleOpt = None,
+    topics: TopicsOpt = None,
+    channels: ChannelsOpt = None,
+    mu: Annotated[float, typer.Option(
+        help="Friction of the road driven [-]: the linear range is |a_y| < 0.4 mu g.")] = 1.0,
+    start: Annotated[float | None, typer.Option(help="Use the samples from this time [s].")] = None,
+    end: Annotated[float | None, typer.Option(help="Use the samples before this time [s].")] = None,
+    force: Annotated[bool, typer.Option(help="Overwrite an existing file.")] = False,
+) -> None:
+    """Identify cornering stiffnesses, steering offset, scale and delay, sensor delays, the
+    accelerometer's gains and biases and the wheel radius from a drive, each with its
+    standard error; what the drive cannot tell is named and kept from the vehicle."""
+    import math
+
+    from roadgrip.cli.options import check_drive_args, check_output
+    from roadgrip.inference.vehicle_identification import fit_vehicle
+
+    check_drive_args(file, fmt, vehicle, topics, channels)
+    check_output(output, "--output", (".yaml", ".yml"))
+    if output is not None and output.exists() and not force:
+        raise ValueError(f"{output} exists; pass --force to overwrite it")
+    if not (math.isfinite(mu) and 0.0 < mu <= 2.0):
+        raise ValueError(f"--mu must be in (0, 2], got {mu!r}")
+    drive = load_drive(file, fmt, vehicle, topics, channels)
+    t = drive.t
+    t0 = t[0] if start is None else start
+    t1 = t[-1] + 1.0 if end is None else end
+    if start is not None or end is not None:
+        drive = drive.slice_time(t0, t1)
+    res = fit_vehicle(drive, mu=mu)
+    table = Table(title=f"vehicle fit: {Path(file).name}, {drive.duration:.1f} s, "
+                        f"{res.samples} linear-range samples")
+    for col in ("quantity", "value", "std. error", "unit", "status"):
+        table.add_column(col, justify="right" if col in ("value", "std. error") else "left",
+                         no_wrap=col == "quantity")
+    for v in res.values.values():
+        val = f"{v.value:.5g}" if math.isfinite(v.value) else "-"
+        sd = f"{v.std:.2g}" if math.isfinite(v.std) else "-"
+        table.add_row(v.name, val, sd, v.unit, v.status)
+    console.print(table)
+    for v in res.values.values():
+        if not v.fitted:
+            console.print(f"{v.name}: undetermined, {v.note}", highlight=False)
+    if output is not None:
+        output.write_text(res.to_yaml())
+        console.print(f"wrote {output} (use it with --vehicle {output})", highlight=False)

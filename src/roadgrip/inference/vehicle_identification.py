@@ -1,0 +1,487 @@
+r"""Vehicle identification from a drive: what the estimators need and users rarely know.
+
+``roadgrip vehicle fit`` identifies, each with a standard error and a status (``'fitted'``
+or ``'undetermined'`` with the reason; an undetermined value keeps the base vehicle's):
+
+===========================  ==========================================================
+quantity                     evidence
+===========================  ==========================================================
+accelerometer delay          ``a_y`` against ``v_x r`` (+ ``dv_y/dt`` with a pose), vs the gyro
+                             (:func:`roadgrip.sensor_delay.estimate_delay`)
+wheel-speed / vx delay       ``d v_x/dt`` against ``a_x``, plus the accelerometer's delay
+pose delay                   ``dpsi/dt`` against the gyro
+steering delay, offset,      the linear single-track identity (below), by least squares
+scale, cornering stiffness   over the linear-range samples, the delay by a profile
+per axle
+accelerometer gain and bias  ``a_y = g_y (v_x r + dv_y/dt) + b_y``; ``a_x = g_x dv_x/dt + b_x``
+wheel radius                 undriven wheels' ``omega`` against the pose speed or ``vx``
+===========================  ==========================================================
+
+**Single-track identity.** With the linear tires ``F_yf = C_f alpha_f``, ``F_yr = C_r alpha_r``,
+``alpha_f = delta - (v_y + l_f r)/v_x``, ``alpha_r = -(v_y - l_r r)/v_x`` and the axle forces
+from Newton and Euler, ``F_yf = (m l_r a_y + I_z r')/l``, ``F_yr = (m l_f a_y - I_z r')/l``,
+the unmeasured ``v_y`` cancels from ``F_yf/C_f - F_yr/C_r``:
+
+    ``delta = l r / v_x + (m a_y / l) K + (r' / l) J``,
+    ``K = l_r/C_f - l_f/C_r``,  ``J = I_z (1/C_f + 1/C_r)``,
+
+at every instant, not only in steady state. The road-wheel angle is ``delta = s
+steer(t - d) + delta_0`` (scale ``s``, offset ``delta_0``, delay ``d``), so the measured
+steering is linear in ``[l r/v_x, 1, m a_y/l, r'/l]`` with coefficients ``1/s,
+-delta_0/s, K/s, J/s``. ``K`` and ``J`` give both stiffnesses for a known ``I_z``
+(``1/C_f = (K + l_f J/I_z)/l``, ``1/C_r = (l_r J/I_z - K)/l``); the yaw inertia itself
+would need ``v_y`` and is kept from the base vehicle. Samples: ``v_x >= V_MIN``,
+``|a_y| < 0.4 mu g`` (linear range), ``|a_x| < 0.2 g``.
+
+Standard errors are least-squares errors inflated for the residuals' correlation
+(``n_eff = n (1 - rho_1)/(1 + rho_1)``), propagated by the delta method.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from roadgrip.constants import GRAVITY
+from roadgrip.drive import Drive
+from roadgrip.io.derived import body_velocity_from_pose, savgol_quadratic
+from roadgrip.sensor_delay import estimate_delay
+from roadgrip.signals import WHEELS, undriven_wheels, wheel_speed_vx
+from roadgrip.vehicle.params import FIELD_RANGES, VehicleParams
+
+__all__ = ["FittedValue", "VehicleFit", "fit_vehicle"]
+
+V_MIN = 5.0
+"""Smallest speed [m/s] of a sample in the single-track fit (``r/v_x`` and the slip
+angles are ill-conditioned below)."""
+LINEAR_AY = 0.4
+"""Linear range: ``|a_y| < LINEAR_AY mu g``."""
+MAX_AX = 0.2 * GRAVITY
+"""Largest ``|a_x|`` [m/s²] of a sample in the single-track fit (combined slip)."""
+MIN_LINEAR = 500
+"""Fewest linear-range samples for the single-track fit."""
+MIN_AY_STD = 0.5
+"""Least standard deviation [m/s²] of ``a_y`` over the linear-range samples (excitation)."""
+MAX_REL_STD = 0.25
+"""Largest relative standard error of a fitted gain, radius or stiffness (2 sigma: within
++-50 %); the value and its error are reported either way."""
+MAX_STEER_LAG = 0.3
+"""Largest steering delay [s] searched."""
+SMOOTH = 0.15
+"""Savitzky-Golay window [s] of the signals and of ``r'`` in the single-track fit."""
+
+
+@dataclass(frozen=True)
+class FittedValue:
+    """One identified quantity.
+
+    Attributes
+    ----------
+    name : str
+        E.g. ``'cornering_stiffness_front'``, ``'steer_offset'``.
+    value : float
+        In ``unit``; the base vehicle's value (or NaN for a sensor quantity) when
+        undetermined.
+    std : float
+        Standard error in ``unit`` (NaN when undetermined).
+    unit : str
+    status : {'fitted', 'undetermined'}
+    note : str
+        Why undetermined, or what the value means.
+    """
+
+    name: str
+    value: float
+    std: float
+    unit: str
+    status: str
+    note: str = ""
+
+    @property
+    def fitted(self) -> bool:
+        return self.status == "fitted"
+
+
+@dataclass(frozen=True)
+class VehicleFit:
+    """Result of :func:`fit_vehicle`.
+
+    Attributes
+    ----------
+    values : dict of str to FittedValue
+        Every quantity, fitted or undetermined, in a fixed order.
+    vehicle : VehicleParams
+        The base vehicle with the fitted vehicle fields (cornering stiffnesses, wheel
+        radius, roll gradient) replaced.
+    samples : int
+        Linear-range samples of the single-track fit.
+    """
+
+    values: dict[str, FittedValue]
+    vehicle: VehicleParams
+    samples: int = 0
+    notes: tuple[str, ...] = field(default=())
+
+    def to_yaml(self) -> str:
+        """The vehicle file: every vehicle field, then each identified value as a comment
+        with its standard error and status (sensor calibrations are not vehicle fields)."""
+        import yaml
+
+        lines = ["# roadgrip vehicle file written by `roadgrip vehicle fit`.",
+                 "# Fitted fields carry their standard error; an undetermined one keeps the "
+                 "base value."]
+        body = yaml.safe_dump(self.vehicle.to_dict(), sort_keys=False).splitlines()
+        for line in body:
+            key = line.split(":", 1)[0]
+            v = self.values.get(key)
+            lines.append(line + (f"  # {_describe(v)}" if v is not None else ""))
+        lines.append("# Sensor calibration (apply it to the drive; not a vehicle field):")
+        for v in self.values.values():
+            if v.name not in FIELD_RANGES:
+                lines.append(f"#   {v.name}: {_describe(v, value=True)}")
+        return "\n".join(lines) + "\n"
+
+
+def _describe(v: FittedValue, value: bool = False) -> str:
+    val = f"{v.value:.6g} " if value and math.isfinite(v.value) else ""
+    if v.fitted:
+        return f"{val}± {v.std:.3g} {v.unit} (fitted){'; ' + v.note if v.note else ''}"
+    return f"{val}{v.unit} undetermined: {v.note}"
+
+
+def _fitted(name, value, std, unit, note=""):
+    return FittedValue(name, float(value), float(std), unit, "fitted", note)
+
+
+def _undetermined(name, unit, note, value=math.nan):
+    return FittedValue(name, float(value), math.nan, unit, "undetermined", note)
+
+
+def _n_eff(res: NDArray) -> float:
+    """Effective number of independent residuals (lag-one autocorrelation)."""
+    n = len(res)
+    if n < 3:
+        return float(n)
+    r0 = float(np.dot(res, res))
+    rho = float(np.dot(res[1:], res[:-1]) / r0) if r0 > 0 else 0.0
+    rho = min(max(rho, 0.0), 0.999)
+    return max(n * (1.0 - rho) / (1.0 + rho), 2.0)
+
+
+def _lstsq(X: NDArray, y: NDArray) -> tuple[NDArray, NDArray, float]:
+    """Coefficients, their covariance (residual correlation accounted for), RSS."""
+    beta, *_ = np.linalg.lstsq(X, y, rcond=None)
+    res = y - X @ beta
+    rss = float(res @ res)
+    n, p = X.shape
+    n_eff = _n_eff(res)
+    sigma2 = rss / max(n - p, 1) * (n / n_eff)
+    xtx_inv = np.linalg.pinv(X.T @ X)
+    return beta, sigma2 * xtx_inv, rss
+
+
+def _uniform_dt(t: NDArray) -> float:
+    return float(np.median(np.diff(t)))
+
+
+def _smooth(v: NDArray, dt: float, window: float = SMOOTH, deriv: int = 0) -> NDArray:
+    m = max(round(window / dt / 2), 2)
+    out = savgol_quadratic(v, 2 * m + 1, deriv=deriv, delta=dt)
+    ok = np.isfinite(out)
+    if ok.any() and not ok.all():  # hold the first and last centred values at the ends
+        i = np.flatnonzero(ok)
+        out = np.interp(np.arange(len(out)), i, out[i])
+    return out
+
+
+def _shifted(t: NDArray, v: NDArray, delay: float) -> NDArray:
+    """``v`` moved back by ``delay`` [s] (``out(t) = v(t + delay)``), held at the ends."""
+    return v if delay == 0.0 else np.interp(t + delay, t, v)
+
+
+def _pose_vy(drive: Drive) -> NDArray | None:
+    if not drive.has_pose:
+        return None
+    vy = body_velocity_from_pose(drive.t, drive.col("x"), drive.col("y"), drive.col("psi"),
+                                 window=0.5)[1]
+    return vy if np.isfinite(vy).mean() > 0.5 else None
+
+
+def _delays(drive: Drive, vx: NDArray, dt: float) -> dict[str, FittedValue]:
+    """Delays of the accelerometer, the speed and the pose against the gyro."""
+    out: dict[str, FittedValue] = {}
+    t = drive.t
+    r = drive.col("yaw_rate")
+    ref = vx * r
+    vy = _pose_vy(drive)
+    pair = "a_y ~ v_x r"
+    if vy is not None:
+        ok = np.isfinite(vy)
+        ref = ref + np.where(ok, _smooth(np.where(ok, vy, 0.0), dt, 0.5, deriv=1), 0.0)
+        pair = "a_y ~ v_x r + dv_y/dt"
+    acc = estimate_delay(t, drive.col("ay"), ref, max_lag=1.0)
+    acc_delay = 0.0
+    if acc.reliable:
+        acc_delay = acc.delay
+        out["delay_accelerometer"] = _fitted("delay_accelerometer", acc.delay, acc.std, "s",
+                                             f"{pair}, peak correlation {acc.peak_corr:.2f}")
+    else:
+        out["delay_accelerometer"] = _undetermined(
+            "delay_accelerometer", "s", f"{pair}: peak correlation {acc.peak_corr:.2f}, "
+            f"standard error {acc.std:.3g} s (too little turning)")
+    if drive.has("ax"):
+        dvx = _smooth(vx, dt, 0.5, deriv=1)
+        fit = estimate_delay(t, dvx, drive.col("ax"), max_lag=1.0)
+        if fit.reliable and acc.reliable:
+            out["delay_speed"] = _fitted("delay_speed", fit.delay + acc_delay,
+                                         math.hypot(fit.std, acc.std), "s",
+                                         f"dv_x/dt ~ a_x, peak correlation {fit.peak_corr:.2f}")
+        else:
+            out["delay_speed"] = _undetermined(
+                "delay_speed", "s", f"dv_x/dt ~ a_x: peak correlation {fit.peak_corr:.2f} "
+                "(too little acceleration and braking)")
+    if drive.has("psi"):
+        rate = np.gradient(np.unwrap(drive.col("psi")), t)
+        fit = estimate_delay(t, rate, r, max_lag=1.0)
+        if fit.reliable:
+            out["delay_pose"] = _fitted("delay_pose", fit.delay, fit.std, "s",
+                                        f"dpsi/dt ~ r, peak correlation {fit.peak_corr:.2f}")
+        else:
+            out["delay_pose"] = _undetermined("delay_pose", "s", "dpsi/dt ~ r: too little turning")
+    return out
+
+
+def _accelerometer(drive: Drive, vx: NDArray, dt: float, acc_delay: float) -> dict[str, FittedValue]:
+    """Gains and biases of ``a_y`` and ``a_x`` against the kinematics."""
+    out: dict[str, FittedValue] = {}
+    t = drive.t
+    vy = _pose_vy(drive)
+    kin_y = _smooth(vx * drive.col("yaw_rate"), dt, 0.5)
+    if vy is not None:
+        ok = np.isfinite(vy)
+        kin_y = kin_y + np.where(ok, _smooth(np.where(ok, vy, 0.0), dt, 0.5, deriv=1), 0.0)
+    ay = _smooth(_shifted(t, drive.col("ay"), acc_delay), dt, 0.5)
+    sel = vx > 2.0
+    for axis, meas, kin in (("y", ay, kin_y),):
+        if sel.sum() < 200 or np.std(kin[sel]) < MIN_AY_STD:
+            out[f"a{axis}_gain"] = _undetermined(f"a{axis}_gain", "-", "too little turning")
+            out[f"a{axis}_bias"] = _undetermined(f"a{axis}_bias", "m/s²", "too little turning")
+            continue
+        X = np.column_stack([kin[sel], np.ones(sel.sum())])
+        beta, cov, _ = _lstsq(X, meas[sel])
+        out[f"a{axis}_gain"] = _fitted(f"a{axis}_gain", beta[0], math.sqrt(cov[0, 0]), "-",
+                                       "scale and roll (1 + g roll_gradient) together")
+        out[f"a{axis}_bias"] = _fitted(f"a{axis}_bias", beta[1], math.sqrt(cov[1, 1]), "m/s²")
+    if drive.has("ax"):
+        ax = _smooth(_shifted(t, drive.col("ax"), acc_delay), dt, 0.5)
+        dvx = _smooth(vx, dt, 0.5, deriv=1)
+        sel = vx > 2.0
+        if sel.sum() < 200 or np.std(dvx[sel]) < MIN_AY_STD:
+            for k, u in (("ax_gain", "-"), ("ax_bias", "m/s²")):
+                out[k] = _undetermined(k, u, "too little acceleration and braking")
+        else:
+            X = np.column_stack([dvx[sel], np.ones(sel.sum())])
+            beta, cov, _ = _lstsq(X, ax[sel])
+            out["ax_gain"] = _fitted("ax_gain", beta[0], math.sqrt(cov[0, 0]), "-",
+                                     "scale and pitch together")
+            out["ax_bias"] = _fitted("ax_bias", beta[1], math.sqrt(cov[1, 1]), "m/s²",
+                                     "with the mean road grade")
+    return out
+
+
+def _wheel_radius(drive: Drive, base: VehicleParams, dt: float) -> FittedValue:
+    """Effective rolling radius from the undriven wheels against an independent speed."""
+    free = undriven_wheels(base.drive)
+    if not free.any():
+        free = np.ones(4, bool)
+    cols = [f"omega_{w}" for w, f in zip(WHEELS, free, strict=True) if f]
+    if not drive.has(*cols):
+        return _undetermined("wheel_radius", "m", "no wheel speeds", base.wheel_radius)
+    if drive.has_pose:
+        vx = body_velocity_from_pose(drive.t, drive.col("x"), drive.col("y"), drive.col("psi"),
+                                     window=0.5)[0]
+        src = "the pose"
+    elif drive.has("vx"):
+        vx, src = drive.col("vx"), "the vx column"
+    else:
+        return _undetermined("wheel_radius", "m", "no pose and no vx column to compare with",
+                             base.wheel_radius)
+    omega = np.mean([drive.col(c) for c in cols], axis=0)
+    steer = np.abs(drive.col("steer")) if drive.has("steer") else np.zeros(drive.n)
+    front = all(c.startswith("omega_f") for c in cols)
+    if front:  # a front wheel rolls along the steered direction
+        omega = omega * np.cos(steer)
+    sel = np.isfinite(vx) & (vx > 3.0) & (omega > 0)
+    if drive.has("ax"):
+        sel &= np.abs(drive.col("ax")) < 1.0
+    if sel.sum() < 200:
+        return _undetermined("wheel_radius", "m", f"fewer than 200 samples above 3 m/s with {src}",
+                             base.wheel_radius)
+    X = omega[sel, None]
+    beta, cov, _ = _lstsq(X, vx[sel])
+    R, sd = float(beta[0]), math.sqrt(float(cov[0, 0]))
+    lo, hi = FIELD_RANGES["wheel_radius"][:2]
+    if not (lo <= R <= hi) or sd > MAX_REL_STD * R:
+        return _undetermined("wheel_radius", "m", f"{src}: radius {R:.3g} ± {sd:.2g} m",
+                             base.wheel_radius)
+    return _fitted("wheel_radius", R, sd, "m", f"{', '.join(cols)} against {src}")
+
+
+def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc_delay: float,
+                  mu: float) -> tuple[dict[str, FittedValue], int]:
+    """Steering delay, scale, offset and both cornering stiffnesses (module docstring)."""
+    t = drive.t
+    L, m = base.wheelbase, base.mass
+    r = _smooth(drive.col("yaw_rate"), dt)
+    rdot = _smooth(drive.col("yaw_rate"), dt, deriv=1)
+    ay = _smooth(_shifted(t, drive.col("ay"), acc_delay), dt)
+    ax = _smooth(_shifted(t, drive.col("ax"), acc_delay), dt) if drive.has("ax") else np.zeros(drive.n)
+    steer = _smooth(drive.col("steer"), dt)
+    vxs = _smooth(vx, dt)
+    edge = round(MAX_STEER_LAG / dt) + 1
+    sel = (vxs >= V_MIN) & (np.abs(ay) < LINEAR_AY * mu * GRAVITY) & (np.abs(ax) < MAX_AX)
+    sel[:edge] = sel[-edge:] = False
+    n = int(sel.sum())
+    names = {"steer_delay": "s", "steer_scale": "-", "steer_offset": "rad",
+             "understeer_K": "rad/N", "cornering_stiffness_front": "N/rad",
+             "cornering_stiffness_rear": "N/rad"}
+    ay_std = float(np.std(ay[sel])) if n else 0.0
+    if n < MIN_LINEAR or ay_std < MIN_AY_STD:
+        why = (f"{n} linear-range samples above {V_MIN:g} m/s, a_y std {ay_std:.2f} m/s² "
+               f"(needs {MIN_LINEAR} and {MIN_AY_STD:g})")
+        out = {k: _undetermined(k, u, why, getattr(base, k, math.nan)) for k, u in names.items()}
+        return out, n
+    X = np.column_stack([L * r[sel] / vxs[sel], np.ones(n), m * ay[sel] / L, rdot[sel] / L])
+    lags = np.arange(-edge + 1, edge)
+    rss = np.array([_lstsq(X, np.roll(steer, -k)[sel])[2] for k in lags])
+    i = int(np.argmin(rss))
+    lag = float(lags[i])
+    if 0 < i < len(rss) - 1:
+        y0, y1, y2 = rss[i - 1], rss[i], rss[i + 1]
+        den = y0 - 2 * y1 + y2
+        lag += 0.5 * (y0 - y2) / den if den > 0 else 0.0
+    d = lag * dt
+    y = _shifted(t, steer, d)[sel]
+    beta, cov, rss_min = _lstsq(X, y)
+    # delay standard error: the profile's curvature (RSS rises by RSS/n_eff per sigma²)
+    n_eff = _n_eff(y - X @ beta)
+    curv = (rss[min(i + 1, len(rss) - 1)] - 2 * rss[i] + rss[max(i - 1, 0)]) / dt**2
+    d_std = math.sqrt(2.0 * rss_min / n_eff / curv) if curv > 0 else math.nan
+    s = 1.0 / beta[0]
+
+    def params(b):
+        s_ = 1.0 / b[0]
+        K, J = b[2] * s_, b[3] * s_
+        u = (K + base.lf * J / base.yaw_inertia) / L
+        w = (base.lr * J / base.yaw_inertia - K) / L
+        return np.array([s_, -b[1] * s_, K, 1.0 / u, 1.0 / w])
+
+    p = params(beta)
+    jac = np.empty((5, 4))
+    for k in range(4):
+        h = 1e-6 * max(abs(beta[k]), 1e-12)
+        bp = beta.copy()
+        bp[k] += h
+        jac[:, k] = (params(bp) - p) / h
+    pstd = np.sqrt(np.maximum(np.diag(jac @ cov @ jac.T), 0.0))
+    out: dict[str, FittedValue] = {}
+    at_edge = i in (0, len(rss) - 1)
+    if at_edge or not math.isfinite(d_std):
+        out["steer_delay"] = _undetermined("steer_delay", "s", "no residual minimum within "
+                                           f"±{MAX_STEER_LAG:g} s")
+    else:
+        out["steer_delay"] = _fitted("steer_delay", d, d_std, "s", "steering behind the gyro")
+    out["steer_scale"] = _fitted("steer_scale", s, pstd[0], "-", "road-wheel angle per steer unit")
+    out["steer_offset"] = _fitted("steer_offset", p[1], pstd[1], "rad",
+                                  "road-wheel angle at steer 0 (with the sensor biases)")
+    out["understeer_K"] = _fitted("understeer_K", p[2], pstd[2], "rad/N", "l_r/C_f - l_f/C_r")
+    for k, name in ((3, "cornering_stiffness_front"), (4, "cornering_stiffness_rear")):
+        lo, hi = FIELD_RANGES[name][:2]
+        if not (lo <= p[k] <= hi) or pstd[k] > MAX_REL_STD * p[k]:
+            out[name] = _undetermined(name, "N/rad", f"fit {p[k]:.4g} ± {pstd[k]:.2g} N/rad "
+                                      "(too little transient yaw excitation)", getattr(base, name))
+        else:
+            out[name] = _fitted(name, p[k], pstd[k], "N/rad",
+                                f"with yaw_inertia {base.yaw_inertia:g} kg m²")
+    if abs(s - 1.0) > 0.5 or pstd[0] > MAX_REL_STD * abs(s):
+        for k in ("steer_scale", "steer_offset"):
+            out[k] = _undetermined(k, names[k], f"scale {s:.3g} ± {pstd[0]:.2g}: steering does "
+                                   "not explain the yaw rate")
+    return out, n
+
+
+def fit_vehicle(drive: Drive, base: VehicleParams | None = None, *, mu: float = 1.0) -> VehicleFit:
+    """Identify the vehicle and sensor parameters of a drive (module docstring).
+
+    Parameters
+    ----------
+    drive : Drive
+        Needs ``yaw_rate``, ``ay``, ``steer`` and a speed (:func:`~roadgrip.signals.wheel_speed_vx`);
+        uses ``ax``, the wheel speeds and the pose where present.
+    base : VehicleParams, optional
+        Mass, axle distances, yaw inertia and the values kept where the drive cannot tell;
+        default the drive's vehicle.
+    mu : float
+        Friction of the road driven [-], for the linear range ``|a_y| < 0.4 mu g``.
+
+    Returns
+    -------
+    VehicleFit
+
+    Raises
+    ------
+    DriveValidationError
+        A required column is missing (named).
+    ValueError
+        ``mu`` outside (0, 2], or a drive with fewer than 100 samples.
+    """
+    if not (0.0 < mu <= 2.0):
+        raise ValueError(f"mu must be in (0, 2], got {mu!r}")
+    base = drive.vehicle if base is None else base
+    drive.require("yaw_rate", "ay", "steer", why="vehicle fit")
+    if drive.n < 100:
+        raise ValueError(f"drive from {drive.meta.source} has {drive.n} samples; a vehicle fit "
+                         "needs at least 100")
+    t = drive.t
+    dt = _uniform_dt(t)
+    if np.max(np.diff(t)) > 3.0 * dt:
+        # the filters and lags assume a uniform clock: resample gaps away
+        grid = t[0] + dt * np.arange(int((t[-1] - t[0]) / dt) + 1)
+        df = drive.data[[c for c in drive.data.columns if drive.data[c].dtype.kind in "fiu"]]
+        df = df.apply(lambda c: np.interp(grid, t, c.to_numpy(float)))
+        df["t"] = grid
+        drive = Drive(df.reset_index(drop=True), drive.meta)
+        t = grid
+    vx, _ = wheel_speed_vx(drive)
+    values = _delays(drive, vx, dt)
+    acc = values["delay_accelerometer"]
+    acc_delay = acc.value if acc.fitted else 0.0
+    st, n_lin = _single_track(drive, base, vx, dt, acc_delay, mu)
+    values.update(st)
+    values.update(_accelerometer(drive, vx, dt, acc_delay))
+    values["wheel_radius"] = _wheel_radius(drive, base, dt)
+    values["yaw_inertia"] = _undetermined("yaw_inertia", "kg m²",
+                                          "kept from the base vehicle (needs v_y: only J = "
+                                          "I_z (1/C_f + 1/C_r) is observed)", base.yaw_inertia)
+    gain = values.get("ay_gain")
+    if gain is not None and gain.fitted and gain.value - 1.0 > 2.0 * gain.std:
+        rg = (gain.value - 1.0) / GRAVITY
+        values["roll_gradient"] = _fitted("roll_gradient", rg, gain.std / GRAVITY, "rad/(m/s²)",
+                                          "from a_y's gain, if the accelerometer's scale is 1")
+    else:
+        values["roll_gradient"] = _undetermined("roll_gradient", "rad/(m/s²)",
+                                                "a_y's gain is 1 within 2 standard errors",
+                                                base.roll_gradient)
+    changes = {k: v.value for k, v in values.items()
+               if v.fitted and k in FIELD_RANGES and k != "yaw_inertia"}
+    try:
+        vehicle = base.replace(**changes)
+    except ValueError as exc:  # a combination the vehicle checks refuse: keep the base
+        vehicle = base
+        values = {k: (_undetermined(k, v.unit, f"refused with the base vehicle: {exc}",
+                                    getattr(base, k)) if k in changes else v)
+                  for k, v in values.items()}
+    return VehicleFit(values, vehicle, n_lin)

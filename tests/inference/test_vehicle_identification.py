@@ -1,0 +1,121 @@
+"""Vehicle identification against the simulator's truth (the sim knows its tires and clocks)."""
+
+from __future__ import annotations
+
+import functools
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from roadgrip.drive import Drive
+from roadgrip.inference.vehicle_identification import fit_vehicle
+from roadgrip.vehicle import PRESETS, load_vehicle
+
+STEER_OFFSET = np.deg2rad(0.5)  # measured steer = true + 0.5 deg
+STEER_LAG = 5  # samples at 100 Hz: 50 ms
+ACC_LAG = 8  # 80 ms
+
+
+@functools.cache
+def _sim() -> Drive:
+    from roadgrip.sim.friction import ConstantFriction, surface_from_preset
+    from roadgrip.sim.maneuvers import Maneuver, RandomSpeed, RandomSteer
+    from roadgrip.sim.runner import simulate
+    from roadgrip.sim.scenarios import CAR_SENSORS
+
+    man = Maneuver(speed=RandomSpeed(8.0, 25.0, corr_time=10.0),
+                   steering=RandomSteer(ay_min=0.5, ay_max=3.5, corr_time=1.0, envelope_period=40.0),
+                   yaw_gain=0.3, sideslip_gain=1.5)
+    return simulate(PRESETS["sedan"], man, ConstantFriction("dry_asphalt"),
+                    [surface_from_preset("dry_asphalt")], duration=120.0, model="lateral",
+                    output_rate=100.0, sensors=CAR_SENSORS, seed=1, name="fit")
+
+
+def _true_stiffness(d: Drive) -> tuple[float, float]:
+    from roadgrip.sim.friction import surface_from_preset
+
+    s = surface_from_preset("dry_asphalt")
+    v = d.vehicle
+    return s.front.slope0() * v.fz_front, s.rear.slope0() * v.fz_rear
+
+
+def _injected() -> Drive:
+    d = _sim()
+    df = d.data.copy()
+    df["steer"] = np.roll(df["steer"].to_numpy(), STEER_LAG) + STEER_OFFSET
+    for c in ("ax", "ay"):
+        df[c] = np.roll(df[c].to_numpy(), ACC_LAG)
+    return Drive(df.iloc[10:].reset_index(drop=True), d.meta)
+
+
+@functools.cache
+def _fit_injected():
+    # the base vehicle's stiffnesses are 10 % off the truth: the fit must move them
+    d = _injected()
+    base = d.vehicle.replace(cornering_stiffness_front=0.9 * d.vehicle.cornering_stiffness_front)
+    return fit_vehicle(d, base)
+
+
+def test_fit_recovers_stiffness_delays_and_offset():
+    res = _fit_injected()
+    v = res.values
+    cf, cr = _true_stiffness(_sim())
+    assert v["cornering_stiffness_front"].fitted and v["cornering_stiffness_rear"].fitted
+    assert v["cornering_stiffness_front"].value == pytest.approx(cf, rel=0.10)
+    assert v["cornering_stiffness_rear"].value == pytest.approx(cr, rel=0.10)
+    assert res.vehicle.cornering_stiffness_front == v["cornering_stiffness_front"].value
+    # the sensor clocks of the simulator agree: the injected lags are what the fit finds
+    assert v["delay_accelerometer"].value == pytest.approx(ACC_LAG * 0.01, abs=0.02)
+    assert v["steer_delay"].value == pytest.approx(STEER_LAG * 0.01, abs=0.02)
+    # delta_true = steer_measured - 0.5 deg
+    assert abs(v["steer_offset"].value + STEER_OFFSET) < np.deg2rad(0.1)
+    assert v["steer_scale"].value == pytest.approx(1.0, abs=0.02)
+    # each fitted value has a finite, positive standard error that covers its error
+    assert abs(v["cornering_stiffness_front"].value - cf) < max(0.05 * cf, 4 * v["cornering_stiffness_front"].std)
+    for x in v.values():
+        assert not x.fitted or (math.isfinite(x.std) and x.std > 0), x
+    assert v["wheel_radius"].value == pytest.approx(_sim().vehicle.wheel_radius, rel=0.01)
+    # inertia is not observable without v_y: named, and kept
+    assert not v["yaw_inertia"].fitted and res.vehicle.yaw_inertia == _sim().vehicle.yaw_inertia
+
+
+def test_steer_scale_is_found():
+    d = _sim()
+    df = d.data.copy()
+    df["steer"] = df["steer"] / 1.2  # the sensor reads 1/1.2 of the road-wheel angle
+    res = fit_vehicle(Drive(df, d.meta))
+    assert res.values["steer_scale"].value == pytest.approx(1.2, rel=0.03)
+    cf, _ = _true_stiffness(d)
+    assert res.values["cornering_stiffness_front"].value == pytest.approx(cf, rel=0.10)
+
+
+def test_straight_drive_leaves_stiffness_undetermined():
+    d = _sim()
+    df = d.data.copy()
+    for c in ("ay", "yaw_rate", "steer"):
+        df[c] = 0.01 * np.random.default_rng(0).standard_normal(len(df))
+    base = PRESETS["sedan"]
+    res = fit_vehicle(Drive(df, d.meta), base)
+    for k in ("cornering_stiffness_front", "cornering_stiffness_rear", "steer_offset"):
+        assert not res.values[k].fitted, k
+        assert "a_y std" in res.values[k].note
+    assert res.vehicle.cornering_stiffness_front == base.cornering_stiffness_front
+    assert not res.values["delay_accelerometer"].fitted
+
+
+def test_fitted_yaml_is_a_vehicle_file(tmp_path: Path):
+    res = _fit_injected()
+    p = tmp_path / "car.yaml"
+    p.write_text(res.to_yaml())
+    v = load_vehicle(p)
+    assert v == res.vehicle.replace(name=v.name)
+    assert "steer_offset" in p.read_text() and "undetermined" in p.read_text()
+
+
+def test_bad_arguments_are_named():
+    with pytest.raises(ValueError, match="mu must be"):
+        fit_vehicle(_sim(), mu=0.0)
+    with pytest.raises(ValueError, match="steer"):
+        fit_vehicle(Drive(_sim().data.drop(columns=["steer"]), _sim().meta))
