@@ -51,7 +51,8 @@ def test_unmodelled_channels_are_exact_and_specs_serialise():
     np.testing.assert_allclose(out["b"], T_TRUE[::10])
     assert np.std(out["a"] - np.cos(T_TRUE[::10])) > 0.05
     d = sensors_to_dict({"a": SensorSpec(noise_std=0.1, delay=0.02)})
-    assert d == {"a": {"noise_std": 0.1, "bias": 0.0, "quantization": 0.0, "delay": 0.02}}
+    assert d == {"a": {"noise_std": 0.1, "bias": 0.0, "quantization": 0.0, "delay": 0.02, "drift": 0.0,
+                       "scale": 1.0, "dropout_rate": 0.0, "dropout_duration": 0.0}}
 
 
 @pytest.mark.parametrize("field", ["noise_std", "quantization", "delay"])

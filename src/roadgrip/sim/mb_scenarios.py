@@ -29,6 +29,7 @@ from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
 from roadgrip.sim.friction import ConstantFriction, Patch, PatchFriction, PiecewiseTime
 from roadgrip.sim.mb_driver import Path
+from roadgrip.sim.mb_model import MBVehicle
 from roadgrip.sim.multibody import simulate_multibody
 from roadgrip.sim.scenarios import DGD_SEGMENT, dgd_truth
 from roadgrip.sim.sensors import SensorSpec
@@ -69,7 +70,7 @@ def _straight_path(length: float, lateral=None) -> tuple[NDArray, NDArray]:
 
 
 # ------------------------------------------------------------------------------------
-def _snow_slalom(seed: int, duration: float, progress: bool, vehicle: str) -> Drive:
+def _snow_slalom(seed: int, duration: float, progress: bool, vehicle: str | MBVehicle) -> Drive:
     rng = np.random.default_rng([seed, 10])
     mu = 0.3
     v = float(rng.uniform(11.0, 13.0))
@@ -99,7 +100,7 @@ def _lane_shape(tau: NDArray, offset: float, change_time: float) -> NDArray:
     return offset * (u - np.sin(2 * np.pi * u) / (2 * np.pi))
 
 
-def _dry_gravel_dry(seed: int, duration: float, progress: bool, vehicle: str) -> Drive:
+def _dry_gravel_dry(seed: int, duration: float, progress: bool, vehicle: str | MBVehicle) -> Drive:
     rng = np.random.default_rng([seed, 11])
     labels = ("dry_asphalt", "gravel", "dry_asphalt")
     v0 = 15.0
@@ -190,7 +191,7 @@ def _lemniscate_xy(a: float, th: NDArray) -> tuple[NDArray, NDArray]:
     return a * np.cos(th) / d, a * np.sin(th) * np.cos(th) / d
 
 
-def _figure_eight(seed: int, duration: float, progress: bool, vehicle: str) -> Drive:
+def _figure_eight(seed: int, duration: float, progress: bool, vehicle: str | MBVehicle) -> Drive:
     rng = np.random.default_rng([seed, 12])
     track = lemniscate()
     field = PatchFriction("dry_asphalt", FIGURE_EIGHT_PATCHES)
@@ -223,7 +224,7 @@ def _figure_eight(seed: int, duration: float, progress: bool, vehicle: str) -> D
 
 
 # ------------------------------------------------------------------------------------
-def _straight_cruise(seed: int, duration: float, progress: bool, vehicle: str) -> Drive:
+def _straight_cruise(seed: int, duration: float, progress: bool, vehicle: str | MBVehicle) -> Drive:
     rng = np.random.default_rng([seed, 13])
     v = 20.0
     length = v * duration + 200.0

@@ -35,7 +35,6 @@ from roadgrip.sim.engine import field_code
 from roadgrip.sim.friction import FrictionField
 from roadgrip.sim.mb_driver import SLIP_LIMIT, MBDriver, MBStepping, Path, integrate_mb
 from roadgrip.sim.mb_model import (
-    COMMONROAD_VEHICLES,
     WHEEL_FX,
     WHEEL_FY,
     WHEEL_FZ,
@@ -43,11 +42,16 @@ from roadgrip.sim.mb_model import (
     WHEEL_MU_Y,
     WHEEL_SENSOR_STATE,
     MBState,
-    commonroad_parameters,
-    parameter_tuple,
-    vehicle_from_commonroad,
+    MBVehicle,
+    named_mb_vehicle,
 )
-from roadgrip.sim.sensors import SensorSpec, apply_sensors, sensors_to_dict
+from roadgrip.sim.sensors import (
+    SensorSpec,
+    apply_sensors,
+    dropout_intervals,
+    sensors_to_dict,
+    steering_signal,
+)
 from roadgrip.vehicle.slip import longitudinal_slip, slip_angles, wheel_centre_speeds
 
 __all__ = ["INTERNAL_RATE", "MAX_SURFACES", "MB_SENSOR_COLUMNS", "SETTLE_TIME", "simulate_multibody"]
@@ -94,7 +98,7 @@ def _specific_force(states, derivs, vehicle, p) -> tuple[NDArray, ...]:
 
 
 def simulate_multibody(
-    vehicle: str,
+    vehicle: str | MBVehicle,
     path: Path,
     friction: FrictionField,
     mu: Mapping[str, float],
@@ -112,8 +116,11 @@ def simulate_multibody(
 
     Parameters
     ----------
-    vehicle : str
-        Key of :data:`~roadgrip.sim.mb_model.COMMONROAD_VEHICLES` (``'ford-escort'``, ``'vw-vanagon'``).
+    vehicle : str or MBVehicle
+        Key of :data:`~roadgrip.sim.mb_model.COMMONROAD_VEHICLES` (``'ford-escort'``,
+        ``'vw-vanagon'``), or a vehicle such as one of the random family
+        (:func:`roadgrip.sim.vehicle_family.mb_vehicle`); its sensor errors, if it has
+        any, apply on top of ``sensors`` (whose noise levels they keep).
     path : Path
         Where and how fast to drive.
     friction : FrictionField
@@ -127,7 +134,7 @@ def simulate_multibody(
     sensors : mapping column -> SensorSpec, optional
         Measurement models (columns without one are exact).
     seed : int
-        Seeds the sensor noise.
+        Seeds the sensor noise and the dropouts.
     name : str
         Scenario name (``meta.source = 'sim:<name>'``).
     truth_extra : mapping, optional
@@ -143,10 +150,12 @@ def simulate_multibody(
         Sensor columns, the truth columns of :data:`roadgrip.drive.TRUTH_COLUMNS`
         (``util_f_true`` / ``util_r_true``: axle friction utilisation, the axle's
         force over its friction ellipse, the per-wheel peaks at their camber
-        weighted by load), and ``meta.truth`` with ``model = 'multibody'``.
+        weighted by load), and ``meta.truth`` with ``model = 'multibody'``, the vehicle's
+        description (``vehicle``), the sensor models (``sensors``) and, with sensor errors,
+        ``sensor_errors`` (the steering's, and each channel's realised ``dropouts`` [s]).
+        The truth columns are exact whatever the sensors.
     """
-    vp = vehicle_from_commonroad(vehicle)
-    vid = COMMONROAD_VEHICLES[vehicle]
+    mbv = named_mb_vehicle(vehicle) if isinstance(vehicle, str) else vehicle
     if duration <= 0 or not np.isfinite(duration):
         raise ValueError(f"duration must be positive, got {duration!r}")
     stride = round(INTERNAL_RATE / output_rate)
@@ -156,19 +165,21 @@ def simulate_multibody(
     if missing:
         raise ValueError(f"friction field uses surface(s) {missing} with no mu; given {sorted(mu)}")
     sensors = dict(sensors or {})
+    if mbv.sensors is not None:
+        sensors = mbv.sensors.specs(sensors)
     unknown = sorted(set(sensors) - set(MB_SENSOR_COLUMNS))
     if unknown:
         raise ValueError(f"sensor models for unknown column(s) {unknown}; measured columns: {MB_SENSOR_COLUMNS}")
     labels = list(friction.labels)
     if len(labels) > MAX_SURFACES:
         raise ValueError(f"the multi-body engine takes at most {MAX_SURFACES} surfaces, got {len(labels)}")
-    params = [parameter_tuple(vid, float(mu[lab])) for lab in labels]
+    params = [mbv.parameter_tuple(float(mu[lab])) for lab in labels]
     # a fixed-length tuple: one compiled integrator for any number of surfaces
     params = tuple(params + [params[-1]] * (MAX_SURFACES - len(params)))
     field = field_code(friction.encode())
     from vehiclemodels.init_mb import init_mb
 
-    p_pkg = commonroad_parameters(vid)
+    p_pkg = mbv.commonroad
     x0 = np.asarray(init_mb([0.0, 0.0, 0.0, float(path.v[0]), 0.0, 0.0, 0.0], p_pkg), float)
     dt = 1.0 / INTERNAL_RATE
     n = round(duration * INTERNAL_RATE)
@@ -181,8 +192,16 @@ def simulate_multibody(
     if not np.all(np.isfinite(states)):
         bad = int(np.argmax(~np.isfinite(states).all(1)))
         raise RuntimeError(f"multi-body simulation diverged (first non-finite state at t = {bad / output_rate:.2f} s)")
-    return _drive_from_run(vp, p_pkg, states, derivs, inputs, wheels, surf, labels, mu, friction,
-                           output_rate, sensors, seed, name, truth_extra, vehicle)
+    return _drive_from_run(mbv, states, derivs, inputs, wheels, surf, labels, mu, friction,
+                           output_rate, sensors, seed, name, truth_extra)
+
+
+def _vehicle_model_text(mbv: MBVehicle) -> str:
+    d = mbv.description
+    if "base" in d:
+        return (f"commonroad-vehicle-models vehicle_dynamics_mb, parameter set sampled around set "
+                f"{d['base_parameter_set']} ({d['base']}) as {mbv.name}")
+    return f"commonroad-vehicle-models vehicle_dynamics_mb, parameter set {d['parameter_set']} ({mbv.name})"
 
 
 def _axle_truth(wheels, rows):
@@ -198,9 +217,10 @@ def _axle_truth(wheels, rows):
     return fx, fy, fz, util
 
 
-def _drive_from_run(vp, p_pkg, states, derivs, inputs, wheels, surf, labels, mu, friction,
-                    output_rate, sensors, seed, name, truth_extra, vehicle_name) -> Drive:
+def _drive_from_run(mbv, states, derivs, inputs, wheels, surf, labels, mu, friction,
+                    output_rate, sensors, seed, name, truth_extra) -> Drive:
     S = MBState
+    vp, p_pkg = mbv.params, mbv.commonroad
     n_out = states.shape[0]
     t = np.arange(n_out) / output_rate
     r = states[:, S.YAW_RATE]
@@ -214,12 +234,27 @@ def _drive_from_run(vp, p_pkg, states, derivs, inputs, wheels, surf, labels, mu,
     }
     for col, idx in WHEEL_SENSOR_STATE.items():
         true_meas[col] = states[:, idx]
-    rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
-    measured = apply_sensors(t, true_meas, t, sensors, rng)
-    measured["psi"] = np.angle(np.exp(1j * measured["psi"]))
-    af, ar = slip_angles(vx, vy_cg, r, steer, vp)
     fxf, fyf, fzf, uf = _axle_truth(wheels, [0, 1])
     fxr, fyr, fzr, ur = _axle_truth(wheels, [2, 3])
+    children = np.random.SeedSequence(seed).spawn(3)
+    rng = np.random.default_rng(children[1])
+    dropouts: dict[str, list[tuple[float, float]]] = {}
+    reported = dict(true_meas)
+    errors = mbv.sensors
+    if errors is not None:
+        reported["steer"] = steering_signal(steer, fyf, errors.steering)
+        # one draw per message: channels sharing a spec's rate and length share its dropouts
+        drop_rng = np.random.default_rng(children[2])
+        shared: dict[tuple[float, float, float], list[tuple[float, float]]] = {}
+        for col in MB_SENSOR_COLUMNS:
+            spec = sensors.get(col, SensorSpec())
+            key = (spec.dropout_rate, spec.dropout_duration, spec.delay)
+            if key not in shared:
+                shared[key] = dropout_intervals(spec, float(t[-1]), drop_rng)
+            dropouts[col] = shared[key]
+    measured = apply_sensors(t, reported, t, sensors, rng, dropouts)
+    measured["psi"] = np.angle(np.exp(1j * measured["psi"]))
+    af, ar = slip_angles(vx, vy_cg, r, steer, vp)
     mu_arr = np.array([float(mu[lab]) for lab in labels])
     centre = dict(zip(("fl", "fr", "rl", "rr"), wheel_centre_speeds(vx, vy_cg, r, steer, vp).T, strict=True))
     cols: dict[str, Any] = {"t": t}
@@ -241,8 +276,8 @@ def _drive_from_run(vp, p_pkg, states, derivs, inputs, wheels, surf, labels, mu,
         "seed": int(seed),
         "model": "multibody",
         "engine": "multibody",
-        "vehicle_model": f"commonroad-vehicle-models vehicle_dynamics_mb, parameter set "
-                         f"{COMMONROAD_VEHICLES[vehicle_name]} ({vehicle_name})",
+        "vehicle_model": _vehicle_model_text(mbv),
+        "vehicle": mbv.description,
         "internal_rate": INTERNAL_RATE,
         "settle_time": SETTLE_TIME,
         "force_frame": "wheel",
@@ -251,5 +286,8 @@ def _drive_from_run(vp, p_pkg, states, derivs, inputs, wheels, surf, labels, mu,
         "sensors": sensors_to_dict({c: sensors.get(c, SensorSpec()) for c in MB_SENSOR_COLUMNS}),
         "friction_field": dict(friction.to_dict(), mu={lab: float(mu[lab]) for lab in labels}),
     }
+    if errors is not None:
+        truth["sensor_errors"] = dict(errors.to_dict(), dropouts={c: [list(iv) for iv in v]
+                                                                   for c, v in dropouts.items()})
     truth.update(dict(truth_extra or {}))
     return Drive.from_frame(df, vp, source=f"sim:{name}", truth=truth, check_units=False)

@@ -21,7 +21,8 @@ is the default): ``'lateral'`` and ``'planar'`` are roadgrip's own single-track
 models (the models inside the estimators), ``'multibody'`` is the independent
 CommonRoad multi-body vehicle of :mod:`roadgrip.sim.multibody`, driven by the
 builders of :mod:`roadgrip.sim.mb_scenarios` with a vehicle of
-:data:`MB_VEHICLES`. Multi-body drives are cached on disk by content hash when
+:data:`MB_VEHICLES` or one of the random family ``random:SEED``
+(:mod:`roadgrip.sim.vehicle_family`), with ideal or realistic sensors. Multi-body drives are cached on disk by content hash when
 ``ROADGRIP_DRIVE_CACHE`` names a folder (or ``cache=True``).
 """
 
@@ -319,7 +320,8 @@ SCENARIOS: dict[str, Scenario] = {
 
 
 MB_VEHICLES = ("ford-escort", "vw-vanagon")
-"""Vehicles of the multi-body engine (CommonRoad parameter sets 1 and 3)."""
+"""Named vehicles of the multi-body engine (CommonRoad parameter sets 1 and 3); ``random:SEED``
+names a vehicle of the random family around them (:mod:`roadgrip.sim.vehicle_family`)."""
 
 
 def simulate_scenario(
@@ -330,6 +332,7 @@ def simulate_scenario(
     *,
     engine: str | None = None,
     vehicle: str | None = None,
+    sensors: str | None = None,
     cache: bool | None = None,
 ) -> Drive:
     """Simulate a named scenario.
@@ -347,8 +350,14 @@ def simulate_scenario(
     engine : str, optional
         One of the scenario's :attr:`Scenario.engines` (default: its first).
     vehicle : str, optional
-        Multi-body vehicle (:data:`MB_VEHICLES`, default ``'ford-escort'``);
+        Multi-body vehicle (:data:`MB_VEHICLES`, default ``'ford-escort'``, or
+        ``'random:SEED'``, a vehicle of :mod:`roadgrip.sim.vehicle_family`);
         the single-track engines use the scenario's own vehicle.
+    sensors : {'ideal', 'realistic'}, optional
+        Multi-body sensors: the scenario's noise only, or with sampled errors
+        (latency, bias, drift, scale, quantisation, dropouts, steering errors;
+        :func:`roadgrip.sim.sensors.sample_sensor_errors`). Default: ideal for a named
+        vehicle, realistic for ``random:SEED``.
     cache : bool, optional
         Read and write multi-body drives in the folder ``ROADGRIP_DRIVE_CACHE``
         (default: whenever that variable is set).
@@ -366,6 +375,8 @@ def simulate_scenario(
     if engine not in sc.engines:
         raise ValueError(f"scenario {name!r} runs on engine(s) {', '.join(sc.engines)}, not {engine!r}")
     if engine != "multibody":
+        if sensors is not None:
+            raise ValueError(f"--sensors applies to the multibody engine, not to {engine!r}")
         if vehicle is not None and vehicle != sc.vehicle:
             raise ValueError(f"scenario {name!r} on the {engine} engine drives its own vehicle "
                              f"{sc.vehicle!r}; --vehicle applies to the multibody engine")
@@ -375,16 +386,20 @@ def simulate_scenario(
         assert sc.build is not None
         return sc.build(seed, dur, progress)
     vehicle = MB_VEHICLES[0] if vehicle is None else vehicle
-    if vehicle not in MB_VEHICLES:
-        raise ValueError(f"unknown multi-body vehicle {vehicle!r}; known: {', '.join(MB_VEHICLES)}")
     dur = float(sc.multibody_duration or sc.duration) if duration is None else float(duration)
     if not (dur > 0 and np.isfinite(dur)):
         raise ValueError(f"duration must be positive, got {dur}")
     from roadgrip.sim import drive_cache
     from roadgrip.sim.mb_scenarios import MB_BUILDERS
+    from roadgrip.sim.vehicle_family import mb_vehicle
+
+    mbv = mb_vehicle(vehicle, sensors=sensors, seed=int(seed))
+    mode = "ideal" if mbv.sensors is None else "realistic"
 
     def build() -> Drive:
-        return MB_BUILDERS[name](seed, dur, progress, vehicle)
+        return MB_BUILDERS[name](seed, dur, progress, mbv)
 
-    return drive_cache.cached(build, enabled=cache, scenario=name, engine=engine, vehicle=vehicle,
-                              seed=int(seed), duration=dur)
+    request = {"scenario": name, "engine": engine, "vehicle": vehicle, "seed": int(seed), "duration": dur}
+    if mode == "realistic":
+        request["sensors"] = mode
+    return drive_cache.cached(build, enabled=cache, **request)
