@@ -79,36 +79,47 @@ def split_window(path: str) -> tuple[str, tuple[float, float] | None]:
     return base, (t0, t1)
 
 
-def parse_labelled(args: Sequence[str]) -> tuple[list[tuple[str, str]], dict[str, float] | None]:
+def parse_labelled(args: Sequence[str], label: str | None = None,
+                   ) -> tuple[list[tuple[str, str]], dict[str, float] | None]:
     """``DRIVE:LABEL`` / ``DRIVE:LABEL=MU`` arguments: (path, label) pairs and the friction references.
 
     The label is 'high' or 'low' (split at the last colon); ``MU`` is the known
     peak friction of that surface, the class's friction reference (given for
-    both classes or for neither; several values of a class are averaged). The
-    path may end in a time window, ``DRIVE@T0-T1`` (:func:`split_window`), to
-    label one stretch of a drive.
+    every class of the drives or for none; several values of a class are
+    averaged). A drive without ``:LABEL`` takes ``label`` (``--label``), and is an
+    error without it. The path may end in a time window, ``DRIVE@T0-T1``
+    (:func:`split_window`), to label one stretch of a drive. Drives of one class
+    are a one-class calibration (the other class derived from the fitted car,
+    :func:`roadgrip.estimators.classify.calibrate`).
     """
+    if label is not None and label not in ("high", "low"):
+        raise ValueError(f"--label must be 'high' or 'low', got {label!r}")
     if not args:
-        raise ValueError("give at least two labelled drives, e.g. dry.parquet:high gravel.parquet:low")
+        raise ValueError("give at least one labelled drive, e.g. dry.parquet:high (with gravel.parquet:low "
+                         "for two classes)")
     pairs = []
     given: dict[str, list[float]] = {}
     for arg in args:
-        path, sep, label = str(arg).rpartition(":")
-        label, eq, mu = label.partition("=")
-        if not sep or label not in ("high", "low"):
-            raise ValueError(
-                f"expected DRIVE:LABEL or DRIVE:LABEL=MU with label 'high' or 'low', got {arg!r}"
-            )
+        path, sep, lab = str(arg).rpartition(":")
+        lab, eq, mu = lab.partition("=")
+        if not sep or lab not in ("high", "low"):
+            if label is None:
+                raise ValueError(
+                    f"expected DRIVE:LABEL or DRIVE:LABEL=MU with label 'high' or 'low', got {arg!r} "
+                    "(or give --label for drives without one)"
+                )
+            path, lab, eq = str(arg), label, ""
         if eq:
             try:
-                given.setdefault(label, []).append(float(mu))
+                given.setdefault(lab, []).append(float(mu))
             except ValueError:
                 raise ValueError(f"friction after '=' must be a number, got {mu!r} in {arg!r}") from None
-        pairs.append((path, label))
+        pairs.append((path, lab))
     if not given:
         return pairs, None
-    if set(given) != {"high", "low"}:
-        raise ValueError("give the friction (LABEL=MU) for both classes or for neither")
+    present = {lab for _, lab in pairs}
+    if set(given) != present:
+        raise ValueError("give the friction (LABEL=MU) for every class of the drives or for none")
     return pairs, {k: float(np.mean(v)) for k, v in given.items()}
 
 
@@ -132,7 +143,7 @@ def _unit(path: Sequence[str]) -> str:
     key, parent = path[-1], (path[-2] if len(path) > 1 else "")
     if key == "stiffness":  # diagnostics.grip_fit.{x, y}.stiffness
         return {"x": UNITS["c_long"], "y": UNITS["c_lat"]}.get(parent, "")
-    if parent == "friction":
+    if parent in ("friction", "friction_demonstrated"):
         return "-"
     if key.endswith("_s"):
         return "s"
@@ -199,19 +210,20 @@ def calibration_table(cal: Calibration, title: str = "calibration") -> Table:
 
 @app.command()
 def calibrate(
-    drives: Annotated[list[str], typer.Argument(metavar="DRIVE:LABEL...", help="Labelled drives (label high or low, optionally =MU; DRIVE@T0-T1 labels a time window).")],
+    drives: Annotated[list[str], typer.Argument(metavar="DRIVE:LABEL...", help="Labelled drives (label high or low, optionally =MU; DRIVE@T0-T1 labels a time window). Drives of one class calibrate from that class alone.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="calibration.yaml")],
+    label: Annotated[str | None, typer.Option("--label", help="Label (high or low) of the drives given without :LABEL, e.g. one dry baseline lap: --label high.")] = None,
     vehicle: VehicleOpt = None,
     fmt: FormatOpt = None,
     topics: TopicsOpt = None,
     channels: ChannelsOpt = None,
 ) -> None:
-    """Learn bRLS / slipmap references and thresholds from labelled drives."""
+    """Learn bRLS / slipmap references and thresholds from labelled drives (one class suffices)."""
     from roadgrip.cli.options import check_drive_args, check_output
     from roadgrip.estimators.classify import calibrate as learn
     from roadgrip.io import read_drive
 
-    pairs, friction = parse_labelled(drives)
+    pairs, friction = parse_labelled(drives, label)
     for arg, _ in pairs:
         check_drive_args(split_window(arg)[0], fmt, vehicle, topics, channels)
     check_output(output, "--output", (".yaml", ".yml"))
@@ -227,5 +239,5 @@ def calibrate(
     cal = learn(labelled, friction=friction)
     write_calibration(cal, output)
     console.print(calibration_table(cal, f"calibration of {cal.vehicle or 'the vehicle'} "
-                                         f"({len(pairs)} labelled drives)"))
+                                         f"({len(pairs)} labelled drive{'s' if len(pairs) != 1 else ''})"))
     console.print(f"wrote {output}")

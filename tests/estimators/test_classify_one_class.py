@@ -1,0 +1,112 @@
+"""Calibration of the classifiers from drives of one class (a car's dry baseline lap).
+
+The other class's friction reference is mirrored across the class split
+(:func:`roadgrip.estimators.classify.common.mirrored_friction`); the car's stiffness, gains
+and road load come from the labelled drive. Judged against the simulator's truth on another
+seed of the planar ``dry-gravel-dry`` (the slow multi-body acceptance is in
+``test_classify_acceptance.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from roadgrip.cli import app
+from roadgrip.cli.calibrate import parse_labelled, read_calibration
+from roadgrip.constants import GRIP_CLASS_SPLIT
+from roadgrip.estimators import run_estimator
+from roadgrip.estimators.classify import calibrate
+from roadgrip.estimators.classify.common import mirrored_friction
+
+
+@pytest.mark.parametrize(("label", "mu"), [("high", 1.0), ("high", 1.45), ("low", 0.3), ("low", 0.69)])
+def test_mirrored_friction_puts_the_split_at_the_geometric_mean(label, mu):
+    fr = mirrored_friction(label, mu)
+    assert fr[label] == mu
+    assert fr["low"] < GRIP_CLASS_SPLIT < fr["high"]
+    assert np.sqrt(fr["high"] * fr["low"]) == pytest.approx(GRIP_CLASS_SPLIT, rel=1e-5)
+
+
+@pytest.mark.parametrize(("label", "mu"), [("high", 0.7), ("high", 0.5), ("low", 0.7), ("low", 0.0),
+                                           ("low", float("nan")), ("dry", 1.0)])
+def test_mirrored_friction_refuses_a_reference_on_the_wrong_side(label, mu):
+    with pytest.raises(ValueError, match=r"split|label"):
+        mirrored_friction(label, mu)
+
+
+@pytest.fixture(scope="module")
+def planar():
+    """The dry minute of seed 2 (calibration) and seed 3 whole (test) of the planar dry-gravel-dry."""
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    cal = simulate_scenario("dry-gravel-dry", seed=2, duration=120.0).slice_time(0, 60)
+    test = simulate_scenario("dry-gravel-dry", seed=3, duration=120.0)
+    return cal, test
+
+
+def test_one_dry_drive_calibrates_both_classifiers(planar):
+    dry, test = planar
+    cal = calibrate([(dry, "high")])
+    # the truth of the dry minute is 1.0; the other class mirrored across the split
+    assert cal.friction == mirrored_friction("high", 1.0)
+    assert cal.diagnostics["labels"] == "high"
+    assert cal.brls.grip.mu_low == cal.friction["low"]
+    assert [d["label"] for d in cal.drives] == ["high"]
+    truth = np.where(test.col("mu_true") >= GRIP_CLASS_SPLIT, "high", "low")
+    i0 = int(np.argmax(truth == "low"))
+    for method in ("brls", "slipmap"):
+        table = run_estimator(method, test, {"calibration": cal}).table
+        cls = table["grip_class"].to_numpy()
+        excited = np.flatnonzero(table["excited"].to_numpy()[i0:])
+        low = np.flatnonzero(cls[i0:] == "low")
+        assert excited.size and low.size, method
+        # gravel called 'low' within half a second of its first excited sample
+        assert test.t[i0 + low[0]] - test.t[i0 + excited[0]] <= 0.5, method
+        assert not np.any((cls == "high") & (truth == "low")), method
+        # before the gravel no 'low' (the claim is held after it, by design)
+        assert not np.any(cls[:i0] == "low"), method
+
+
+def test_one_class_calibration_is_refused_where_it_cannot_hold(planar):
+    dry, _ = planar
+    with pytest.raises(ValueError, match="stiffness model needs"):
+        calibrate([(dry, "high")], model="stiffness")
+    with pytest.raises(ValueError, match="must give the labelled class"):
+        calibrate([(dry, "high")], friction={"low": 0.3})
+    with pytest.raises(ValueError, match="split"):  # a 'high' reference below the split
+        calibrate([(dry, "high")], friction={"high": 0.6})
+    with pytest.raises(ValueError, match="at least one labelled drive"):
+        calibrate([])
+
+
+def test_parse_labelled_with_a_default_label():
+    assert parse_labelled(["a.parquet", "b.parquet:low"], "high") == (
+        [("a.parquet", "high"), ("b.parquet", "low")], None)
+    assert parse_labelled(["a.parquet:high=1.1"]) == ([("a.parquet", "high")], {"high": 1.1})
+    with pytest.raises(ValueError, match="--label"):
+        parse_labelled(["a.parquet"])
+    with pytest.raises(ValueError, match="--label must be"):
+        parse_labelled(["a.parquet"], "dry")
+    with pytest.raises(ValueError, match="every class"):
+        parse_labelled(["a.parquet:high=1.1", "b.parquet:low"])
+
+
+def test_cli_calibrate_from_one_dry_drive(planar, tmp_path):
+    dry, _ = planar
+    path, out = tmp_path / "dry.parquet", tmp_path / "cal.yaml"
+    dry.save(path)
+    runner = CliRunner()
+    res = runner.invoke(app, ["calibrate", str(path), "--label", "high", "-o", str(out)],
+                        env={"COLUMNS": "200"})
+    assert res.exit_code == 0, res.output
+    cal = read_calibration(out)
+    assert cal.friction == mirrored_friction("high", 1.0)
+    assert "(1 labelled drive)" in res.output
+    res = runner.invoke(app, ["calibrate", f"{path}:high=1.2", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    assert read_calibration(out).friction == mirrored_friction("high", 1.2)
+    res = runner.invoke(app, ["calibrate", str(path), "-o", str(out)])
+    assert res.exit_code != 0
+    assert "--label" in str(res.exception)
