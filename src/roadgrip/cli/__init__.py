@@ -18,6 +18,7 @@ from roadgrip.cli import (  # noqa: F401  (importing a command module registers 
     fleet,
     friction_map,
     info,
+    live,
     report,
     simulate,
     vehicle,

@@ -84,25 +84,29 @@ VehicleOpt = Annotated[
 ]
 FormatOpt = Annotated[
     str | None,
-    typer.Option("--format", help="Input format: canonical, dart, frictionmaps, rosbag or mdf."),
+    typer.Option("--format", help="Input format: canonical, dart, frictionmaps, rosbag, mdf or can."),
 ]
 TopicsOpt = Annotated[
     str | None,
     typer.Option("--topics", help="ROS bags: topic map YAML, or a shipped map's name (default f1tenth)."),
 ]
 ChannelsOpt = Annotated[
-    str | None, typer.Option("--channels", help="MDF4 files: channel map YAML.")
+    str | None, typer.Option("--channels", help="MDF4 files: channel map YAML; CAN logs: signal map YAML "
+                             "(default the shipped one).")
+]
+DbcOpt = Annotated[
+    str | None, typer.Option("--dbc", help="CAN logs (.blf, .asc, .trc): the DBC file.")
 ]
 AlignOpt = Annotated[bool, typer.Option(
     "--align", help="Remove the estimated sensor delays (those reported reliable) before use.")]
 
 
 def load_drive(path: str, fmt: str | None, vehicle: str | None,
-               topics: str | None = None, channels: str | None = None):
+               topics: str | None = None, channels: str | None = None, dbc: str | None = None):
     """Read a drive file or data set (:func:`roadgrip.io.read_drive`)."""
     from roadgrip.io import read_drive
 
-    return read_drive(path, format=fmt, vehicle=vehicle, topics=topics, channels=channels)
+    return read_drive(path, format=fmt, vehicle=vehicle, topics=topics, channels=channels, dbc=dbc)
 
 
 @contextmanager

@@ -11,6 +11,7 @@ import typer
 from roadgrip.cli._common import (
     AlignOpt,
     ChannelsOpt,
+    DbcOpt,
     FormatOpt,
     TopicsOpt,
     VehicleOpt,
@@ -38,6 +39,7 @@ def estimate(
     fmt: FormatOpt = None,
     topics: TopicsOpt = None,
     channels: ChannelsOpt = None,
+    dbc: DbcOpt = None,
     particles: Annotated[int | None, typer.Option(help="gpssm: number of particles.")] = None,
     basis: Annotated[str | None, typer.Option(help="gpssm: tensor:10x10 (paper), separable:20, or their -odd variants (default separable-odd:20).")] = None,
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
@@ -84,7 +86,7 @@ def estimate(
                 {"--plot": plot, "--vss": vss, "--curves": curves, "--align": align or None})
         return
     check_fits(drive_path, fmt, method)
-    drive = load_drive(drive_path, fmt, vehicle, topics, channels)
+    drive = load_drive(drive_path, fmt, vehicle, topics, channels, dbc)
     if align:
         from roadgrip.cli.info import apply_alignment, estimate_delays
 

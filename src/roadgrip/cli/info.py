@@ -11,6 +11,7 @@ from rich.table import Table
 from roadgrip.cli._common import (
     AlignOpt,
     ChannelsOpt,
+    DbcOpt,
     FormatOpt,
     TopicsOpt,
     VehicleOpt,
@@ -41,6 +42,7 @@ def info(
     vehicle: VehicleOpt = None,
     topics: TopicsOpt = None,
     channels: ChannelsOpt = None,
+    dbc: DbcOpt = None,
     align: AlignOpt = False,
 ) -> None:
     """Duration, rates, signal ranges, tire excitation and sensor delays of a drive."""
@@ -56,7 +58,7 @@ def info(
     if read is not None and not read.fits:
         raise ValueError(f"{read.describe()}: a CSV is parsed whole; convert it to Parquet, "
                          "which `roadgrip info` reads in chunks")
-    drive = load_drive(file, fmt, vehicle, topics, channels)
+    drive = load_drive(file, fmt, vehicle, topics, channels, dbc)
     delays = estimate_delays(drive)
     if align:
         drive = apply_alignment(drive, delays)

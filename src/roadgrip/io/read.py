@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from roadgrip.drive import Drive
+from roadgrip.io.can import CAN_LOG_SUFFIXES
 from roadgrip.io.canonical import read_canonical_csv, read_canonical_parquet
 from roadgrip.io.dart import is_dart_csv, read_dart
 from roadgrip.io.frictionmaps import is_frictionmaps_dir, read_frictionmaps
@@ -16,7 +17,7 @@ __all__ = ["FORMATS", "detect_format", "read_drive"]
 MDF_SUFFIXES = (".mf4", ".mdf")
 """File suffixes read as ASAM MDF (:mod:`roadgrip.io.mdf`)."""
 
-FORMATS = ("canonical", "dart", "frictionmaps", "rosbag", "mdf")
+FORMATS = ("canonical", "dart", "frictionmaps", "rosbag", "mdf", "can")
 """Accepted values of ``format``."""
 
 
@@ -56,6 +57,8 @@ def detect_format(path: str | Path) -> str:
         return "rosbag"
     if suffix in MDF_SUFFIXES:
         return "mdf"
+    if suffix in CAN_LOG_SUFFIXES:
+        return "can"
     if suffix in (".parquet", ".pq"):
         return "canonical"
     if suffix == ".csv":
@@ -76,6 +79,7 @@ def read_drive(
     *,
     topics: str | Path | dict | None = None,
     channels: str | Path | dict | None = None,
+    dbc: str | Path | None = None,
 ) -> Drive:
     """Read a drive: canonical CSV/Parquet, a ROS bag, an MDF4 file, or a shared data set.
 
@@ -96,7 +100,10 @@ def read_drive(
         ROS bags: the topic map (:mod:`roadgrip.io.rosbag`); default the shipped
         ``'f1tenth'`` map.
     channels : YAML path or dict
-        MDF4 files: the channel map (:mod:`roadgrip.io.mdf`); required.
+        MDF4 files: the channel map (:mod:`roadgrip.io.mdf`); required. CAN logs: the
+        signal map (:mod:`roadgrip.io.can`; default the shipped one).
+    dbc : str or Path, optional
+        CAN logs (``.blf``, ``.asc``, ``.trc``, format ``'can'``): the DBC; required.
 
     Returns
     -------
@@ -116,8 +123,10 @@ def read_drive(
     fmt = format or detect_format(p)
     if topics is not None and fmt != "rosbag":
         raise ValueError(f"a topic map applies to ROS bags only, not to format {fmt!r}")
-    if channels is not None and fmt != "mdf":
-        raise ValueError(f"a channel map applies to MDF4 files only, not to format {fmt!r}")
+    if channels is not None and fmt not in ("mdf", "can"):
+        raise ValueError(f"a channel map applies to MDF4 files and CAN logs only, not to format {fmt!r}")
+    if dbc is not None and fmt != "can":
+        raise ValueError(f"a DBC applies to CAN logs only, not to format {fmt!r}")
     veh = load_vehicle(vehicle) if vehicle is not None else None
     if fmt == "rosbag":
         from roadgrip.io.rosbag import read_rosbag
@@ -129,6 +138,12 @@ def read_drive(
         if channels is None:
             raise ValueError("an MDF4 file needs a channel map (--channels channels.yaml)")
         return read_mdf(p, channels, veh)
+    if fmt == "can":
+        from roadgrip.io.can import read_can_log
+
+        if dbc is None:
+            raise ValueError("a CAN log needs a DBC (--dbc FILE)")
+        return read_can_log(p, dbc, channels, veh)
     if fmt == "dart":
         return read_dart(p, veh)
     if fmt == "frictionmaps":
