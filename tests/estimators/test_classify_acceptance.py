@@ -5,6 +5,11 @@
   ``roadgrip calibrate`` on other drives of the same car (``dry-gravel-dry`` seed 10 cut
   into its surfaces by time windows, and a ``snow-slalom``), and uncalibrated. Scored
   against the simulator's truth by :func:`roadgrip.evaluate.classification.surface_change_scores`.
+* The same drives, each classifier calibrated on the dry first minute of seed 10 alone
+  (``roadgrip calibrate --label high``: the other class mirrored across the split).
+* The race car (``revs``, no wheel speeds, slip angles from the kinematic stage off by
+  more than the sideslip itself): calibrated 'high' on the first half of its lap record
+  alone, 'high' on at least 90 % of the excited samples of the second half, never 'low'.
 * DART: every shared recording, calibrated without it (leave-one-out on the high-grip
   floor, which has three recordings; first half / second half on the low-grip floor,
   which has one), on at least 90 % of its excited samples after 10 s.
@@ -27,6 +32,7 @@ VEHICLES = ("ford-escort", "vw-vanagon")
 SEEDS = (0, 1, 2, 3, 4)
 METHODS = ("brls", "slipmap")
 DART = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dart"
+REVS = DART.parent / "revs"
 
 
 def _mb(name, vehicle, seed):
@@ -111,6 +117,54 @@ def test_uncalibrated_never_claims_what_its_defaults_cannot_support(runs):
         assert not (cls == "high").any(), method
 
 
+# ------------------------------------------------------------- one dry drive
+
+
+@pytest.fixture(scope="module", params=VEHICLES)
+def one_dry_runs(request, tmp_path_factory):
+    """(vehicle, per (seed, method): scores, delay [s] from the first excited sample on gravel),
+    each classifier calibrated with ``roadgrip calibrate --label high`` on the dry first
+    minute of ``dry-gravel-dry`` seed 10 alone."""
+    from typer.testing import CliRunner
+
+    from roadgrip.cli import app
+    from roadgrip.cli.calibrate import read_calibration
+
+    vehicle = request.param
+    tmp = tmp_path_factory.mktemp(f"{vehicle}-one")
+    dgd, out = tmp / "dgd10.parquet", tmp / "cal.yaml"
+    _mb("dry-gravel-dry", vehicle, 10).save(dgd)
+    r = CliRunner().invoke(app, ["calibrate", f"{dgd}@0-60", "--label", "high", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    cal = read_calibration(out)
+    out_runs = {}
+    for seed in SEEDS:
+        drive = _mb("dry-gravel-dry", vehicle, seed)
+        i0 = int(np.argmax(drive.col("mu_true") < 0.7))
+        for method in METHODS:
+            table = run_estimator(method, drive, {"calibration": cal}).table
+            cls = table["grip_class"].to_numpy()
+            excited = np.flatnonzero(table["excited"].to_numpy()[i0:])
+            low = np.flatnonzero(cls[i0:] == "low")
+            delay = float(drive.t[i0 + low[0]] - drive.t[i0 + excited[0]]) if low.size and excited.size \
+                else float("inf")
+            out_runs[(seed, method)] = (surface_change_scores(drive, cls), delay)
+    return vehicle, cal, out_runs
+
+
+@pytest.mark.slow
+def test_one_dry_drive_calibration_detects_gravel_without_false_switches(one_dry_runs):
+    vehicle, cal, out = one_dry_runs
+    assert cal.friction == {"high": 1.0, "low": 0.49}  # the truth, and its mirror across the split
+    for (seed, method), (s, delay) in sorted(out.items()):
+        print(f"{vehicle} seed {seed} {method:7s} one dry drive: delays {s.delays}, from excitation "
+              f"{delay:.2f} s, false switches {s.false_switches}, high on gravel {s.high_on_low}")
+        assert s.delays[0] <= 1.0, (seed, method, s)
+        assert delay <= 0.5, (seed, method, delay)
+        assert s.false_switches == 0, (seed, method, s)
+        assert s.high_on_low == 0, (seed, method, s)
+
+
 # --------------------------------------------------------------------------- DART
 
 
@@ -163,3 +217,34 @@ DART_NAMES = (
 @pytest.mark.parametrize("name", DART_NAMES)
 def test_dart_leave_one_out(dart_accuracy, method, name):
     assert dart_accuracy[(method, name)] >= 0.9
+
+
+# --------------------------------------------------------------------------- race car
+
+
+@pytest.mark.slow
+@pytest.mark.realdata
+def test_race_car_calibrated_on_its_first_half_says_high_on_the_second():
+    if not REVS.is_dir():
+        pytest.skip(f"revs data not found at {REVS} (../shared/data beside the checkout)")
+    from roadgrip.estimators.classify import calibrate
+    from roadgrip.io import read_drive
+
+    drive = read_drive(REVS / "race_car_100hz.csv", vehicle=REVS / "race_car.yaml")
+    mid = drive.t[0] + 0.5 * drive.duration
+    cal = calibrate([(drive.slice_time(drive.t[0], mid), "high")])
+    # no wheel speeds: the lateral channel, on the acceleration alone (the slip angles
+    # claim 'low' on the labelled half)
+    assert (cal.diagnostics["long_channel"], cal.diagnostics["lat_channel"]) == ("off", "on")
+    assert cal.diagnostics["lateral_evidence"] == "demonstrated"
+    second = drive.slice_time(mid, np.inf)
+    for method in METHODS:
+        table = run_estimator(method, second, {"calibration": cal}).table
+        excited = table["excited"].to_numpy()
+        cls = table["grip_class"].to_numpy()
+        share = float((cls[excited] == "high").mean())
+        print(f"revs {method}: excited {excited.mean():.3f}, 'high' on {share:.3f} of them, "
+              f"'low' {(cls == 'low').mean():.3f}")
+        assert excited.mean() >= 0.2, method
+        assert share >= 0.9, method
+        assert not (cls == "low").any(), method

@@ -9,13 +9,14 @@ import numpy as np
 import pytest
 
 from roadgrip.cli.calibrate import split_window
-from roadgrip.constants import GRAVITY
+from roadgrip.constants import GRAVITY, GRIP_CLASS_SPLIT
 from roadgrip.estimators.classify.brls_config import saturation_config
 from roadgrip.estimators.classify.brls_kernel import brls_batch
 from roadgrip.estimators.classify.grip_model import (
     GripModel,
     class_predictions,
     default_grip_model,
+    demonstrated_channel,
     predict_accelerations,
     shape,
     traction_slips,
@@ -91,6 +92,27 @@ def test_grip_model_roundtrip_and_validation():
         GripModel(20.0, 20.0, mu_high=0.5, mu_low=0.6)
     with pytest.raises(ValueError, match="unknown grip model"):
         GripModel.from_dict({**m.to_dict(), "stiffnes": 1.0})
+
+
+def test_demonstrated_channel_shows_high_grip_above_the_split_and_never_low():
+    m = replace(default_grip_model(SEDAN, 1.0, 0.49), lateral_evidence="demonstrated", accel_noise=0.3)
+    a_low = GRIP_CLASS_SPLIT * GRAVITY + 2.0 * 0.3  # gain 1, the margin of two noise units
+    a_high = 1.0 * GRAVITY
+    ay = np.array([0.0, 3.0, -a_low + 1e-9, a_low + 0.3, -(a_low + 1.0), a_high, -(a_high + 2.0)])
+    phi, y = demonstrated_channel(ay, m)
+    np.testing.assert_allclose(phi[:3], 0.0)  # below what a low road can carry: nothing
+    np.testing.assert_allclose(y[:3], 0.0)
+    # between: the class position y / phi is exactly 1 (high), whatever the sign of a_y
+    np.testing.assert_allclose(phi[3:6], [1.0, 1.0 / 0.3, (a_high - a_low) / 0.3])
+    np.testing.assert_allclose(y[3:6], phi[3:6])
+    # above the high class's most: a position above 1, still high
+    assert phi[6] == pytest.approx((a_high - a_low) / 0.3) and y[6] / phi[6] > 1.0
+    # a gain below 1 does not lower the split's acceleration; a gain above raises it
+    np.testing.assert_allclose(demonstrated_channel(ay, replace(m, gain_y=0.8))[0], phi)
+    assert demonstrated_channel(np.array([a_low + 0.3]), replace(m, gain_y=1.1))[0][0] == 0.0
+    with pytest.raises(ValueError, match="lateral_evidence"):
+        replace(m, lateral_evidence="pose")
+    assert GripModel.from_dict(m.to_dict()) == m
 
 
 def test_brls_claim_expires_and_is_made_afresh():

@@ -334,7 +334,12 @@ def saturation_calibration(
     and step 3 switches a channel on when the labelled class's median position lies on
     its side and the classifier with that channel alone, run over each labelled drive
     from the other class, claims no other class after
-    :data:`~roadgrip.estimators.classify.common.CALIBRATION_SETTLING_S`.
+    :data:`~roadgrip.estimators.classify.common.CALIBRATION_SETTLING_S`. Where the
+    lateral channel fails that on 'high' drives (slip angles that the kinematic stage
+    does not know well, as on a car without wheel speeds or pose), its evidence is the
+    lateral acceleration alone
+    (:func:`~roadgrip.estimators.classify.grip_model.demonstrated_channel`, which shows
+    high grip and never low) if that holds the label.
 
     With ``estimate_friction`` the classes' peak friction comes from the drives
     (:func:`fit_class_friction`, then the stiffness and gains are fitted again);
@@ -372,15 +377,23 @@ def saturation_calibration(
             on[name] = hi is not None and hi > 0.5
         else:
             on[name] = lo is not None and lo < 0.5
+    lateral = "slips"
     if len(labels) == 1:
         for name in ("long", "lat"):
             if on[name]:
                 on[name] = _holds_label(cfg, data, name)
+        if labels == ["high"] and not on["lat"]:
+            # the slip angles do not hold the label: the lateral acceleration alone may
+            # still demonstrate high grip (grip_model.demonstrated_channel)
+            demo = replace(cfg, grip=replace(model, lateral_evidence="demonstrated"))
+            _, pooled_d = _median_positions(demo, data)
+            if pooled_d["lat"]["high"] is not None and _holds_label(demo, data, "lat"):
+                model, cfg, on["lat"], lateral = demo.grip, demo, True, "demonstrated"
     if not (on["long"] or on["lat"]):
         raise ValueError(
-            "calibration failed: no channel of the saturation model places the labelled drives "
-            f"on their sides (median class positions {pooled}); are the drives excited and "
-            "correctly labelled?"
+            "calibration failed: no channel of the saturation model holds the labels on the labelled "
+            f"drives (median class positions {pooled}; with one class, a channel that claims the "
+            "other class on a labelled drive is off); are the drives excited and correctly labelled?"
         )
     cfg = replace(cfg, long=replace(cfg.long, enabled=on["long"]), lat=replace(cfg.lat, enabled=on["lat"]),
                   hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf)
@@ -389,7 +402,8 @@ def saturation_calibration(
     diag = {"model": "saturation", "labels": "+".join(labels), "grip_fit": fitted, "slip_angle_zero": zero,
             "friction": dict(friction), "friction_estimated": bool(estimate_friction),
             "median_positions": positions, "class_median_positions": pooled,
-            "long_channel": "on" if on["long"] else "off", "lat_channel": "on" if on["lat"] else "off"}
+            "long_channel": "on" if on["long"] else "off", "lat_channel": "on" if on["lat"] else "off",
+            "lateral_evidence": lateral}
     if demonstrated is not None:
         diag["friction_demonstrated"] = dict(demonstrated)
     return cfg, sm, diag

@@ -43,13 +43,15 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from roadgrip.constants import GRAVITY
+from roadgrip.constants import GRAVITY, GRIP_CLASS_SPLIT
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = [
     "ALPHA_OFFSET_MAX",
     "BRAKING_ACCEL",
     "BRAKING_MIN_SPEED",
+    "DEMONSTRATED_MARGIN",
+    "LATERAL_EVIDENCE",
     "LONG_LATERAL_GATE",
     "UNCALIBRATED_MODEL_ERROR",
     "Channels",
@@ -59,6 +61,7 @@ __all__ = [
     "channels",
     "class_predictions",
     "default_grip_model",
+    "demonstrated_channel",
     "predict_accelerations",
     "shape",
     "traction_slips",
@@ -67,6 +70,15 @@ __all__ = [
 UNCALIBRATED_MODEL_ERROR = 0.25
 """Relative model error of the uncalibrated model (stiffness from the vehicle's
 parameters, unknown accelerometer gains from pitch and roll) [-]."""
+
+LATERAL_EVIDENCE = ("slips", "demonstrated")
+"""What the lateral channel regresses: the measured lateral acceleration between the two
+classes' predictions from the slip angles, or against the most a low-grip road can
+deliver (:func:`demonstrated_channel`), for a car whose slip angles are not known well."""
+
+DEMONSTRATED_MARGIN = 2.0
+"""Margin [accelerometer noise units] by which the lateral acceleration must exceed the split's
+before it demonstrates high grip (:func:`demonstrated_channel`)."""
 
 ALPHA_OFFSET_MAX = 0.1
 """Largest slip-angle zero error a model accepts [rad] (about 6 degrees: beyond it the
@@ -108,6 +120,8 @@ class GripModel:
         over the multi-body drives' stops).
     model_error_x, model_error_y : float
         Relative model error ``eps`` of the longitudinal / lateral channel [-].
+    lateral_evidence : {'slips', 'demonstrated'}
+        The lateral channel's regression (:data:`LATERAL_EVIDENCE`).
     alpha_offset_f, alpha_offset_r : float
         Zero errors of the kinematic stage's front and rear slip angles [rad], which
         :func:`channels` subtracts: a steering-angle offset, a yaw misalignment of the
@@ -135,8 +149,12 @@ class GripModel:
     speed_noise: float = 0.1
     alpha_offset_f: float = 0.0
     alpha_offset_r: float = 0.0
+    lateral_evidence: str = "slips"
 
     def __post_init__(self) -> None:
+        if self.lateral_evidence not in LATERAL_EVIDENCE:
+            raise ValueError(f"grip model lateral_evidence must be one of {LATERAL_EVIDENCE}, "
+                             f"got {self.lateral_evidence!r}")
         for name in ("c_long", "c_lat", "gain_x", "gain_y", "accel_noise"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
@@ -158,14 +176,14 @@ class GripModel:
                                  f"got {v!r}")
 
     def to_dict(self) -> dict[str, Any]:
-        return {k: float(v) for k, v in asdict(self).items()}
+        return {k: (v if isinstance(v, str) else float(v)) for k, v in asdict(self).items()}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> GripModel:
         unknown = set(d) - set(cls.__dataclass_fields__)
         if unknown:
             raise ValueError(f"unknown grip model setting(s) {sorted(unknown)}")
-        return cls(**{k: float(v) for k, v in d.items()})
+        return cls(**{k: (str(v) if k == "lateral_evidence" else float(v)) for k, v in d.items()})
 
 
 def default_grip_model(params: VehicleParams, mu_high: float, mu_low: float) -> GripModel:
@@ -353,6 +371,39 @@ def braking_samples(kin, ax: NDArray) -> NDArray[np.bool_]:
     return (ax < -BRAKING_ACCEL) & (np.abs(np.atleast_1d(kin.vx)) >= BRAKING_MIN_SPEED) & both
 
 
+def demonstrated_channel(ay: NDArray, model: GripModel) -> tuple[NDArray, NDArray]:
+    """Lateral class position from the acceleration alone: ``(phi, y)``, shapes (T,).
+
+    A road of the low class (peak friction below
+    :data:`~roadgrip.constants.GRIP_CLASS_SPLIT`) cannot carry a lateral acceleration
+    above ``a_split = split g``, whatever the slip angles; the high class carries up to
+    ``mu_high g``. So the low class's prediction is the measured ``|a_y|`` held below
+    ``a_low = a_split max(gain_y, 1) + m sigma_a`` (``m`` = :data:`DEMONSTRATED_MARGIN`, the
+    accelerometer noise ``sigma_a`` = ``accel_noise``; a gain below 1 is not trusted to
+    scale the split down), the high class's ``|a_y|`` held below ``mu_high g max(gain_y, 1)``
+    (at least ``a_low + sigma_a``), whitened by ``sigma_a``: ``phi = (a_high - a_low) /
+    sigma_a``, ``y = (|a_y| - a_low) / sigma_a``. Below ``a_low`` the sample tells nothing
+    (``phi = 0``); above it the position is 1 or more: this channel demonstrates high
+    grip, it never shows low grip (the honesty rule's demonstrated floor,
+    :mod:`roadgrip.evaluate.honesty`; aerodynamic downforce counts as friction here
+    as it does there).
+
+    Parameters
+    ----------
+    ay : ndarray, shape (T,)
+        Measured lateral acceleration [m/s²].
+    model : GripModel
+    """
+    a = np.abs(np.atleast_1d(np.asarray(ay, float)))
+    sigma = model.accel_noise
+    gain = max(model.gain_y, 1.0)
+    a_low = GRIP_CLASS_SPLIT * GRAVITY * gain + DEMONSTRATED_MARGIN * sigma
+    a_high_max = max(model.mu_high * GRAVITY * gain, a_low + sigma)
+    phi = (np.clip(a, a_low, a_high_max) - a_low) / sigma
+    y = np.maximum(a - a_low, 0.0) / sigma
+    return phi, y
+
+
 def channels(
     kin, ax: NDArray, ay: NDArray, steer: NDArray, params: VehicleParams, model: GripModel,
     min_speed: float = 0.5, braking: bool = True,
@@ -391,6 +442,10 @@ def channels(
     on_x = moving & (on_x | brake) & (np.abs(ay) < LONG_LATERAL_GATE * GRAVITY)
     phi_x = np.where(on_x, (cp.ax_high - cp.ax_low) / cp.sigma_x, 0.0)
     y_x = np.where(on_x, (ax - cp.ax_low) / cp.sigma_x, 0.0)
-    phi_y = np.where(moving, (cp.ay_high - cp.ay_low) / cp.sigma_y, 0.0)
-    y_y = np.where(moving, (ay - cp.ay_low) / cp.sigma_y, 0.0)
+    if model.lateral_evidence == "demonstrated":
+        phi_d, y_d = demonstrated_channel(ay, model)
+        phi_y, y_y = np.where(moving, phi_d, 0.0), np.where(moving, y_d, 0.0)
+    else:
+        phi_y = np.where(moving, (cp.ay_high - cp.ay_low) / cp.sigma_y, 0.0)
+        y_y = np.where(moving, (ay - cp.ay_low) / cp.sigma_y, 0.0)
     return Channels(phi_x, y_x, phi_y, y_y), cp
