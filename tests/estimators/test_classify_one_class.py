@@ -37,13 +37,32 @@ def test_mirrored_friction_refuses_a_reference_on_the_wrong_side(label, mu):
 
 
 @pytest.fixture(scope="module")
-def planar():
-    """The dry minute of seed 2 (calibration) and seed 3 whole (test) of the planar dry-gravel-dry."""
+def planar_drives():
+    """Seeds 2 (calibration) and 3 (test) of the planar dry-gravel-dry (dry 1.0, gravel 0.6 from 60 s)."""
     from roadgrip.sim.scenarios import simulate_scenario
 
-    cal = simulate_scenario("dry-gravel-dry", seed=2, duration=120.0).slice_time(0, 60)
-    test = simulate_scenario("dry-gravel-dry", seed=3, duration=120.0)
-    return cal, test
+    return (simulate_scenario("dry-gravel-dry", seed=2, duration=120.0),
+            simulate_scenario("dry-gravel-dry", seed=3, duration=120.0))
+
+
+@pytest.fixture(scope="module")
+def planar(planar_drives):
+    """The dry minute of seed 2 (calibration) and seed 3 whole (test)."""
+    cal, test = planar_drives
+    return cal.slice_time(0, 60), test
+
+
+def test_one_gravel_drive_calibrates_the_low_class(planar_drives):
+    cal_drive, test = planar_drives
+    cal = calibrate([(cal_drive.slice_time(60, 120), "low")])
+    assert cal.friction == mirrored_friction("low", 0.6)  # the gravel's truth, mirrored
+    truth = np.where(test.col("mu_true") >= GRIP_CLASS_SPLIT, "high", "low")
+    i0 = int(np.argmax(truth == "low"))
+    for method in ("brls", "slipmap"):
+        cls = run_estimator(method, test, {"calibration": cal}).table["grip_class"].to_numpy()
+        assert (cls[i0:] == "low").any(), method
+        assert not np.any((cls == "high") & (truth == "low")), method
+        assert not np.any(cls[:i0] == "low"), method
 
 
 def test_one_dry_drive_calibrates_both_classifiers(planar):
