@@ -222,12 +222,17 @@ class LiveEstimator:
     def _step(self, rows: list[Row]) -> list[LiveRow]:
         if self.started:
             return self._run(rows)
-        self._held.extend(rows)
-        if self._held[-1].t - self._held[0].t + 1e-9 < self.warmup or len(self._held) < 2:
-            return [_withheld(r.t, "warming_up") for r in rows]
-        first, self._held = self._held, []
-        self._run(first)  # its rows were answered 'warming_up' as they came
-        return [_withheld(r.t, "warming_up") for r in rows]
+        out = []
+        for i, r in enumerate(rows):
+            self._held.append(r)
+            out.append(_withheld(r.t, "warming_up"))
+            if len(self._held) >= 2 and self._held[-1].t - self._held[0].t + 1e-9 >= self.warmup:
+                first, self._held = self._held, []
+                self._run(first)  # the first chunk: its rows were answered 'warming_up'
+                if i + 1 < len(rows):
+                    out.extend(self._run(rows[i + 1:]))
+                break
+        return out
 
     def curve(self, alpha: np.ndarray) -> Any:
         """The learned friction curves with their 95 % band at slip angles ``alpha`` [rad]
