@@ -21,7 +21,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from roadgrip.estimators.base import CONTRACT_COLUMNS, EstimateResult, ProgressCallback
-from roadgrip.estimators.protocol import Estimator, EstimatorConfig
+from roadgrip.estimators.protocol import DriveInfo, Estimator, EstimatorConfig
 
 __all__ = [
     "CONTRACT_COLUMNS",
@@ -85,11 +85,16 @@ def run_estimator(
     """Run ``method`` over a whole :class:`~roadgrip.drive.Drive`.
 
     ``config`` is the method's ``Config``, a mapping of options for
-    ``Config.from_options`` or ``None`` for the defaults.
+    ``Config.from_options`` or ``None`` for the defaults. ``meta['lookahead']`` [s] is
+    the run's declared look-ahead (``Estimator.lookahead``; the method's own value
+    where its ``run`` sets one).
     """
     est = get(method)
     if config is None or isinstance(config, Mapping):
         config = est.Config.from_options(config)
     elif not isinstance(config, est.Config):
         raise TypeError(f"{method} takes a {est.Config.__name__}, got {type(config).__name__}")
-    return est.run(drive, config, seed, progress)
+    result = est.run(drive, config, seed, progress)
+    if "lookahead" not in result.meta:
+        result.meta["lookahead"] = float(est.lookahead(config, DriveInfo.from_drive(drive)))
+    return result

@@ -27,6 +27,13 @@ an :class:`Estimator` record of five parts:
 ``prior_band(config) -> (lower, upper)``
     The peak-friction band the estimator reports before it has seen any
     friction information.
+``lookahead(config, info) -> float``
+    The look-ahead [s]: every row, in ``run`` and in stepping, is a function of
+    the samples up to its time plus this (0 for a causal estimator; a centred
+    smoothing window declares its half-width). Cutting a drive at ``T`` leaves
+    every row before ``T - lookahead`` unchanged (``tests/test_causality.py``);
+    ``info`` (a :class:`DriveInfo`, or None for the largest over all drives)
+    lets it depend on the drive's columns and nominal rate, never on its samples.
 
 The registry in :mod:`roadgrip.estimators` maps a method name to its record.
 """
@@ -50,6 +57,7 @@ __all__ = [
     "Estimator",
     "EstimatorConfig",
     "Prepared",
+    "no_lookahead",
     "rows_to_table",
     "run_by_stepping",
     "to_plain",
@@ -127,8 +135,12 @@ class DriveInfo:
     columns : frozenset of str
         Signal columns present.
     derived : mapping
-        Constants the method derives from the whole drive before filtering
-        (measured noise levels, the chosen speed source, ...).
+        What the method knows before its first sample: configuration resolved for
+        the drive's columns and metadata (the chosen speed source, the velocity
+        aid, a reader's sensor noise, ...). Nothing in it depends on a sample
+        after the first: estimates from the samples (noise levels, standstills)
+        are made as the samples arrive, so that a row depends on the samples up to
+        its time plus the estimator's look-ahead.
     """
 
     vehicle: VehicleParams
@@ -160,11 +172,17 @@ class Prepared:
     samples: Sequence[Any]
 
 
+def no_lookahead(config: Any, info: DriveInfo | None = None) -> float:
+    """The look-ahead of a causal estimator: 0 s."""
+    return 0.0
+
+
 @dataclass(frozen=True)
 class Estimator:
-    """One estimation method: its configuration and its four functions.
+    """One estimation method: its configuration and its functions.
 
-    See the module docstring for the contract of each part.
+    See the module docstring for the contract of each part; ``lookahead``
+    defaults to :func:`no_lookahead` (causal).
     """
 
     name: str
@@ -176,6 +194,7 @@ class Estimator:
     step: Callable[[Any, Any], tuple[Any, Mapping[str, Any] | None]]
     run: Callable[..., EstimateResult]
     prior_band: Callable[[Any], tuple[float, float]]
+    lookahead: Callable[[Any, DriveInfo | None], float] = no_lookahead
 
 
 def rows_to_table(rows: Iterable[Mapping[str, Any] | None]) -> pd.DataFrame:
@@ -201,6 +220,7 @@ def run_by_stepping(
     meta: dict[str, Any] = {"config": config.to_meta(), "seed": int(seed)}
     with timed(meta, drive.n, drive.duration):
         prepared = estimator.prepare(drive, config)
+        meta["lookahead"] = float(estimator.lookahead(config, prepared.info))
         state = estimator.init(prepared.info, config, seed)
         rows = []
         for sample in prepared.samples:

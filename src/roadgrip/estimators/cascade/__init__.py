@@ -26,9 +26,9 @@ subtracted from ``ax, ay`` here and in stage 2), learnt at standstill by a
 zero-velocity update (the accelerometers then read their biases) and while
 driving through the speed measurement. A sensor 2 degrees off level reads
 0.34 m/s² of gravity, which stage 1 would otherwise take for ``vy r`` and turn
-into a lateral-velocity error of ``0.34 / r`` m/s. The bias states are on when the
-drive contains a standstill of at least 1 s (``accel_bias_std=None``), which
-makes them observable, and otherwise off unless configured.
+into a lateral-velocity error of ``0.34 / r`` m/s. The bias states are switched on by
+the first standstill of at least 1 s (``accel_bias_std=None``), which makes them
+observable, and are off before it unless configured.
 
 On straights (yaw rate near zero) ``vy`` is not observable from ``vx`` and its
 integral drifts with the accelerometer noise. Below a lateral acceleration of
@@ -154,15 +154,16 @@ Sensor noise: see :mod:`roadgrip.estimators.cascade.inputs`.
 
 Modules
 -------
-==========  ==========================================================
-config      :class:`CascadeConfig`, :func:`prior_band`
-model       state layouts, stage-2 force models, brush tire (compiled)
-layout      state, output and constant layouts of the compiled step
-kernel      the compiled step and loop
-inputs      measured speed, sensor noise, per-sample records
-result      estimates table, summary, diagnostics
-estimator   ``prepare`` / ``init`` / ``step`` / ``run``, :data:`ESTIMATOR`
-==========  ==========================================================
+==============  ==========================================================
+config          :class:`CascadeConfig`, :func:`prior_band`
+model           state layouts, stage-2 force models, brush tire (compiled)
+layout          state, output and constant layouts of the compiled step
+kernel          the compiled step and loop
+inputs          measured speed, sensor noise, per-sample records
+running_noise   noise levels and biases estimated from the samples so far
+result          estimates table, summary, diagnostics
+estimator       ``prepare`` / ``init`` / ``step`` / ``run``, :data:`ESTIMATOR`
+==============  ==========================================================
 """
 
 from roadgrip.estimators.cascade.config import SPEED_SOURCES, CascadeConfig, prior_band
@@ -178,8 +179,8 @@ from roadgrip.estimators.cascade.estimator import (
 from roadgrip.estimators.cascade.inputs import (
     CascadeSample,
     CascadeSamples,
+    given_noise,
     measured_speed,
-    noise_from_drive,
 )
 from roadgrip.estimators.cascade.kernel import Out
 from roadgrip.estimators.cascade.model import (
@@ -210,9 +211,9 @@ __all__ = [
     "force_measurement",
     "force_transition",
     "friction_measurement",
+    "given_noise",
     "init",
     "measured_speed",
-    "noise_from_drive",
     "prepare",
     "prior_band",
     "rotate_integrate",

@@ -18,23 +18,29 @@ from roadgrip.drive import Drive
 from roadgrip.estimators.base import EstimateResult, ProgressCallback, conform, timed
 from roadgrip.estimators.cascade.config import CascadeConfig, prior_band
 from roadgrip.estimators.cascade.inputs import (
-    NOISE_FLOORS,
+    NOISE_PRIOR,
     CascadeSample,
     CascadeSamples,
     drive_inputs,
     drive_pose,
-    has_standstill,
-    resolve_noise,
+    given_noise,
 )
-from roadgrip.estimators.cascade.kernel import Aux, Filter, Inputs, Params, Weights, run_kernel
+from roadgrip.estimators.cascade.kernel import Aux, Filter, Inputs, Params, Weights
 from roadgrip.estimators.cascade.model import ForceState, FrictionState, VelocityState
 from roadgrip.estimators.cascade.result import diagnostics, output_columns, summary
+from roadgrip.estimators.cascade.running_noise import (
+    BIAS_STD,
+    NoiseMemory,
+    NoisePlan,
+    memory_init,
+    run_adaptive,
+)
 from roadgrip.estimators.protocol import DriveInfo, Estimator, Prepared
 from roadgrip.inference.kalman import merwe_weights
 from roadgrip.signals import sustained_grip, sustained_grip_step, undriven_wheels
 from roadgrip.vehicle.params import VehicleParams
 
-__all__ = ["ESTIMATOR", "CascadeState", "init", "prepare", "run", "run_filter", "step"]
+__all__ = ["ESTIMATOR", "CascadeState", "init", "lookahead", "prepare", "run", "run_filter", "step"]
 
 CONSISTENCY_TIME = 5.0
 """Time constant [s] of the running mean square of the slip-angle consistency residuals."""
@@ -65,6 +71,11 @@ class CascadeState(NamedTuple):
         Unscented weights of stages 2 and 3.
     floor_memory : tuple or None
         Memory of the sustained-grip floor (:func:`roadgrip.signals.sustained_grip_step`).
+    noise_plan : NoisePlan or None
+        What the run estimates as it goes (:mod:`~roadgrip.estimators.cascade.running_noise`);
+        None: nothing.
+    noise_memory : NoiseMemory or None
+        The trailing samples and event times of those estimates.
     """
 
     t: float
@@ -78,6 +89,8 @@ class CascadeState(NamedTuple):
     params: Params
     weights: Weights
     floor_memory: tuple | None = None
+    noise_plan: NoisePlan | None = None
+    noise_memory: NoiseMemory | None = None
 
     def filter_copy(self) -> Filter:
         """The arrays as a fresh :class:`Filter` for the kernel (the state itself is never written)."""
@@ -119,7 +132,7 @@ def make_params(vehicle: VehicleParams, config: CascadeConfig, derived: dict[str
         max_bias=f(config.max_slip_bias_effect),
         cr=f(vehicle.cornering_stiffness_rear),
         ay_straight=f(config.ay_straight),
-        q_bias=f(config.accel_bias_rate_std**2 if derived["accel_bias_std"] else 0.0),
+        q_bias=f(config.accel_bias_rate_std**2 if derived.get("accel_bias_std") else 0.0),
         steer_bias=f(config.steer_bias_std),
         vy_bias=f(config.vy_bias_std),
         consist_tau=CONSISTENCY_TIME,
@@ -160,40 +173,56 @@ def _speed_slip(source: str, drive: Drive, config: CascadeConfig) -> tuple[float
 
 
 def prepare(drive: Drive, config: CascadeConfig) -> Prepared:
-    """Inputs of the cascade and the values it derives from the whole drive.
+    """Inputs of the cascade and what it knows of the drive before its first sample.
 
-    ``info.derived`` holds ``noise`` (resolved standard deviations,
-    :func:`~roadgrip.estimators.cascade.inputs.resolve_noise`), ``speed_source``,
-    ``front_share``, ``vx0`` (first measured speed [m/s]), ``accel_bias_std``
-    (the configured value, else 0.3 m/s² when the drive stands still for 1 s,
-    which makes the biases observable, else 0) and ``steer_response_time``
-    (the configured value, else 0.1 s when ``meta.extra['steer_is_command']``,
-    else 0).
+    ``info.derived`` holds ``noise`` (the standard deviations at the first sample,
+    :func:`~roadgrip.estimators.cascade.inputs.given_noise`) and ``noise_running`` (the
+    keys the run estimates from the samples so far), ``speed_source``, ``front_share``,
+    ``vx0`` (first measured speed [m/s]), ``accel_bias_std`` (the configured value, else
+    0 until a standstill of 1 s switches the biases on, ``bias_at_standstill``),
+    ``steer_response_time`` (the configured value, else 0.1 s when
+    ``meta.extra['steer_is_command']``, else 0) and the pose velocity's use
+    (:func:`~roadgrip.estimators.cascade.inputs.drive_inputs`). None of them depends on
+    a sample after the first: the run is causal up to :func:`lookahead`.
 
     Raises
     ------
     DriveValidationError
         Missing or non-finite inputs (:func:`~roadgrip.estimators.cascade.inputs.drive_inputs`).
     """
-    inputs, src, share, pose = drive_inputs(drive, config)
-    bias = config.accel_bias_std
-    if bias is None:
-        bias = 0.3 if has_standstill(inputs) else 0.0
+    inputs, src, share, pose, candidates = drive_inputs(drive, config)
     tau = config.steer_response_time
     if tau is None:
         tau = 0.1 if bool(drive.meta.extra.get("steer_is_command", False)) else 0.0
+    noise, running = given_noise(config, drive, src)
     info = DriveInfo.from_drive(
         drive,
-        noise=resolve_noise(config, drive, inputs.speed, src),
+        noise=noise,
+        noise_running=running,
         speed_source=src,
         front_share=float(share),
         vx0=float(inputs.speed[0]),
-        accel_bias_std=float(bias),
+        accel_bias_std=float(config.accel_bias_std or 0.0),
+        bias_at_standstill=config.accel_bias_std is None,
         steer_response_time=float(tau),
         speed_slip=_speed_slip(src, drive, config),
         **pose,
     )
-    return Prepared(info, CascadeSamples(inputs, drive_pose(drive)))
+    return Prepared(info, CascadeSamples(inputs, drive_pose(drive), candidates))
+
+
+def lookahead(config: CascadeConfig, info: DriveInfo | None = None) -> float:
+    """Look-ahead [s]: a row depends on the samples up to its time plus this.
+
+    Half the pose-differentiation window (``pose_window / 2``, the centred fit) when the
+    cascade derives the body velocity from ``x, y, psi`` itself (``info.derived
+    ['pose_velocity'] == 'derived'``; without ``info``, whenever it may), else 0.
+    """
+    if info is not None and info.derived.get("pose_velocity") != "derived":
+        return 0.0
+    if config.pose_velocity_std > 0 and config.pose_window > 0:
+        return 0.5 * float(config.pose_window)
+    return 0.0
 
 
 def init(info: DriveInfo, config: CascadeConfig, seed: int = 0) -> CascadeState:
@@ -206,11 +235,11 @@ def init(info: DriveInfo, config: CascadeConfig, seed: int = 0) -> CascadeState:
     ``seed`` is not used.
     """
     d = info.derived
-    n = d.get("noise") or {k: getattr(config, k) or NOISE_FLOORS[k] for k in NOISE_FLOORS}
+    n = d.get("noise") or {k: getattr(config, k) or NOISE_PRIOR[k] for k in NOISE_PRIOR}
     vx0 = float(d.get("vx0", 0.0))
     vehicle = info.vehicle
     vmin = max(n["speed_std"], 0.05)
-    b0 = d["accel_bias_std"]
+    b0 = d.get("accel_bias_std", 0.0)
     xe = np.zeros(VelocityState.SIZE)
     xe[VelocityState.VX] = vx0
     pe = np.empty(VelocityState.SIZE)
@@ -225,12 +254,20 @@ def init(info: DriveInfo, config: CascadeConfig, seed: int = 0) -> CascadeState:
     Pm = np.eye(FrictionState.SIZE) * config.mu_prior_std**2
     aux = np.zeros(Aux.SIZE)
     aux[Aux.STEER_LP] = np.nan
+    windows = tuple(d.get("pose_windows", ())) if d.get("pose_velocity") == "derived" else ()
+    plan = NoisePlan(tuple(d.get("noise_running", ())), windows,
+                     bool(d.get("bias_at_standstill", False)), float(config.accel_bias_rate_std**2))
     return CascadeState(float("nan"), xe, Pe, xu, Pu, xm, Pm, aux,
-                        make_params(vehicle, config, dict(d)), make_weights(config))
+                        make_params(vehicle, config, dict(d)), make_weights(config),
+                        noise_plan=plan, noise_memory=memory_init(len(windows)))
 
 
 def _check_sample(sample: CascadeSample) -> None:
     for name, v in zip(CascadeSample._fields, sample, strict=True):
+        if name == "pose_candidates":
+            if np.isinf(v).any():
+                raise ValueError("cascade sample field 'pose_candidates' is infinite (NaN marks a missing value)")
+            continue
         if name in ("vx_pose", "vy_pose", "x", "y", "psi"):
             if np.isinf(v):
                 raise ValueError(f"cascade sample field {name!r} is infinite (NaN marks a missing value)")
@@ -252,47 +289,56 @@ def step(state: CascadeState, sample: CascadeSample) -> tuple[CascadeState, dict
     _check_sample(sample)
     if state.t == state.t and sample.t <= state.t:
         raise ValueError(f"sample time {sample.t} does not follow the state time {state.t}")
-    f = state.filter_copy()
     u = Inputs(*(np.array([getattr(sample, name)]) for name in Inputs._fields))
-    out = run_kernel(f, u, state.t, state.params, state.weights)
+    cand = np.array(sample.pose_candidates, dtype=np.float64).reshape(-1, 2, 1) if sample.pose_candidates else None
+    out, new = run_filter(state, CascadeSamples(u, None, cand))
     memory, floor = sustained_grip_step(state.floor_memory, sample.t, sample.ay)
-    return (CascadeState(float(sample.t), *f, state.params, state.weights, memory),
-            _row(out, sample, state.params, floor))
+    return new._replace(floor_memory=memory), _row(out, sample, new.params, floor)
 
 
 def run_filter(state: CascadeState, samples: CascadeSamples,
                progress: ProgressCallback | None = None) -> tuple[NDArray[np.float64], CascadeState]:
-    """Run the compiled cascade over ``samples`` from ``state``.
+    """Run the compiled cascade over ``samples`` from ``state``, with the running noise
+    estimates of ``state.noise_plan`` (:func:`~roadgrip.estimators.cascade.running_noise.run_adaptive`).
 
     Returns
     -------
     out : ndarray, shape (n, Out.SIZE)
         Kernel rows (:class:`~roadgrip.estimators.cascade.kernel.Out`).
     state : CascadeState
-        The state after the last sample.
+        The state after the last sample (its ``floor_memory`` is not advanced).
     """
     f = state.filter_copy()
     u = samples.inputs
     n = len(samples)
-    if progress is None:
-        out = run_kernel(f, u, state.t, state.params, state.weights)
-    else:
-        parts, t_prev = [], state.t
-        for k0 in range(0, n, _CHUNK):
-            chunk = Inputs(*(a[k0:k0 + _CHUNK] for a in u))
-            parts.append(run_kernel(f, chunk, t_prev, state.params, state.weights))
-            t_prev = float(chunk.t[-1])
+    plan = state.noise_plan or NoisePlan((), (), False, 0.0)
+    memory = state.noise_memory if state.noise_memory is not None else memory_init(len(plan.pose_windows))
+    params, t_prev, parts = state.params, state.t, []
+    step_n = n if progress is None else _CHUNK
+    for k0 in range(0, n, step_n):
+        chunk = Inputs(*(a[k0:k0 + step_n] for a in u))
+        cand = None if samples.candidates is None else samples.candidates[:, :, k0:k0 + step_n]
+        out_k, memory, params = run_adaptive(plan, memory, f, chunk, t_prev, params, state.weights, cand)
+        parts.append(out_k)
+        t_prev = float(chunk.t[-1])
+        if progress is not None:
             progress(len(chunk.t))
-        out = np.concatenate(parts)
+    out = np.concatenate(parts) if parts else np.zeros((0, 0))
     t_last = float(u.t[-1]) if n else state.t
-    return out, CascadeState(t_last, *f, state.params, state.weights)
+    return out, state._replace(t=t_last, velocity_mean=f.xe, velocity_cov=f.Pe, force_mean=f.xu,
+                               force_cov=f.Pu, friction_mean=f.xm, friction_cov=f.Pm, aux=f.aux,
+                               params=params, noise_memory=memory)
 
 
 def run(drive: Drive, config: CascadeConfig | None = None, seed: int = 0,
         progress: ProgressCallback | None = None) -> EstimateResult:
     """The cascade over a whole drive: one row per sample, summary, diagnostics, timing.
 
-    ``meta['derived']`` holds the values :func:`prepare` derived from the drive.
+    ``meta['derived']`` holds the values :func:`prepare` derived from the drive, with
+    ``noise`` the standard deviations in force at the last sample (``noise_initial`` at
+    the first), ``pose_velocity_std`` likewise and ``accel_bias_std`` the biases'
+    initial standard deviation once a standstill has switched them on; ``meta['lookahead']`` is
+    :func:`lookahead` [s].
     """
     config = config if config is not None else CascadeConfig()
     meta: dict[str, Any] = {}
@@ -300,8 +346,18 @@ def run(drive: Drive, config: CascadeConfig | None = None, seed: int = 0,
         prepared = prepare(drive, config)
         state = init(prepared.info, config, seed)
         samples: CascadeSamples = prepared.samples  # type: ignore[assignment]
-        out, _ = run_filter(state, samples, progress)
+        out, end = run_filter(state, samples, progress)
     derived = dict(prepared.info.derived)
+    derived["noise_initial"] = derived["noise"]
+    derived["noise"] = {"accel_std": float(np.sqrt(end.params.var_acc)),
+                        "gyro_std": float(np.sqrt(end.params.var_gyro)),
+                        "speed_std": float(np.sqrt(end.params.var_speed))}
+    if end.noise_memory is not None and end.noise_memory.bias_on:
+        derived["accel_bias_std"] = BIAS_STD
+    if derived.get("pose_velocity") == "derived" and end.noise_memory is not None:
+        window = derived["pose_windows"][end.noise_memory.pose_choice]
+        derived["pose_velocity_corr_time"] = float(window)
+        derived["pose_velocity_std"] = float(np.sqrt(end.params.var_pose / window))
     floor = sustained_grip(samples.inputs.t, samples.inputs.ay)
     table = pd.DataFrame(output_columns(out, samples.inputs.t, samples.pose, state.params.lf, state.params.lr,
                                         floor))
@@ -309,6 +365,7 @@ def run(drive: Drive, config: CascadeConfig | None = None, seed: int = 0,
     meta["diagnostics"] = diagnostics(table, out, derived)
     meta["config"] = config.to_meta()
     meta["derived"] = derived
+    meta["lookahead"] = lookahead(config, prepared.info)
     meta["seed"] = int(seed)
     return EstimateResult("cascade", conform(table), meta)
 
@@ -323,4 +380,5 @@ ESTIMATOR = Estimator(
     step=step,
     run=run,
     prior_band=prior_band,
+    lookahead=lookahead,
 )

@@ -5,12 +5,12 @@ Sensor noise
 Unless given in :class:`~roadgrip.estimators.cascade.config.CascadeConfig`,
 the noise standard deviations of the accelerometers, gyro and speed signal are
 taken from the reader (``meta.extra['sensor_noise']``, measured on the native
-streams before resampling) or else estimated from the drive itself by
-:func:`noise_from_drive` (robust scale of second differences, which removes a
-smooth signal and leaves white noise with variance ``6 s²``). On a signal
-upsampled by linear interpolation the second differences vanish between
-native samples, so the estimate from the drive is then far too small; the
-reader's values take precedence.
+streams before resampling) or else estimated on the run from the samples so far
+(:mod:`~roadgrip.estimators.cascade.running_noise`: robust scale of second
+differences, which removes a smooth signal and leaves white noise with variance
+``6 s²``). On a signal upsampled by linear interpolation the second differences
+vanish between native samples, so the estimate from the drive is then far too
+small; the reader's values take precedence (:func:`given_noise`).
 """
 
 from __future__ import annotations
@@ -28,27 +28,28 @@ from roadgrip.signals import (
     level_accelerations,
     pose_velocity,
     rolling_speed,
-    white_noise_std,
 )
 
 __all__ = [
     "NOISE_FLOORS",
+    "NOISE_PRIOR",
     "POSE_WINDOWS",
     "CascadeSample",
     "CascadeSamples",
-    "derive_pose_velocity",
     "drive_inputs",
     "drive_pose",
-    "has_standstill",
+    "given_noise",
     "measured_speed",
-    "noise_from_drive",
-    "pose_velocity_noise",
-    "resolve_noise",
 ]
 
 NOISE_FLOORS = {"accel_std": 0.02, "gyro_std": 0.002, "speed_std": 0.01}
 """Smallest noise standard deviations used [m/s², rad/s, m/s]: quantised or interpolated
 signals are never trusted absolutely."""
+
+NOISE_PRIOR = {"accel_std": 0.1, "gyro_std": 0.005, "speed_std": 0.05}
+"""Noise standard deviations [m/s², rad/s, m/s] before the run has estimated them
+(:mod:`~roadgrip.estimators.cascade.running_noise`): an automotive-grade IMU and
+wheel-speed signal."""
 
 
 class CascadeSample(NamedTuple):
@@ -57,6 +58,9 @@ class CascadeSample(NamedTuple):
     ``vx_pose, vy_pose`` [m/s] are the optional body velocity derived from a
     localisation pose (NaN: none at this sample). ``x, y`` [m] and ``psi``
     [rad] are the pose carried into the output row for mapping (NaN: none).
+    ``pose_candidates`` holds, when the cascade differentiates the pose itself, the
+    body velocity over each window of ``derived['pose_windows']`` as ``(vx, vy)`` pairs
+    [m/s] (the run picks one, :mod:`~roadgrip.estimators.cascade.running_noise`).
     """
 
     t: float
@@ -70,6 +74,7 @@ class CascadeSample(NamedTuple):
     x: float = float("nan")
     y: float = float("nan")
     psi: float = float("nan")
+    pose_candidates: tuple[float, ...] = ()
 
 
 class CascadeSamples(Sequence[CascadeSample]):
@@ -82,11 +87,16 @@ class CascadeSamples(Sequence[CascadeSample]):
     pose : tuple of ndarray or None
         ``(x, y, psi)`` [m, m, rad] for the output table, ``(x, y)`` when the
         drive has no heading, ``None`` when it has no position.
+    candidates : ndarray, shape (C, 2, n), or None
+        The body velocity ``(vx, vy)`` [m/s] differentiated from the pose over each of
+        ``C`` windows (:func:`drive_inputs`); None when the pose velocity is not derived.
     """
 
-    def __init__(self, inputs: Inputs, pose: tuple[NDArray[np.float64], ...] | None) -> None:
+    def __init__(self, inputs: Inputs, pose: tuple[NDArray[np.float64], ...] | None,
+                 candidates: NDArray[np.float64] | None = None) -> None:
         self.inputs = inputs
         self.pose = pose
+        self.candidates = candidates
 
     def __len__(self) -> int:
         return int(self.inputs.t.shape[0])
@@ -99,40 +109,13 @@ class CascadeSamples(Sequence[CascadeSample]):
     def __getitem__(self, k: int | slice) -> Any:
         if isinstance(k, slice):
             pose = None if self.pose is None else tuple(a[k] for a in self.pose)
-            return CascadeSamples(Inputs(*(a[k] for a in self.inputs)), pose)
+            cand = None if self.candidates is None else np.ascontiguousarray(self.candidates[:, :, k])
+            return CascadeSamples(Inputs(*(a[k] for a in self.inputs)), pose, cand)
         nan = float("nan")
         pose = [float(a[k]) for a in self.pose or ()]
         pose += [nan] * (3 - len(pose))
-        return CascadeSample(*(float(a[k]) for a in self.inputs), *pose)
-
-
-def _robust_noise(x: NDArray[np.float64]) -> float:
-    d2 = np.diff(np.asarray(x, dtype=float), 2)
-    if d2.size < 10:
-        return 0.0
-    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
-
-
-def noise_from_drive(drive: Drive, speed: NDArray[np.float64] | None = None) -> dict[str, float]:
-    """Estimate white-noise standard deviations of the inputs from the drive.
-
-    The robust standard deviation (1.4826 MAD) of the second difference of a
-    signal, divided by ``sqrt(6)``: a smooth signal contributes little to the
-    second difference at the sampling rate, white noise contributes ``6 s²``.
-    The result is at least :data:`NOISE_FLOORS`.
-
-    Returns
-    -------
-    dict
-        ``accel_std`` [m/s²] (the larger of ``ax``, ``ay``), ``gyro_std`` [rad/s],
-        ``speed_std`` [m/s].
-    """
-    out = {
-        "accel_std": max(_robust_noise(drive.col("ax")), _robust_noise(drive.col("ay"))),
-        "gyro_std": _robust_noise(drive.col("yaw_rate")),
-        "speed_std": _robust_noise(speed) if speed is not None else 0.0,
-    }
-    return {k: max(v, NOISE_FLOORS[k]) for k, v in out.items()}
+        cand = () if self.candidates is None else tuple(float(v) for v in self.candidates[:, :, k].ravel())
+        return CascadeSample(*(float(a[k]) for a in self.inputs), *pose, cand)
 
 
 def measured_speed(drive: Drive, source: str = "auto") -> tuple[NDArray[np.float64], str, float]:
@@ -176,95 +159,61 @@ def measured_speed(drive: Drive, source: str = "auto") -> tuple[NDArray[np.float
     )
 
 
-def resolve_noise(cfg: CascadeConfig, drive: Drive, speed: NDArray[np.float64],
-                  speed_source: str = "") -> dict[str, float]:
-    """Noise standard deviations: the config's, else the reader's, else estimated from the drive.
+def given_noise(cfg: CascadeConfig, drive: Drive, speed_source: str = "") -> tuple[dict[str, float], tuple[str, ...]]:
+    """Noise standard deviations before the first sample, and the keys estimated on the run.
 
-    A reader that resamples asynchronous streams may record the noise it measured
-    on the native streams in ``meta.extra['sensor_noise']`` (``accel_std``,
-    ``gyro_std``, and ``speed_std`` of the ``vx`` column), per tick of the
-    drive's clock; it replaces the estimate of :func:`noise_from_drive`.
+    Each of ``accel_std, gyro_std, speed_std`` is the configuration's, else the reader's
+    (``meta.extra['sensor_noise']``, measured on the native streams before resampling, per
+    tick of the drive's clock; ``speed_std`` only for the ``vx`` column), at least
+    :data:`NOISE_FLOORS`; else it starts at :data:`NOISE_PRIOR` and is estimated on the
+    run from the samples so far (:mod:`~roadgrip.estimators.cascade.running_noise`).
+
+    Returns
+    -------
+    noise : dict
+        ``accel_std`` [m/s²], ``gyro_std`` [rad/s], ``speed_std`` [m/s].
+    running : tuple of str
+        The keys estimated on the run.
     """
-    given = {k: getattr(cfg, k) for k in NOISE_FLOORS}
-    if all(v is not None for v in given.values()):
-        return {k: float(v) for k, v in given.items()}
-    est = noise_from_drive(drive, speed)
     native = dict(drive.meta.extra.get("sensor_noise", {}) or {})
     if speed_source != "column vx":
         native.pop("speed_std", None)
+    noise, running = {}, []
     for k in NOISE_FLOORS:
-        if k in native and np.isfinite(native[k]) and native[k] > 0:
-            est[k] = max(float(native[k]), NOISE_FLOORS[k])
-    return {k: float(given[k]) if given[k] is not None else est[k] for k in given}
-
-
-def pose_velocity_noise(drive: Drive, window: float) -> float:
-    """Standard deviation [m/s] of the white-noise part of the body velocity differentiated
-    from the pose over ``window`` [s].
-
-    A local fit over ``N`` samples ``h`` apart to positions with white noise
-    ``s`` (:func:`roadgrip.signals.white_noise_std` of ``x`` and ``y``) has a
-    slope error of ``s sqrt(12 / (N (N² - 1))) / h``; a heading noise ``s_psi``
-    adds ``|v|`` times the error of the fitted heading, ``1.5 s_psi / sqrt(N)``
-    (centre value of a local quadratic fit; the velocity is rotated into the
-    body frame with it).
-    """
-    h = float(np.median(np.diff(drive.t)))
-    n = max(round(window / h) | 1, 5)
-    s_pos = max(white_noise_std(drive.col("x")), white_noise_std(drive.col("y")))
-    s_psi = white_noise_std(np.unwrap(drive.col("psi")))
-    v = float(np.percentile(np.abs(drive.col("vx")), 90)) if drive.has("vx") else 0.0
-    sd = np.hypot(s_pos * np.sqrt(12.0 / (n * (n * n - 1.0))) / h, 1.5 * v * s_psi / np.sqrt(n))
-    return float(sd) if np.isfinite(sd) else float("nan")
+        given = getattr(cfg, k)
+        if given is not None:
+            noise[k] = float(given)
+        elif k in native and np.isfinite(native[k]) and native[k] > 0:
+            noise[k] = max(float(native[k]), NOISE_FLOORS[k])
+        else:
+            noise[k] = NOISE_PRIOR[k]
+            running.append(k)
+    return noise, tuple(running)
 
 
 POSE_WINDOWS = (0.25, 0.5, 1.0)
 """Candidate differentiation windows [s] of the pose velocity (up to ``pose_window``)."""
 
 
-def derive_pose_velocity(drive: Drive, speed: NDArray[np.float64], max_window: float
-                         ) -> tuple[NDArray, NDArray, float, float] | None:
-    """Body velocity from the drive's ``x, y, psi``, the window that fits best, and its error.
-
-    A short window follows fast manoeuvres but passes the position noise; a
-    long one averages the noise but bends the velocity of a car that changes
-    direction within it. Each window of :data:`POSE_WINDOWS` up to
-    ``max_window`` is judged by the error of its ``vx`` against the measured
-    speed ``speed`` [m/s] (robust root mean square, which also contains the
-    speed sensor's own error, so it errs on the side of caution), at least the
-    white-noise level of :func:`pose_velocity_noise`; the window with the
-    smallest error is used and that error is the velocity's standard deviation.
-
-    Returns
-    -------
-    (vx, vy, window, std) or None
-        [m/s, m/s, s, m/s]; None when no window gives a finite error.
-    """
-    best = None
-    for w in [w for w in POSE_WINDOWS if w <= max_window + 1e-12] or [max_window]:
-        try:
-            vx, vy = pose_velocity(drive, window=w)
-        except ValueError:
-            continue
-        e = (vx - speed)[np.isfinite(vx)]
-        if len(e) < 20:
-            continue
-        sd = max(float(np.sqrt(np.median(e * e) / 0.4549)), pose_velocity_noise(drive, w), 0.01)
-        if np.isfinite(sd) and (best is None or sd < best[3]):
-            best = (vx, vy, w, sd)
-    return best
-
-
-def drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[Inputs, str, float, dict[str, Any]]:
-    """The filter inputs of a drive, the speed source's description, its front-wheel share, pose use.
+def drive_inputs(drive: Drive, config: CascadeConfig
+                 ) -> tuple[Inputs, str, float, dict[str, Any], NDArray[np.float64] | None]:
+    """The filter inputs of a drive, the speed source's description, its front-wheel share, pose use,
+    and the candidate pose velocities.
 
     The accelerations are levelled (:func:`roadgrip.signals.level_accelerations`,
     the vehicle's roll and pitch gradients). The body velocity from the pose is
     the drive's ``vx_pose, vy_pose`` columns; without them, on a drive with
-    ``x, y, psi``, it is differentiated here (:func:`derive_pose_velocity`,
-    windows up to ``pose_window`` seconds). The fourth value says which (``pose_velocity``:
-    ``'columns'``, ``'derived'`` or ``'none'``), with ``pose_velocity_std`` [m/s]
-    and ``pose_velocity_corr_time`` [s].
+    ``x, y, psi``, it is differentiated here by local quadratic fits centred on each
+    sample (:func:`roadgrip.signals.pose_velocity`) over each window of
+    :data:`POSE_WINDOWS` up to ``pose_window`` seconds: the fifth value, shape
+    ``(C, 2, n)``, ``(vx, vy)`` of each window (None otherwise). Each value depends on
+    the pose up to half its window later, the cascade's look-ahead; the run picks the
+    window whose velocity has fitted the measured speed best over the samples so far
+    (:mod:`~roadgrip.estimators.cascade.running_noise`), the longest one until it knows.
+    The fourth value says which (``pose_velocity``: ``'columns'``, ``'derived'`` or
+    ``'none'``), with ``pose_velocity_std`` [m/s] (the configured value; for a derived
+    velocity only until the run has estimated it), ``pose_velocity_corr_time`` [s] and,
+    for a derived one, ``pose_windows`` [s].
 
     Raises
     ------
@@ -283,14 +232,23 @@ def drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[Inputs, str, floa
     pose: dict[str, Any] = {"pose_velocity": "none", "pose_velocity_std": float(config.pose_velocity_std),
                             "pose_velocity_corr_time": float(config.pose_velocity_corr_time)}
     vxp = vyp = np.full(n, np.nan)
+    candidates = None
     if config.pose_velocity_std > 0 and drive.has("vx_pose", "vy_pose"):
         vxp, vyp = drive.col("vx_pose"), drive.col("vy_pose")
         pose["pose_velocity"] = "columns"
-    elif config.pose_velocity_std > 0 and config.pose_window > 0 and drive.has("x", "y", "psi") and n >= 50:
-        got = derive_pose_velocity(drive, cols["speed"], config.pose_window)
-        if got is not None:
-            vxp, vyp, w, sd = got
-            pose.update(pose_velocity="derived", pose_velocity_std=sd, pose_velocity_corr_time=w)
+    elif config.pose_velocity_std > 0 and config.pose_window > 0 and drive.has("x", "y", "psi"):
+        windows = [w for w in POSE_WINDOWS if w <= config.pose_window + 1e-12] or [float(config.pose_window)]
+        try:
+            cand = [pose_velocity(drive, window=w) for w in windows]
+        except ValueError:
+            cand = []
+        if cand:
+            candidates = np.ascontiguousarray(np.array(cand, dtype=np.float64))
+            if np.isinf(candidates).any():
+                raise DriveValidationError("cascade input 'vx_pose' holds inf (NaN marks a missing pose)")
+            vxp, vyp = candidates[-1]
+            pose.update(pose_velocity="derived", pose_velocity_corr_time=float(windows[-1]),
+                        pose_windows=[float(w) for w in windows])
     for c, v in (("vx_pose", vxp), ("vy_pose", vyp)):
         v = np.asarray(v, dtype=float)
         if np.isinf(v).any():
@@ -299,7 +257,7 @@ def drive_inputs(drive: Drive, config: CascadeConfig) -> tuple[Inputs, str, floa
     # fresh writable C-contiguous copies: one array type for the compiled kernel (drive
     # columns may be read-only views, which numba would compile a second time for)
     arrays = {k: np.array(v, dtype=np.float64, order="C", copy=True) for k, v in cols.items()}
-    return Inputs(**arrays), src, share, pose
+    return Inputs(**arrays), src, share, pose, candidates
 
 
 def drive_pose(drive: Drive) -> tuple[NDArray[np.float64], ...] | None:
@@ -309,14 +267,3 @@ def drive_pose(drive: Drive) -> tuple[NDArray[np.float64], ...] | None:
     if drive.has("psi"):
         return drive.col("x"), drive.col("y"), drive.col("psi")
     return drive.col("x"), drive.col("y")
-
-
-def has_standstill(inputs: Inputs, min_duration: float = 1.0) -> bool:
-    """True when the speed stays below 0.05 m/s for ``min_duration`` [s] somewhere."""
-    still = (np.abs(inputs.speed) < 0.05) & (np.abs(inputs.yaw_rate) < 0.05)
-    if not still.any():
-        return False
-    t = inputs.t
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], still.astype(np.int8), [0]])))
-    starts, ends = edges[::2], edges[1::2] - 1
-    return bool(np.any(t[ends] - t[starts] >= min_duration))

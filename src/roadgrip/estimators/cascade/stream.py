@@ -2,11 +2,15 @@
 
 :func:`run_chunks` takes consecutive pieces of one drive (e.g. row groups of a Parquet
 file, :func:`roadgrip.cli.stream.drive_chunks`) and yields the estimates table of each,
-carrying the filter state (:func:`~roadgrip.estimators.cascade.estimator.run_filter`) and
-the sustained-grip floor from one chunk to the next. The values :func:`prepare` derives
-from a whole drive (noise levels, first speed, whether the drive stands still) come from
-the first chunk; with them given in the configuration the chunks give the rows of
-:func:`~roadgrip.estimators.cascade.estimator.run` over the whole drive.
+carrying the filter state (:func:`~roadgrip.estimators.cascade.estimator.run_filter`,
+with the running noise estimates) and the sustained-grip floor from one chunk to the
+next. What :func:`prepare` knows before the first sample comes from the first chunk
+(the columns, the reader's metadata, the first speed); the noise levels and the
+standstill that switches the biases on are estimated as the samples arrive
+(:mod:`~roadgrip.estimators.cascade.running_noise`), so the chunks give the rows of
+:func:`~roadgrip.estimators.cascade.estimator.run` over the whole drive. A pose velocity
+the cascade differentiates itself is fitted per chunk and differs within half a window
+of a seam.
 """
 
 from __future__ import annotations
@@ -75,8 +79,8 @@ def run_chunks(chunks: Iterable[Drive], config: CascadeConfig | None = None,
             state = init(info, config, seed)
             samples: CascadeSamples = prepared.samples  # type: ignore[assignment]
         else:
-            inputs, _, _, _ = drive_inputs(chunk, config)
-            samples = CascadeSamples(inputs, drive_pose(chunk))
+            inputs, _, _, _, candidates = drive_inputs(chunk, config)
+            samples = CascadeSamples(inputs, drive_pose(chunk), candidates)
         out, new_state = run_filter(state, samples)
         t, ay = samples.inputs.t, samples.inputs.ay
         # the floor continues: the trailing window reaches into the previous chunk's tail

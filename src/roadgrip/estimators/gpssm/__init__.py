@@ -122,6 +122,7 @@ from roadgrip.estimators.gpssm.inputs import (
     drive_inputs,
     drive_vx,
     drive_vy,
+    input_lookahead,
     upsample_inputs,
 )
 from roadgrip.estimators.gpssm.posterior import CurvePosterior, curves_frame, posterior_curves
@@ -180,5 +181,6 @@ ESTIMATOR = Estimator(
     step=step,
     run=run,
     prior_band=prior_band,
+    lookahead=input_lookahead,
 )
 """The GP-SSM estimator record (:mod:`roadgrip.estimators.protocol`)."""

@@ -17,7 +17,12 @@ from numpy.typing import NDArray
 from roadgrip.inference.kinematic import kinematic_lateral_acceleration
 from roadgrip.signals import WHEELS, pose_velocity, rolling_speed, speed_wheels
 
-__all__ = ["Sample", "drive_inputs", "drive_vx", "drive_vy", "substeps", "upsample_inputs"]
+__all__ = ["POSE_DIFFERENCE_LOOKAHEAD", "Sample", "drive_inputs", "drive_vx", "drive_vy", "input_lookahead",
+           "substeps", "upsample_inputs"]
+
+POSE_DIFFERENCE_LOOKAHEAD = 1.5
+"""Look-ahead of a velocity differentiated from the pose by central differences, in
+nominal sample intervals: the next sample, on a clock jittered by up to half a tick."""
 
 
 class Sample(NamedTuple):
@@ -92,6 +97,37 @@ def drive_vy(drive: Any, source: str = "pose") -> NDArray[np.float64]:
     if drive.has("vy_pose"):
         return np.asarray(drive.col("vy_pose"), float)
     return pose_velocity(drive)[1]
+
+
+def input_lookahead(config: Any, info: Any = None) -> float:
+    """Look-ahead [s] of the filter's inputs: each input row depends on the samples up to
+    its time plus this.
+
+    A velocity differentiated from the pose here (``vx_source='pose'``, or ``'auto'`` on
+    a drive with neither the speed wheels' ``omega_*`` nor a ``vx`` column; ``vy_source=
+    'pose'`` on a drive without a ``vy_pose`` column; the kinematic lateral acceleration
+    from it) takes central differences, which reach the next sample:
+    :data:`POSE_DIFFERENCE_LOOKAHEAD` nominal intervals, ``1.5 / info.sample_rate``. Else 0.
+
+    Parameters
+    ----------
+    config : GPSSMConfig
+    info : DriveInfo, optional
+        The drive's columns and nominal rate; without it a pose-differentiating
+        configuration returns ``inf`` (the rate is unknown).
+    """
+    if info is None:
+        uses = config.vx_source == "pose" or config.vy_source == "pose"
+        return math.inf if uses else 0.0
+    cols = info.columns
+    wheels = {f"omega_{w}" for w, u in zip(WHEELS, speed_wheels(info.vehicle.drive), strict=True) if u}
+    vx_pose = config.vx_source == "pose" or (
+        config.vx_source == "auto" and not wheels <= cols and "vx" not in cols)
+    vy_pose = config.vy_source == "pose" and "vy_pose" not in cols
+    if not (vx_pose or vy_pose) or not {"x", "y", "psi"} <= cols:
+        return 0.0
+    rate = float(info.sample_rate)
+    return POSE_DIFFERENCE_LOOKAHEAD / rate if rate > 0 else math.inf
 
 
 def drive_inputs(
