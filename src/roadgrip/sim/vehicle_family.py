@@ -50,6 +50,7 @@ __all__ = [
     "FAMILY_BASES",
     "FAMILY_RANGES",
     "SENSOR_MODES",
+    "axle_peak_slip",
     "mb_vehicle",
     "parse_vehicle_spec",
     "sample_vehicle",
@@ -214,3 +215,24 @@ def mb_vehicle(spec: str, *, sensors: str | None = None, seed: int = 0) -> MBVeh
         errors = sample_sensor_errors(np.random.default_rng([int(seed), 29, 3]))
         vehicle = dataclasses.replace(vehicle, sensors=errors)
     return vehicle
+
+
+def axle_peak_slip(vehicle: MBVehicle, mu: float) -> tuple[float, float]:
+    """Slip angle of the peak lateral force of a front and of a rear tire [rad].
+
+    Pure lateral slip at zero camber and each axle's static wheel load, on a surface of
+    peak friction ``mu``: the slip past which a tire of the axle is beyond its peak.
+    """
+    from roadgrip.sim.mb_model import compiled_rhs
+
+    lateral = compiled_rhs().formula_lateral
+    tire = vehicle.parameter_tuple(mu).tire
+    vp = vehicle.params
+    wb = vp.lf + vp.lr
+    alphas = np.linspace(0.0, 0.5, 5001)
+    out = []
+    for share in (vp.lr / wb, vp.lf / wb):
+        fz = 0.5 * vp.mass * GRAVITY * share
+        fy = np.array([lateral(a, 0.0, fz, tire)[0] for a in alphas])
+        out.append(float(alphas[np.argmax(np.abs(fy))]))
+    return out[0], out[1]
