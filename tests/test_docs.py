@@ -1,6 +1,6 @@
 """The user documentation points at things that exist.
 
-Every relative link of README.md and docs/*.md names an existing file (and, with a
+Every relative link (and image) of README.md and docs/*.md names an existing file (and, with a
 ``#anchor``, a heading of it); every ``docs/....md`` named in code resolves; and every
 ``roadgrip ...`` command the pages show is a command of the command line, with options
 that command takes.
@@ -29,7 +29,7 @@ PENDING_COMMANDS = {("vehicle", "fit")}
 """Commands another change is adding; their options are checked once they exist."""
 
 _FENCE = re.compile(r"^```([^\n`]*)\n(.*?)^```", re.S | re.M)
-_LINK = re.compile(r"(?<!!)\[[^\]]*\]\(([^)\s]+)\)")
+_LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
 _SPAN = re.compile(r"`([^`\n]+)`")
 _DOC_PATH = re.compile(r"(?<![\w/.-])(docs/[\w.-]+\.md)\b")
 _SHELL_FENCES = {"sh", "bash", "shell", "console"}
