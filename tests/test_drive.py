@@ -243,7 +243,7 @@ def _posed(n: int = 300) -> pd.DataFrame:
     return df
 
 
-def test_likely_unit_mistakes_warned_with_evidence():
+def test_unit_mistakes_against_the_pose_refused_with_evidence():
     import warnings as w
 
     from roadgrip.drive import DriveWarning
@@ -253,9 +253,9 @@ def test_likely_unit_mistakes_warned_with_evidence():
         Drive.from_frame(_posed(), PRESETS["sedan"])  # consistent: no warning
     df = _posed()
     df["psi"] = np.rad2deg(df["psi"])
-    with pytest.warns(DriveWarning, match=r"'psi' changes about 57\.\d x yaw_rate .* degrees"):
+    with pytest.raises(DriveValidationError, match=r"psi looks like degrees .* is 5[67]\.\d* over"):
         Drive.from_frame(df, PRESETS["sedan"])
     df = _posed()
     df["vx"] = df["vx"] * 3.6
-    with pytest.warns(DriveWarning, match=r"'vx' is about 3\.6\d x the pose's speed .* km/h"):
+    with pytest.raises(DriveValidationError, match=r"vx looks like km/h .* is 3\.6\d* over"):
         Drive.from_frame(df, PRESETS["sedan"])

@@ -86,12 +86,12 @@ def test_vehicle_argument_overrides(tmp_path):
 
 
 def test_sign_is_applied(tmp_path):
-    # the sign matters: without it ay and vx*yaw_rate disagree in sign
-    csv, si, _ = _log(tmp_path)
+    # the sign matters: without it ay and vx*yaw_rate disagree in sign, which validation names
+    csv, _, _ = _log(tmp_path)
     m = yaml.safe_load(yaml.safe_dump(MAPPING))
     m["columns"]["ay"]["sign"] = 1
-    d = read_mapped(csv, m)
-    assert np.allclose(d.col("ay"), -si["ay"])
+    with pytest.raises(ValueError, match="ay looks like it has a flipped sign"):
+        read_mapped(csv, m)
 
 
 def test_unit_mistake_caught_by_validation(tmp_path):

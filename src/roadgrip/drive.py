@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from roadgrip.drive_units import unit_warnings
+from roadgrip.drive_units import unit_findings
 from roadgrip.tire import FrictionModel, model_from_dict
 from roadgrip.vehicle.params import VehicleParams
 
@@ -195,6 +195,7 @@ def validate_frame(
     required: tuple[str, ...] = ("t",),
     *,
     check_units: bool = True,
+    vehicle: VehicleParams | None = None,
 ) -> None:
     """Check a frame of canonical signals; raise :class:`DriveValidationError`.
 
@@ -204,9 +205,11 @@ def validate_frame(
     value, row and range named); a time base whose step is implausible for
     vehicle data (milliseconds, microseconds or nanoseconds, with the evidence);
     time not strictly increasing (duplicates and reversals reported separately;
-    :meth:`Drive.from_frame` merges duplicates first); with ``check_units``, units that are
-    wrong (accelerations in g, rates in deg/s, steering in degrees) and a
-    :class:`DriveWarning` for likely ones (:func:`roadgrip.drive_units.unit_warnings`).
+    :meth:`Drive.from_frame` merges duplicates first); with ``check_units``, magnitudes no
+    vehicle reaches and units or signs that the kinematics show conclusively wrong
+    (:func:`roadgrip.drive_units.unit_findings`: accelerations in g, rates in deg/s,
+    angles in degrees, speeds in km/h, wheel speeds in rpm, flipped signs), with a
+    :class:`DriveWarning` where the channels disagree and no single mistake explains it.
 
     Parameters
     ----------
@@ -216,6 +219,9 @@ def validate_frame(
         Columns that must be present.
     check_units : bool
         Run the unit plausibility checks.
+    vehicle : VehicleParams, optional
+        Wheelbase, wheel radius and driven wheels for the steering and wheel-speed
+        checks (left out without it).
     """
     if len(df) == 0:
         raise DriveValidationError("drive is empty: no samples")
@@ -260,9 +266,7 @@ def validate_frame(
             raise DriveValidationError(f"time column 't' is not increasing: it goes backwards at "
                                        f"{_first_bad(t[1:], d < 0)}")
     if check_units:
-        _check_units(df)
-        for msg in unit_warnings(df):  # likely, not certain: warned with the evidence
-            warnings.warn(msg, DriveWarning, stacklevel=3)
+        _check_units(df, vehicle)
 
 
 def _check_ranges(df: pd.DataFrame, t: np.ndarray | None) -> None:
@@ -324,22 +328,6 @@ def _check_time_step(t: np.ndarray) -> None:
         )
 
 
-def _pose_speed(df: pd.DataFrame) -> np.ndarray | None:
-    """Speed over ground [m/s] from the pose ``x, y`` (central differences), or None.
-
-    None where the frame has no pose, its time is not increasing or the pose
-    does not move (a pose that never changes carries no speed).
-    """
-    if not {"x", "y", "t"} <= set(df.columns) or len(df) < 3:
-        return None
-    t = df["t"].to_numpy(float)
-    if not np.all(np.diff(t) > 0):
-        return None
-    x, y = df["x"].to_numpy(float), df["y"].to_numpy(float)
-    v = np.hypot(np.gradient(x, t), np.gradient(y, t))
-    return v if np.max(v) > 0.5 else None
-
-
 def _check_magnitudes(df: pd.DataFrame) -> None:
     """Accelerations in g, rates in deg/s, steering in degrees, from their magnitude."""
     cols = df.columns
@@ -361,52 +349,19 @@ def _check_magnitudes(df: pd.DataFrame) -> None:
         )
 
 
-def _check_units(df: pd.DataFrame) -> None:
-    cols = df.columns
-    # Consistency of ay with vx * yaw_rate in steady cornering: catches ay in g and
-    # yaw rate in deg/s even when their magnitudes alone look plausible.
-    # The speed comes from the pose where the frame has one: wheel or driveshaft
-    # speeds include wheel spin (a drifting car's encoder can read several times
-    # the true speed), which would make a valid ay look like g.
-    speed = _pose_speed(df)
-    if speed is None and "vx" in cols:
-        speed = df["vx"].to_numpy(float)
-    if speed is not None and {"ay", "yaw_rate"} <= set(cols) and len(df) >= 20:
-        ay = df["ay"].to_numpy(float)
-        kin = speed * df["yaw_rate"].to_numpy(float)
-        sel = np.abs(kin) > 1.0
-        if sel.sum() >= 20:
-            ratio = float(np.dot(ay[sel], kin[sel]) / np.dot(kin[sel], kin[sel]))
-            if 0.05 < ratio < 0.2:
-                raise DriveValidationError(
-                    f"column 'ay' is about {ratio:.3f} x vx*yaw_rate in turns: ay looks like it "
-                    "is in g, expected m/s²"
-                )
-            if 0.005 < ratio < 0.035:
-                raise DriveValidationError(
-                    f"'ay' is about {ratio:.4f} x vx*yaw_rate in turns: yaw_rate looks like "
-                    "deg/s, expected rad/s"
-                )
-    # Consistency of ax with the derivative of vx while accelerating or braking:
-    # catches ax in g. Only where the two correlate clearly (noisy or spinning-wheel
-    # speeds give no verdict).
-    if speed is not None and {"ax", "t"} <= set(cols) and len(df) >= 200:
-        t = df["t"].to_numpy(float)
-        if np.all(np.diff(t) > 0):
-            # central difference over about 0.5 s, robust to speed-sensor noise
-            w = max(1, int(0.25 / float(np.median(np.diff(t)))))
-            vx = speed
-            ax = df["ax"].to_numpy(float)[w:-w]
-            a_kin = (vx[2 * w:] - vx[:-2 * w]) / (t[2 * w:] - t[:-2 * w])
-            sel = np.abs(a_kin) > 0.5
-            if sel.sum() >= 20 and np.std(ax[sel]) > 0 and np.std(a_kin[sel]) > 0:
-                corr = float(np.corrcoef(ax[sel], a_kin[sel])[0, 1])
-                ratio = float(np.dot(ax[sel], a_kin[sel]) / np.dot(a_kin[sel], a_kin[sel]))
-                if corr > 0.5 and 0.05 < ratio < 0.2:
-                    raise DriveValidationError(
-                        f"column 'ax' is about {ratio:.3f} x d(vx)/dt while accelerating: ax "
-                        "looks like it is in g, expected m/s²"
-                    )
+def _check_units(df: pd.DataFrame, vehicle: VehicleParams | None) -> None:
+    """Refuse what the kinematics show conclusively in a wrong unit or sign; warn where
+    they disagree unexplained (:func:`roadgrip.drive_units.unit_findings`)."""
+    kw = {}
+    if vehicle is not None:
+        from roadgrip.vehicle.params import driven_wheels
+
+        kw = {"wheelbase": vehicle.wheelbase, "wheel_radius": vehicle.wheel_radius,
+              "driven": tuple(bool(b) for b in driven_wheels(vehicle.drive))}
+    for finding in unit_findings(df, **kw):
+        if finding.status == "wrong":
+            raise DriveValidationError(finding.message)
+        warnings.warn(finding.message, DriveWarning, stacklevel=4)
 
 
 def _merged(df: pd.DataFrame, source: str) -> pd.DataFrame:
@@ -461,7 +416,7 @@ class Drive:
         columns keep the last value) with a :class:`DriveWarning`.
         """
         df = _merged(df, source)
-        validate_frame(df, required, check_units=check_units)
+        validate_frame(df, required, check_units=check_units, vehicle=vehicle)
         df = df.reset_index(drop=True)
         t = df["t"].to_numpy(float)
         rate = float(1.0 / np.median(np.diff(t))) if len(t) > 1 else float("nan")
