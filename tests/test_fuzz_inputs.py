@@ -494,3 +494,58 @@ def test_brls_after_a_long_pause():
     drive = Drive.from_frame(df, PRESETS["suv"], source="pause", check_units=False)
     res = run_estimator("brls", drive)
     assert np.isfinite(res.table["grip_index"].to_numpy(float)).all()
+
+
+# -- estimates tables and files given to a map -------------------------------------------------
+
+@st.composite
+def estimates_files(draw):
+    """``(raw bytes of an estimates Parquet file, names)``: cells replaced by text, numbers of
+    any size or missing values in the columns a map reads, the file cut anywhere."""
+    from roadgrip.estimators.base import EstimateResult
+
+    n = 30
+    tab = pd.DataFrame({"t": np.arange(n) * 0.1, "x": np.arange(n) * 1.0, "y": np.zeros(n),
+                        "mu_front_obs": np.full(n, 0.8), "mu_front_obs_std": np.full(n, 0.1),
+                        "excited_front": np.ones(n, bool), "mu_rear": np.full(n, 0.7),
+                        "mu_rear_lower": np.full(n, 0.5), "mu_rear_upper": np.full(n, 0.9),
+                        "excited": np.ones(n, bool)})
+    names: set[str] = set()
+    for _ in range(draw(st.integers(0, 3))):
+        c = draw(st.sampled_from(list(tab.columns)))
+        names.add(c)
+        tab = tab.astype({c: object})
+        tab.loc[draw(st.integers(0, n - 1)), c] = draw(
+            st.sampled_from(["n/a", "", "NaN", "-", "1,5", None, "inf", "0x10"]) | st.floats()
+            | st.text(max_size=4))
+        if tab[c].map(type).nunique() > 1:  # Parquet holds one type a column: text for mixed
+            tab[c] = tab[c].map(lambda v: v if v is None else str(v))
+    with tempfile.TemporaryDirectory() as tmp:
+        p = Path(tmp) / "estimates.parquet"
+        EstimateResult("cascade", tab, {}).to_parquet(p)
+        raw = p.read_bytes()
+    if draw(st.integers(0, 4)) == 0:
+        raw = raw[: draw(st.integers(0, len(raw)))]
+    return raw, names
+
+
+@_budget(30, 0.05)
+@given(estimates_files(), st.sampled_from([None, 0.5]))
+def test_map_of_estimates_accepts_or_names_the_problem(case, cell):
+    from roadgrip.estimators.base import EstimateResult
+    from roadgrip.mapping.estimates import observations_from_estimates
+
+    raw, names = case
+    with tempfile.TemporaryDirectory() as tmp:
+        p = Path(tmp) / "estimates.parquet"
+        p.write_bytes(raw)
+        try:
+            obs = observations_from_estimates(EstimateResult.read_parquet(p).table, cell)
+        except ValueError as exc:
+            msg = str(exc)
+            assert "\n" not in msg.strip() and ("estimates.parquet" in msg
+                                                 or any(f"'{n}'" in msg for n in names)), msg
+            event("refused")
+            return
+    event("accepted")
+    assert np.all(np.isfinite(obs.mu)) and np.all(obs.var > 0)

@@ -99,13 +99,23 @@ class EstimateResult:
 
     @classmethod
     def read_parquet(cls, path: str | Path) -> EstimateResult:
+        import pyarrow as pa
         import pyarrow.parquet as pq
 
-        tab = pq.read_table(str(path))
+        try:
+            tab = pq.read_table(str(path))
+        except (OSError, pa.ArrowException) as exc:  # truncated or not Parquet
+            raise ValueError(f"{path} cannot be read as an estimates file: "
+                             f"{' '.join(str(exc).split())[:200]}") from None
         raw = (tab.schema.metadata or {}).get(b"roadgrip_estimate")
         if raw is None:
             raise ValueError(f"{path} is not a roadgrip estimates file (no roadgrip metadata)")
-        meta = json.loads(raw)
+        try:
+            meta = json.loads(raw)
+        except ValueError:
+            meta = None
+        if not isinstance(meta, dict) or not isinstance(meta.get("method"), str):
+            raise ValueError(f"{path}: its roadgrip metadata is damaged (no method)")
         method = meta.pop("method")
         return cls(method, tab.to_pandas(), meta)
 

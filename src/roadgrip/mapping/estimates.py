@@ -70,6 +70,25 @@ def _above_grip_used(obs: Observations, table: pd.DataFrame, cell: float) -> NDA
     return ~(np.isfinite(lb) & (obs.mu < lb))
 
 
+def _numeric_columns(table: pd.DataFrame) -> pd.DataFrame:
+    """The table with the columns a map reads checked: numbers (or booleans for the
+    ``excited`` flags); text such as 'n/a' is refused naming the column, row and value."""
+    read = [c for c in table.columns if isinstance(c, str) and (
+        c in ("t", "x", "y", "excited") or c.startswith(("mu_", "x_", "y_", "Fz", "Fy", "Fx_", "excited_")))]
+    for c in read:
+        col = table[c]
+        if col.dtype.kind in "fiub":
+            continue
+        num = pd.to_numeric(col, errors="coerce")
+        bad = (num.isna() & col.notna()).to_numpy()
+        if bad.any() or col.dtype.kind not in "fiubO":
+            i = int(np.flatnonzero(bad)[0]) if bad.any() else 0
+            raise ValueError(f"estimates column {c!r} holds {str(col.iloc[i])[:20]!r} at row {i}: "
+                             "expected numbers")
+        table = table.assign(**{c: num.astype(float)})
+    return table
+
+
 def observations_from_estimates(table: pd.DataFrame, cell: float | None = None) -> Observations:
     """Excited friction observations of an estimates table, at the axle positions.
 
@@ -85,10 +104,12 @@ def observations_from_estimates(table: pd.DataFrame, cell: float | None = None) 
     Raises
     ------
     ValueError
-        When the table has no position columns ``x, y``.
+        When the table has no position columns ``x, y``, or a column it reads holds text
+        (named with its row and value).
     """
     if not {"x", "y"} <= set(table.columns):
         raise ValueError("estimates have no position (columns x, y): the drive had no pose to map with")
+    table = _numeric_columns(table)
     parts = []
     t_all = table["t"].to_numpy(float) if "t" in table.columns else np.zeros(len(table))
     for axle in ("front", "rear"):
@@ -108,7 +129,8 @@ def observations_from_estimates(table: pd.DataFrame, cell: float | None = None) 
         xc, yc = (f"x_{axle}", f"y_{axle}") if f"x_{axle}" in table.columns else ("x", "y")
         x, y = table[xc].to_numpy(float), table[yc].to_numpy(float)
         b = np.where(np.isfinite(b), np.abs(b), 0.0)
-        ok = exc & np.isfinite(mu) & np.isfinite(sd) & (sd > 0) & np.isfinite(x) & np.isfinite(y)
+        with np.errstate(over="ignore"):  # a standard deviation past 1e154 has no variance
+            ok = exc & np.isfinite(mu) & np.isfinite(sd * sd) & (sd > 0) & np.isfinite(x) & np.isfinite(y)
         parts.append((x[ok], y[ok], mu[ok], sd[ok] ** 2, t_all[ok], b[ok]))
     if not parts:
         raise ValueError("estimates have no friction columns (mu_front / mu_rear)")
