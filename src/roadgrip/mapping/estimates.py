@@ -85,7 +85,10 @@ def _numeric_columns(table: pd.DataFrame) -> pd.DataFrame:
             i = int(np.flatnonzero(bad)[0]) if bad.any() else 0
             raise ValueError(f"estimates column {c!r} holds {str(col.iloc[i])[:20]!r} at row {i}: "
                              "expected numbers")
-        table = table.assign(**{c: num.astype(float)})
+        num = num.astype(float)
+        if c.startswith("excited"):  # a missing flag is not excited
+            num = num.fillna(0.0).astype(bool)
+        table = table.assign(**{c: num})
     return table
 
 
