@@ -59,3 +59,34 @@ def test_unmodelled_channels_are_exact_and_specs_serialise():
 def test_negative_values_are_rejected_by_name(field):
     with pytest.raises(ValueError, match=field):
         SensorSpec(**{field: -1.0})
+
+
+def test_drift_scale_and_dropouts_as_documented():
+    rng = np.random.default_rng(5)
+    t_out = np.arange(0.0, 10.0, 0.01)
+    x = np.sin(T_TRUE)
+    spec = SensorSpec(drift=0.02, scale=1.1, bias=0.3)
+    y = apply_sensor(T_TRUE, x, t_out, spec, rng, dropouts=[(-1.0, 0.5), (2.0, 2.255)])
+    want = 1.1 * np.sin(t_out) + 0.3 + 0.02 * t_out
+    held = (t_out >= 2.0) & (t_out < 2.255)
+    start = t_out < 0.5
+    start[0] = False  # the first sample is always received
+    np.testing.assert_allclose(y[~held & ~start], want[~held & ~start], atol=1e-12)
+    np.testing.assert_allclose(y[held], want[np.searchsorted(t_out, 2.0) - 1], atol=1e-12)
+    np.testing.assert_allclose(y[start], want[0], atol=1e-12)
+
+
+def test_dropout_intervals_follow_their_rate_and_length():
+    from roadgrip.sim.sensors import dropout_intervals
+
+    iv = dropout_intervals(SensorSpec(dropout_rate=0.5, dropout_duration=0.2), 2000.0, np.random.default_rng(6))
+    assert len(iv) == pytest.approx(1000, abs=4 * np.sqrt(1000))
+    assert all(t1 - t0 == pytest.approx(0.2) for t0, t1 in iv) and all(0 <= t0 <= 2000.0 for t0, _ in iv)
+    assert dropout_intervals(SensorSpec(), 100.0, np.random.default_rng(6)) == []
+
+
+@pytest.mark.parametrize("kwargs", [{"scale": 0.0}, {"scale": np.nan}, {"drift": np.inf},
+                                    {"dropout_rate": -0.1}, {"dropout_duration": -1.0}])
+def test_bad_error_specs_are_refused_by_name(kwargs):
+    with pytest.raises(ValueError, match=next(iter(kwargs))):
+        SensorSpec(**kwargs)

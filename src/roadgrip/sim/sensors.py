@@ -9,7 +9,7 @@ internal rate (linearly interpolated at ``t_k - delay``, held at its first value
 before ``t = 0``) and ``Q(y) = q round(y / q)`` a uniform quantiser of step ``q``
 (none when ``q = 0``). During a dropout (a message that did not arrive) the
 channel holds its last value received before it, as a logger that resamples a
-bus does (the first value received, for a dropout at the start).
+bus does; the first sample is always received (a log starts at its first message).
 
 Realistic sensors (:func:`sample_sensor_errors`) draw, per channel, a latency,
 a bias and a slow linear drift, a scale error, a quantisation step and a rate
@@ -128,12 +128,8 @@ def apply_sensor(
         lost = np.zeros(t_out.shape, bool)
         for t0, t1 in dropouts:
             lost |= (t_out >= t0) & (t_out < t1)
-        if lost.all():
-            raise ValueError("a dropout covers the whole drive: the channel received nothing")
-        idx = np.arange(len(y))
-        last = np.maximum.accumulate(np.where(lost, -1, idx))
-        last = np.where(last < 0, int(np.argmin(lost)), last)
-        y = y[last]
+        lost[:1] = False  # a log starts at its first message
+        y = y[np.maximum.accumulate(np.where(lost, 0, np.arange(len(y))))]
     return y
 
 
