@@ -255,6 +255,20 @@ def test_realistic_drive_delays_match_the_recorded_latencies_and_meta_survives_p
     assert e.vehicle == d.vehicle
 
 
+def test_a_family_drive_is_reproducible_from_its_seeds():
+    def run(vehicle, seed):
+        return simulate_scenario("straight-cruise", seed=seed, engine="multibody", vehicle=vehicle, duration=5.0,
+                                 cache=False)
+
+    a, b = run("random:21", 1), run("random:21", 1)
+    assert a.data.equals(b.data) and a.meta.truth == b.meta.truth
+    other_drive, other_vehicle = run("random:21", 2), run("random:22", 1)
+    assert not np.array_equal(a.col("ax"), other_drive.col("ax"))
+    # the errors come with the vehicle, not with the drive's seed
+    assert a.meta.truth["sensor_errors"]["channels"] == other_drive.meta.truth["sensor_errors"]["channels"]
+    assert a.vehicle != other_vehicle.vehicle
+
+
 # -- excitation --------------------------------------------------------------------------
 def _excitation(vehicle: str):
     v = mb_vehicle(vehicle, sensors="ideal")
