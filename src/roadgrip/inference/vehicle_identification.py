@@ -406,6 +406,11 @@ def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc
         else:
             out[name] = _fitted(name, p[k], pstd[k], "N/rad",
                                 f"with yaw_inertia {base.yaw_inertia:g} kg m²")
+    front, rear = out["cornering_stiffness_front"], out["cornering_stiffness_rear"]
+    if front.fitted != rear.fitted:  # one axle alone would change the balance (K): keep both
+        for k, name in ((3, "cornering_stiffness_front"), (4, "cornering_stiffness_rear")):
+            out[name] = _undetermined(name, "N/rad", f"fit {p[k]:.4g} ± {pstd[k]:.2g} N/rad; the "
+                                      "other axle is undetermined, both kept", getattr(base, name))
     if abs(s - 1.0) > 0.5 or pstd[0] > MAX_REL_STD * abs(s):
         for k in ("steer_scale", "steer_offset"):
             out[k] = _undetermined(k, names[k], f"scale {s:.3g} ± {pstd[0]:.2g}: steering does "
