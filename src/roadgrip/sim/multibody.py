@@ -201,7 +201,7 @@ def _vehicle_model_text(mbv: MBVehicle) -> str:
     if "base" in d:
         return (f"commonroad-vehicle-models vehicle_dynamics_mb, parameter set sampled around set "
                 f"{d['base_parameter_set']} ({d['base']}) as {mbv.name}")
-    return f"commonroad-vehicle-models vehicle_dynamics_mb, parameter set {d['parameter_set']} ({mbv.name})"
+    return f"commonroad-vehicle-models vehicle_dynamics_mb, parameter set {d.get('parameter_set', '(given)')} ({mbv.name})"
 
 
 def _axle_truth(wheels, rows):
