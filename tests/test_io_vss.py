@@ -145,16 +145,24 @@ def test_rules_on_hand_made_tables():
     assert r[0] == {"t": 0.0}
     assert r[1] == pytest.approx({"t": 0.1, MP: 100.0, LB: 70.0})
     assert r[2] == pytest.approx({"t": 0.2, MP: 60.0, UB: 70.0})
-    # calibrated on DART's floors (0.84 / 0.35): 'low' with a floor of 0.31 used
-    r = vss_records(tab.assign(grip_floor=[0.0, 0.0, 0.31]), "brls", (0.35, 0.84))
+    # calibrated on DART's floors (0.84 / 0.35): 'low' with 0.31 used now; a larger grip
+    # used earlier (grip_floor, maybe on another surface) is no floor of this one
+    r = vss_records(tab.assign(grip_now=[0.0, 0.0, 0.31], grip_floor=[0.0, 0.5, 0.5]), "brls", (0.35, 0.84))
     assert r[2] == pytest.approx({"t": 0.2, MP: 35.0, LB: 31.0, UB: 70.0})
     # a diverged sample makes no claim in any output
     tab = _axle_table(mu_front=[0.3], mu_rear=[0.3], mu_front_lower=[0.28], mu_rear_lower=[0.28],
                       mu_front_upper=[0.33], mu_rear_upper=[0.33], peak_observed_front=[True],
                       peak_observed_rear=[True], diverged=[True])
     assert vss_records(tab, "gpssm", (0.0, 2.0)) == [{"t": 0.0}]
-    # the cascade's road band never ends below the friction the car demonstrably used
+    # the cascade's road band: its lower end never below the friction the car uses now,
+    # its upper end never below the friction it demonstrably used so far
     tab = _axle_table(mu_front=[0.5], mu_rear=[0.5], mu_front_std=[0.2], mu_rear_std=[0.2],
-                      grip_floor=[0.6])
+                      grip_floor=[0.6], grip_now=[0.6])
     r = vss_records(tab, "cascade", (0.0, 2.0))[0]
     assert r[LB] == pytest.approx(60.0) and r[MP] >= r[LB]
+    # on a snow patch after dry cornering (used 0.9 before, 0.2 now) the lower end is the
+    # band's own, not the dry road's
+    tab = _axle_table(mu_front=[0.3], mu_rear=[0.3], mu_front_std=[0.05], mu_rear_std=[0.05],
+                      grip_floor=[0.9], grip_now=[0.2])
+    r = vss_records(tab, "cascade", (0.0, 2.0))[0]
+    assert r[LB] == pytest.approx(100 * (0.3 - Z95 * 0.05 / np.sqrt(2))) and r[UB] == pytest.approx(90.0)

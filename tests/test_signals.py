@@ -226,22 +226,29 @@ def test_level_accelerations_remove_the_tilt_of_a_rolled_body():
 
 def test_sustained_grip_against_brute_force_and_online():
     from roadgrip.constants import GRAVITY
-    from roadgrip.signals import sustained_grip, sustained_grip_step
+    from roadgrip.signals import current_grip, grip_step, sustained_grip, sustained_grip_step
 
     rng = np.random.default_rng(3)
     t = np.cumsum(rng.uniform(0.005, 0.03, 400))
     ay = rng.normal(2.0, 3.0, 400)
     got = sustained_grip(t, ay, 1.0)
-    best, expected = 0.0, []
+    got_now = current_grip(t, ay, 1.0)
+    best, expected, expected_now = 0.0, [], []
     for k in range(len(t)):
         inside = (t > t[k] - 1.0 + 1e-9) & (t <= t[k])
-        if t[k] - t[0] >= 1.0 - 1e-9:
-            best = max(best, abs(ay[inside].mean()) / GRAVITY)
+        now = abs(ay[inside].mean()) / GRAVITY if t[k] - t[0] >= 1.0 - 1e-9 else 0.0
+        best = max(best, now)
         expected.append(best)
+        expected_now.append(now)
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(got_now, expected_now, rtol=1e-12, atol=1e-15)
     mem, online = None, []
+    mem2, online_now = None, []
     for tk, ak in zip(t, ay, strict=True):
         mem, f = sustained_grip_step(mem, float(tk), float(ak), 1.0)
         online.append(f)
+        mem2, n_, _ = grip_step(mem2, float(tk), float(ak), 1.0)
+        online_now.append(n_)
     np.testing.assert_array_equal(online, got)
+    np.testing.assert_array_equal(online_now, got_now)
     assert got[0] == 0.0 and np.all(np.diff(got) >= 0)

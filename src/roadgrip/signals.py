@@ -52,7 +52,9 @@ __all__ = [
     "WHEELS",
     "axle_loads",
     "body_velocity_from_pose",
+    "current_grip",
     "driven_wheels",
+    "grip_step",
     "level_accelerations",
     "pose_velocity",
     "rolling_speed",
@@ -287,21 +289,22 @@ SUSTAIN_WINDOW = 1.0
 """Window [s] over which a lateral acceleration counts as sustained."""
 
 
-def sustained_grip(t: ArrayLike, ay: ArrayLike, window: float = SUSTAIN_WINDOW) -> NDArray[np.float64]:
-    """The largest ``|a_y| / g`` sustained for ``window`` seconds up to each sample [-].
+def current_grip(t: ArrayLike, ay: ArrayLike, window: float = SUSTAIN_WINDOW) -> NDArray[np.float64]:
+    """The ``|a_y| / g`` sustained over the last ``window`` seconds at each sample [-].
 
     The mean lateral acceleration over the samples of the trailing window
-    ``(t_k - window, t_k]``, its absolute value over ``g``, and the running
-    maximum of that: a friction the car demonstrably used by then, which no
-    honest upper bound of the friction may undercut (it needs no truth). 0
-    until the drive is ``window`` long. The mean, not the smallest value, so
-    that sensor noise does not lower it.
+    ``(t_k - window, t_k]``, its absolute value over ``g``: the friction the car
+    uses on the surface under it now. 0 until the drive is ``window`` long. It is
+    the lower-bound floor of a claim about the present surface: unlike its running
+    maximum (:func:`sustained_grip`), it forgets a surface the car has left (a
+    claim judged 1 s after the car reaches the new surface's grip never meets the
+    old surface's floor).
 
     Examples
     --------
     >>> t = [0.0, 0.5, 1.0, 1.5, 2.0]
-    >>> sustained_grip(t, [0.0, 4.903325, 4.903325, 4.903325, 0.0]).round(3).tolist()
-    [0.0, 0.0, 0.5, 0.5, 0.5]
+    >>> current_grip(t, [0.0, 4.903325, 4.903325, 4.903325, 0.0]).round(3).tolist()
+    [0.0, 0.0, 0.333, 0.5, 0.333]
     """
     t = np.asarray(t, dtype=float)
     ay = np.asarray(ay, dtype=float)
@@ -312,17 +315,35 @@ def sustained_grip(t: ArrayLike, ay: ArrayLike, window: float = SUSTAIN_WINDOW) 
     hi = np.arange(1, len(t) + 1)
     mean = (c[hi] - c[lo]) / (hi - lo)
     full = t - t[0] >= window - 1e-9
-    return np.maximum.accumulate(np.where(full, np.abs(mean), 0.0) / GRAVITY)
+    return np.where(full, np.abs(mean), 0.0) / GRAVITY
 
 
-def sustained_grip_step(memory: tuple | None, t: float, ay: float,
-                        window: float = SUSTAIN_WINDOW) -> tuple[tuple, float]:
-    """One sample of :func:`sustained_grip`, online: ``(memory, floor)`` after the sample.
+def sustained_grip(t: ArrayLike, ay: ArrayLike, window: float = SUSTAIN_WINDOW) -> NDArray[np.float64]:
+    """The largest ``|a_y| / g`` sustained for ``window`` seconds up to each sample [-].
 
-    ``memory`` is ``None`` before the first sample, then the returned tuple
-    (first time, the window's times and running sums of ``a_y`` with the sum
-    before the window, the floor so far); it is never modified. The floors
-    equal those of the batch function to the last bit.
+    The running maximum of :func:`current_grip`: a friction the car demonstrably
+    used by then, which no honest upper bound of the friction may undercut (it
+    needs no truth). 0 until the drive is ``window`` long. The mean, not the
+    smallest value, so that sensor noise does not lower it.
+
+    Examples
+    --------
+    >>> t = [0.0, 0.5, 1.0, 1.5, 2.0]
+    >>> sustained_grip(t, [0.0, 4.903325, 4.903325, 4.903325, 0.0]).round(3).tolist()
+    [0.0, 0.0, 0.333, 0.5, 0.5]
+    """
+    return np.maximum.accumulate(current_grip(t, ay, window)) if np.size(t) else np.zeros(0)
+
+
+def grip_step(memory: tuple | None, t: float, ay: float,
+              window: float = SUSTAIN_WINDOW) -> tuple[tuple, float, float]:
+    """One sample of :func:`current_grip` and :func:`sustained_grip`, online.
+
+    Returns ``(memory, now, floor)``: the memory after the sample, the current and
+    the sustained grip [-]. ``memory`` is ``None`` before the first sample, then the
+    returned tuple (first time, the window's times and running sums of ``a_y`` with
+    the sum before the window, the floor so far); it is never modified. Both values
+    equal those of the batch functions to the last bit.
     """
     t0, ts, cs, c_before, best = (t, (), (), 0.0, 0.0) if memory is None else memory
     c = (cs[-1] if cs else c_before) + ay
@@ -331,6 +352,14 @@ def sustained_grip_step(memory: tuple | None, t: float, ay: float,
     if first > 0:
         c_before = cs[first - 1]
         ts, cs = ts[first:], cs[first:]
-    if t - t0 >= window - 1e-9:
-        best = max(best, abs((c - c_before) / len(ts)) / GRAVITY)
-    return (t0, ts, cs, c_before, best), best
+    now = abs((c - c_before) / len(ts)) / GRAVITY if t - t0 >= window - 1e-9 else 0.0
+    best = max(best, now)
+    return (t0, ts, cs, c_before, best), now, best
+
+
+def sustained_grip_step(memory: tuple | None, t: float, ay: float,
+                        window: float = SUSTAIN_WINDOW) -> tuple[tuple, float]:
+    """One sample of :func:`sustained_grip`, online: ``(memory, floor)`` after the sample
+    (:func:`grip_step` without the current grip)."""
+    memory, _, best = grip_step(memory, t, ay, window)
+    return memory, best

@@ -211,8 +211,8 @@ def test_summary_bounds_follow_from_the_class_definition_not_the_references():
     assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.84, GRIP_CLASS_SPLIT, FRICTION_MAX)
     s = common.summary_meta(t.assign(grip_class=["high", "low"]), fr)
     assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.35, 0.0, GRIP_CLASS_SPLIT)
-    # with the demonstrated floor in the table, 'low' is at least the floor
-    s = common.summary_meta(t.assign(grip_class=["high", "low"], grip_floor=[0.1, 0.4]), fr)
+    # with the grip used now in the table, 'low' is at least that
+    s = common.summary_meta(t.assign(grip_class=["high", "low"], grip_now=[0.1, 0.4]), fr)
     assert (s["MostProbable"], s["LowerBound"], s["UpperBound"]) == (0.4, 0.4, GRIP_CLASS_SPLIT)
     # 'unknown' claims nothing
     s = common.summary_meta(t.assign(grip_class=["high", "unknown"]), fr)

@@ -202,6 +202,7 @@ def test_online_steps_give_the_stage_estimates_and_state_of_run(drive06):
     np.testing.assert_allclose([r["x_front"] for r in rows], tab["x_front"], rtol=0, atol=1e-12)
     np.testing.assert_allclose(st.friction_cov, _filter(short, cfg)[1].friction_cov, atol=1e-14)
     np.testing.assert_array_equal([r["grip_floor"] for r in rows], tab["grip_floor"])
+    np.testing.assert_array_equal([r["grip_now"] for r in rows], tab["grip_now"])
     np.testing.assert_allclose([r["mu_rear_upper"] for r in rows], tab["mu_rear_upper"], rtol=0, atol=1e-12)
 
 
@@ -219,9 +220,15 @@ def test_upper_bound_never_below_the_sustained_lateral_acceleration(drive06):
     for axle in ("front", "rear"):
         assert np.all(tab[f"mu_{axle}_upper"] >= floor)
     assert res.meta["summary"]["UpperBound"] >= floor[-1]
-    # and the road summary's lower end is at least the demonstrated floor too
-    assert res.meta["summary"]["LowerBound"] >= floor[-1]
-    assert res.meta["summary"]["MostProbable"] >= floor[-1]
+    # and the road summary's lower end is at least the grip the car uses now (the last
+    # second's, which forgets a surface the car has left)
+    from roadgrip.signals import current_grip
+
+    now = current_grip(drive06.t, drive06.col("ay"))
+    np.testing.assert_allclose(tab["grip_now"], now, rtol=0, atol=1e-15)
+    assert np.all(now <= floor + 1e-15)
+    assert res.meta["summary"]["LowerBound"] >= now[-1]
+    assert res.meta["summary"]["MostProbable"] >= now[-1]
 
 
 def test_run_columns_and_option_checks(drive06, tmp_path):

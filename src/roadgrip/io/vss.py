@@ -24,12 +24,14 @@ line where the estimator does not know it; it is never clamped nor filled in:
 
 The road value combines the two axles as ``meta['summary']`` does
 (``docs/output-contract.md``): with per-axle standard deviations (``mu_*_std``,
-the cascade) the precision-weighted mean with ``+-Z95`` of its deviation, both ends
-at least ``grip_floor`` (the friction the car demonstrably used); without (gpssm) the
+the cascade) the precision-weighted mean with ``+-Z95`` of its deviation, the upper
+end at least ``grip_floor`` (the friction the car demonstrably used), the lower end at
+least ``grip_now`` (the friction it uses on the present surface, the last second's:
+a surface the car has left is no floor of this one); without (gpssm) the
 smaller axle mean and the union of the axle bands. Classifiers (``grip_class``)
 publish the band their class claims (:func:`roadgrip.estimators.classify.common.class_band`):
 'high' ``LowerBound`` = the class split :data:`~roadgrip.constants.GRIP_CLASS_SPLIT`
-and no upper bound; 'low' ``UpperBound`` = the split and ``LowerBound`` = ``grip_floor``
+and no upper bound; 'low' ``UpperBound`` = the split and ``LowerBound`` = ``grip_now``
 where the table has one; ``MostProbable`` the class's reference held inside that band.
 """
 
@@ -65,7 +67,8 @@ def _combined(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         mp = (wf * mf + wr * mr) / (wf + wr)
         sd = 1.0 / np.sqrt(wf + wr)
         floor = np.nan_to_num(table["grip_floor"].to_numpy(float)) if "grip_floor" in table.columns else 0.0
-        lo = np.maximum(mp - Z95 * sd, floor)
+        now = np.nan_to_num(table["grip_now"].to_numpy(float)) if "grip_now" in table.columns else 0.0
+        lo = np.maximum(mp - Z95 * sd, now)
         return np.maximum(mp, lo), lo, np.maximum(mp + Z95 * sd, floor)
     lo = np.minimum(table["mu_front_lower"].to_numpy(float), table["mu_rear_lower"].to_numpy(float))
     up = np.maximum(table["mu_front_upper"].to_numpy(float), table["mu_rear_upper"].to_numpy(float))
@@ -115,7 +118,8 @@ def vss_records(
         values["UpperBound"] = np.where(observed | (informed & (up < p_up - _TOL)), up, np.nan)
     elif "grip_class" in table.columns:
         cls = table["grip_class"].astype(str).to_numpy()
-        floor = table["grip_floor"].to_numpy(float) if "grip_floor" in table.columns else np.zeros(n)
+        # the floor of a 'low' claim about the present surface: the grip used now
+        floor = table["grip_now"].to_numpy(float) if "grip_now" in table.columns else np.zeros(n)
         floor = np.clip(np.nan_to_num(floor), 0.0, GRIP_CLASS_SPLIT)
         hi, low = cls == "high", cls == "low"
         values["MostProbable"] = np.where(hi, max(p_up, GRIP_CLASS_SPLIT),

@@ -37,7 +37,7 @@ from roadgrip.estimators.cascade.running_noise import (
 )
 from roadgrip.estimators.protocol import DriveInfo, Estimator, Prepared
 from roadgrip.inference.kalman import merwe_weights
-from roadgrip.signals import sustained_grip, sustained_grip_step, undriven_wheels
+from roadgrip.signals import current_grip, grip_step, undriven_wheels
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = ["ESTIMATOR", "CascadeState", "init", "lookahead", "prepare", "run", "run_filter", "step"]
@@ -276,11 +276,13 @@ def _check_sample(sample: CascadeSample) -> None:
             raise ValueError(f"cascade sample field {name!r} is not finite: {v!r}")
 
 
-def _row(out: NDArray[np.float64], sample: CascadeSample, params: Params, floor: float) -> dict[str, Any]:
+def _row(out: NDArray[np.float64], sample: CascadeSample, params: Params, floor: float,
+         now: float) -> dict[str, Any]:
     pose = None
     if np.isfinite(sample.x) and np.isfinite(sample.y):
         pose = tuple(np.array([v]) for v in (sample.x, sample.y, sample.psi) if np.isfinite(v))
-    cols = output_columns(out, np.array([sample.t]), pose, params.lf, params.lr, np.array([floor]))
+    cols = output_columns(out, np.array([sample.t]), pose, params.lf, params.lr, np.array([floor]),
+                          np.array([now]))
     return {k: v[0].item() for k, v in cols.items()}
 
 
@@ -292,8 +294,8 @@ def step(state: CascadeState, sample: CascadeSample) -> tuple[CascadeState, dict
     u = Inputs(*(np.array([getattr(sample, name)]) for name in Inputs._fields))
     cand = np.array(sample.pose_candidates, dtype=np.float64).reshape(-1, 2, 1) if sample.pose_candidates else None
     out, new = run_filter(state, CascadeSamples(u, None, cand))
-    memory, floor = sustained_grip_step(state.floor_memory, sample.t, sample.ay)
-    return new._replace(floor_memory=memory), _row(out, sample, new.params, floor)
+    memory, now, floor = grip_step(state.floor_memory, sample.t, sample.ay)
+    return new._replace(floor_memory=memory), _row(out, sample, new.params, floor, now)
 
 
 def run_filter(state: CascadeState, samples: CascadeSamples,
@@ -358,9 +360,10 @@ def run(drive: Drive, config: CascadeConfig | None = None, seed: int = 0,
         window = derived["pose_windows"][end.noise_memory.pose_choice]
         derived["pose_velocity_corr_time"] = float(window)
         derived["pose_velocity_std"] = float(np.sqrt(end.params.var_pose / window))
-    floor = sustained_grip(samples.inputs.t, samples.inputs.ay)
+    now = current_grip(samples.inputs.t, samples.inputs.ay)
+    floor = np.maximum.accumulate(now) if len(now) else now
     table = pd.DataFrame(output_columns(out, samples.inputs.t, samples.pose, state.params.lf, state.params.lr,
-                                        floor))
+                                        floor, now))
     meta["summary"] = summary(table.iloc[-1])
     meta["diagnostics"] = diagnostics(table, out, derived)
     meta["config"] = config.to_meta()

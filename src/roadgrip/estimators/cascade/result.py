@@ -17,14 +17,18 @@ __all__ = ["diagnostics", "output_columns", "summary"]
 
 def output_columns(out: NDArray[np.float64], t: NDArray[np.float64],
                    pose: tuple[NDArray[np.float64], ...] | None, lf: float, lr: float,
-                   floor: NDArray[np.float64] | None = None) -> dict[str, NDArray]:
+                   floor: NDArray[np.float64] | None = None,
+                   now: NDArray[np.float64] | None = None) -> dict[str, NDArray]:
     """Columns of the estimates table from kernel rows ``out`` (n, Out.SIZE) at times ``t`` [s].
 
     The contract columns (:data:`roadgrip.estimators.base.CONTRACT_COLUMNS`;
     the 95 % band is ``mu ± Z95 std``, clipped at 0, its upper end at least the
     friction the car demonstrably used, ``floor``: the largest levelled
     ``|a_y| / g`` sustained for a second so far, :func:`roadgrip.signals.sustained_grip`,
-    column ``grip_floor``) and the stage estimates.
+    column ``grip_floor``), the friction it uses now, ``now`` (the ``|a_y| / g`` of the
+    last second, :func:`roadgrip.signals.current_grip`, column ``grip_now``: the floor
+    of lower bounds, which must forget a surface the car has left) and the stage
+    estimates.
     With ``pose = (x, y[, psi])`` [m, m, rad] the positions ``x, y`` and, with
     the heading, the axle positions ``x_front, y_front, x_rear, y_rear``
     (``lf``, ``lr`` [m] from the CG), which the friction grid uses.
@@ -34,6 +38,7 @@ def output_columns(out: NDArray[np.float64], t: NDArray[np.float64],
     exc_f = out[:, Out.EXC_F] > 0.5
     exc_r = out[:, Out.EXC_R] > 0.5
     floor = np.zeros(len(t)) if floor is None else np.asarray(floor, dtype=float)
+    now = np.zeros(len(t)) if now is None else np.asarray(now, dtype=float)
     tab = {
         "t": t,
         "mu_front": out[:, Out.MU_F],
@@ -43,6 +48,7 @@ def output_columns(out: NDArray[np.float64], t: NDArray[np.float64],
         "mu_rear_lower": np.maximum(out[:, Out.MU_R] - Z95 * std_r, 0.0),
         "mu_rear_upper": np.maximum(out[:, Out.MU_R] + Z95 * std_r, floor),
         "grip_floor": floor,
+        "grip_now": now,
         "excited": exc_f | exc_r,
         "vx": out[:, Out.VX],
         "vy": out[:, Out.VY],
@@ -89,14 +95,16 @@ def summary(row: Mapping[str, Any]) -> dict[str, float]:
     """VSS-style summary of one output row: both axles combined by inverse-variance weights.
 
     ``MostProbable`` is the weighted mean of ``mu_front`` and ``mu_rear``,
-    the bounds ``± Z95`` of its standard deviation; all three at least the row's
-    ``grip_floor`` (the friction the car demonstrably used, 0 without).
+    the bounds ``± Z95`` of its standard deviation; the upper bound at least the row's
+    ``grip_floor`` (the friction the car demonstrably used, 0 without), the lower bound
+    and the most probable value at least its ``grip_now`` (the friction it uses on the
+    present surface).
     """
     wf, wr = 1.0 / row["mu_front_std"] ** 2, 1.0 / row["mu_rear_std"] ** 2
     mp = (wf * row["mu_front"] + wr * row["mu_rear"]) / (wf + wr)
     sd = 1.0 / np.sqrt(wf + wr)
     floor = float(row.get("grip_floor", 0.0))
-    lo = max(mp - Z95 * sd, floor, 0.0)
+    lo = max(mp - Z95 * sd, float(row.get("grip_now", 0.0)), 0.0)
     return {"MostProbable": float(max(mp, lo)), "LowerBound": float(lo),
             "UpperBound": float(max(mp + Z95 * sd, floor))}
 

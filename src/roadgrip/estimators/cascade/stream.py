@@ -28,7 +28,7 @@ from roadgrip.estimators.cascade.estimator import CascadeState, init, prepare, r
 from roadgrip.estimators.cascade.inputs import CascadeSamples, drive_inputs, drive_pose
 from roadgrip.estimators.cascade.result import output_columns
 from roadgrip.estimators.protocol import DriveInfo
-from roadgrip.signals import SUSTAIN_WINDOW, sustained_grip
+from roadgrip.signals import SUSTAIN_WINDOW, current_grip
 
 __all__ = ["ChunkResult", "run_chunks"]
 
@@ -85,11 +85,12 @@ def run_chunks(chunks: Iterable[Drive], config: CascadeConfig | None = None,
         t, ay = samples.inputs.t, samples.inputs.ay
         # the floor continues: the trailing window reaches into the previous chunk's tail
         tt, aa = np.concatenate([tail_t, t]), np.concatenate([tail_ay, ay])
-        floor = np.maximum(sustained_grip(tt, aa)[len(tail_t):], best) if len(tail_t) else sustained_grip(t, ay)
+        now = current_grip(tt, aa)[len(tail_t):]
+        floor = np.maximum(np.maximum.accumulate(now), best) if len(now) else now
         best = float(floor[-1]) if len(floor) else best
         keep = tt > tt[-1] - 2.0 * SUSTAIN_WINDOW
         tail_t, tail_ay = tt[keep], aa[keep]
-        table = pd.DataFrame(output_columns(out, t, samples.pose, state.params.lf, state.params.lr, floor))
+        table = pd.DataFrame(output_columns(out, t, samples.pose, state.params.lf, state.params.lr, floor, now))
         state = new_state
         assert info is not None
         yield ChunkResult(conform(table), state, info)

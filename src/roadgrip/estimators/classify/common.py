@@ -142,12 +142,13 @@ def summary_meta(table: pd.DataFrame, friction: Mapping[str, float] | None = Non
     """``meta['summary']`` of a classification run.
 
     VSS-style friction (the output contract): the band the final class claims
-    (:func:`class_band`, with the table's ``grip_floor`` where it has one), and the
+    (:func:`class_band`, with the table's ``grip_now``, the friction the car uses on
+    the present surface, where it has one), and the
     final class and grip index and the share of time in each class.
     """
     last = table.iloc[-1]
     cls = table["grip_class"].astype(str).to_numpy()
-    floor = float(last["grip_floor"]) if "grip_floor" in table.columns else 0.0
+    floor = float(last["grip_now"]) if "grip_now" in table.columns else 0.0
     band = class_band(str(last["grip_class"]), friction, floor)
     return {
         "MostProbable": float(band[0]),
