@@ -106,7 +106,8 @@ def test_vehicle_help_and_error_name_the_same_presets(path, tmp_path):
     args = {"calibrate": [f"{drive}:high", f"{drive}:low", "-o", str(tmp_path / "c.yaml")],
             "fleet": [str(drive), "-o", str(tmp_path / "f.parquet")],
             "map": [str(drive), "-o", str(tmp_path / "m.npz")],
-            "estimate": [str(drive), "--method", "brls", "-o", str(tmp_path / "e.parquet")]}.get(path[0], [str(drive)])
+            "estimate": [str(drive), "--method", "brls", "-o", str(tmp_path / "e.parquet")],
+            "live": []}.get(path[0], [str(drive)])
     res = CliRunner().invoke(app, [*path, *args, "--vehicle", "tractor"])
     assert res.exit_code != 0
     message = str(res.exception)

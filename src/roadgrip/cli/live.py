@@ -60,11 +60,11 @@ def live(
     """Estimate friction live from a CAN bus (or a CAN log) and write it out as it comes."""
     from roadgrip.cli import options as opt
 
+    opt.check_vehicle(vehicle)
     if (log is None) == (interface is None):
         raise ValueError("give a bus (--interface, --channel) or a CAN log (--log), one of the two")
     if log is not None and can_out:
         raise ValueError("--can-out needs a bus (--interface)")
-    opt.check_vehicle(vehicle)
     opt.check_input(log, "--log")
     if vss not in (None, "-"):
         opt.check_output(vss, "--vss")
@@ -145,11 +145,11 @@ def replay(
     from roadgrip.io.can import CAN_LOG_SUFFIXES, FrameEncoder
     from roadgrip.live.replay import open_bus, replay_drive
 
+    opt.check_drive_args(drive_path, fmt, vehicle)
     if (log is None) == (interface is None):
         raise ValueError("give a bus (--interface, --channel) or a CAN log (--log), one of the two")
     if not (speed >= 0 and math.isfinite(speed)):
         raise ValueError(f"--speed must be 0 (as fast as possible) or a positive factor, got {speed}")
-    opt.check_drive_args(drive_path, fmt, vehicle)
     opt.check_output(log, "--log", CAN_LOG_SUFFIXES)
     db, m, _ = _codec(dbc, signals)
     encoder = FrameEncoder(db, m)
