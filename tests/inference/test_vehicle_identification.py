@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from roadgrip.drive import Drive
 from roadgrip.inference.vehicle_identification import fit_vehicle
@@ -119,3 +121,70 @@ def test_bad_arguments_are_named():
         fit_vehicle(_sim(), mu=0.0)
     with pytest.raises(ValueError, match="steer"):
         fit_vehicle(Drive(_sim().data.drop(columns=["steer"]), _sim().meta))
+
+
+REVS = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "revs"
+
+
+@pytest.mark.realdata
+@pytest.mark.skipif(not (REVS / "race_car_100hz.csv").exists(), reason=f"revs data not found at {REVS}")
+def test_revs_first_half():
+    """The race car: the accelerometer's delay against the gyro (127 ms by roadgrip info over
+    the whole drive); its stiffnesses named undetermined (little time in the linear range)."""
+    import warnings
+
+    from roadgrip.io import read_drive
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        d = read_drive(REVS / "race_car_100hz.csv", vehicle=REVS / "race_car.yaml")
+    res = fit_vehicle(d.slice_time(d.t[0], d.t[0] + d.duration / 2))
+    acc = res.values["delay_accelerometer"]
+    assert acc.fitted and 0.09 < acc.value < 0.15 and acc.std < 0.02
+    assert not res.values["wheel_radius"].fitted and "no wheel speeds" in res.values["wheel_radius"].note
+    for k in ("cornering_stiffness_front", "cornering_stiffness_rear"):
+        v = res.values[k]
+        assert v.fitted or (v.value == getattr(d.vehicle, k) and "fit" in v.note)
+
+
+@settings(max_examples=8, derandomize=True, deadline=None, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.sampled_from(["constant", "dropout", "zero_speed", "reverse", "noise", "short",
+                                 "gap", "no_pose", "no_wheels", "no_ax"]), max_size=4),
+       st.integers(0, 1000))
+def test_fit_on_mutated_drives_names_or_fits(mutations, seed):
+    """Whatever the drive, every value is fitted with a finite error or named undetermined."""
+    rng = np.random.default_rng(seed)
+    df = _sim().data.copy()
+    n = len(df)
+    for m in mutations:
+        a = int(rng.integers(0, n - 100))
+        b = a + int(rng.integers(50, 3000))
+        col = str(rng.choice(["ay", "ax", "yaw_rate", "steer", "vx", "omega_rl"]))
+        if m == "constant":
+            df.loc[a:b, col] = float(df[col].iloc[a])
+        elif m == "dropout":
+            df.loc[a:b, col] = 0.0
+        elif m in ("zero_speed", "reverse"):
+            for c in ("vx", "omega_fl", "omega_fr", "omega_rl", "omega_rr"):
+                df.loc[a:b, c] = 0.0 if m == "zero_speed" else -df.loc[a:b, c]
+        elif m == "noise":
+            df[col] = df[col] + rng.uniform(0.1, 3.0) * df[col].std() * rng.standard_normal(n)
+        elif m == "short":
+            df = df.iloc[: int(rng.integers(100, 400))]
+        elif m == "gap":
+            df = df.drop(index=range(a, min(b, len(df) - 1))).reset_index(drop=True)
+        elif m == "no_pose":
+            df = df.drop(columns=[c for c in ("x", "y", "psi") if c in df.columns])
+        elif m == "no_wheels":
+            df = df.drop(columns=[c for c in df.columns if c.startswith("omega_")])
+        elif m == "no_ax" and "ax" in df.columns:
+            df = df.drop(columns=["ax"])
+        n = len(df)
+    res = fit_vehicle(Drive(df.reset_index(drop=True), _sim().meta))
+    for v in res.values.values():
+        if v.fitted:
+            assert math.isfinite(v.value) and math.isfinite(v.std) and v.std >= 0, v
+        else:
+            assert v.note, v
+    assert res.vehicle.mass == _sim().vehicle.mass
