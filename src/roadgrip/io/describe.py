@@ -46,9 +46,10 @@ import numpy as np
 
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import SIGNAL_COLUMNS, TRUTH_COLUMNS, Drive
+from roadgrip.drive_units import PAIRS, pair_ratios
 from roadgrip.tire import FrictionModel, bracketed_root
 from roadgrip.truth import friction_utilisation, has_parametric_truth, utilisation_source
-from roadgrip.vehicle.params import VehicleParams
+from roadgrip.vehicle.params import VehicleParams, driven_wheels
 
 __all__ = [
     "UTILISATION_LEVELS",
@@ -559,6 +560,9 @@ class _Summary:
             Section("nonlinear tire excitation", ("measure", "time fraction", "definition"),
                     tuple(self._excitation_rows()), right=frozenset({"time fraction"})),
         ]
+        units = _units_section(drive, self.n > drive.n)
+        if units is not None:
+            sections.append(units)
         if self.util:
             levels = tuple(f"time > {lv:.0%}" for lv in UTILISATION_LEVELS)
             rows = []
@@ -571,6 +575,25 @@ class _Summary:
             sections.append(Section("friction utilisation |F| / (mu Fz) (truth)",
                                     ("axle", *levels, "from"), tuple(rows), right=frozenset(levels)))
         return sections
+
+
+def _units_section(drive: Drive, chunked: bool) -> Section | None:
+    """Each kinematic pair's ratio and verdict (:func:`roadgrip.drive_units.pair_ratios`):
+    consistent, rejected, or unverified where the drive cannot tell."""
+    veh = drive.vehicle
+    ratios = pair_ratios(drive.data, veh.wheelbase, veh.wheel_radius,
+                         tuple(bool(b) for b in driven_wheels(veh.drive)))
+    if not ratios:
+        return None
+    rows = []
+    for p in ratios:
+        lo, hi = PAIRS[p.pair][1:]
+        verdict = ("consistent" if p.accepted else "rejected") if p.conclusive else "unverified"
+        rows.append((PAIRS[p.pair][0], _fmt(p.ratio) if math.isfinite(p.ratio) else "-",
+                     f"{lo:g} .. {hi:g}", f"{p.windows} of {p.excited}", verdict))
+    title = "units and signs from kinematic consistency" + (" (first chunk)" if chunked else "")
+    return Section(title, ("pair", "ratio", "accepted", "windows agreeing", "verdict"), tuple(rows),
+                   right=frozenset({"ratio", "windows agreeing"}))
 
 
 def format_text(sections: list[Section]) -> str:
