@@ -11,8 +11,9 @@ an :class:`Estimator` record of five parts:
     and rejects an unknown option by name.
 ``prepare(drive, config) -> Prepared``
     Extracts what the filter needs from a :class:`~roadgrip.drive.Drive`: a
-    :class:`DriveInfo` (vehicle, rates, constants derived from the whole drive
-    such as noise levels) and the sequence of per-step samples.
+    :class:`DriveInfo` (vehicle, rates, what the method knows before the first
+    sample: columns, metadata, configuration resolved for the drive; never a
+    constant of later samples) and the sequence of per-step samples.
 ``init(info, config, seed) -> state``
     The initial state, immutable (NamedTuple of arrays, never mutated in place).
 ``step(state, sample) -> (state, row)``

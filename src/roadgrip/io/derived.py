@@ -8,7 +8,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["body_velocity_from_pose", "savgol_quadratic", "white_noise_std"]
+__all__ = ["CLOCK_INTERVALS", "body_velocity_from_pose", "savgol_quadratic", "white_noise_std"]
+
+CLOCK_INTERVALS = 20
+"""Intervals at the start of a record whose median is the clock step of the windowed
+pose fit: a later sample never changes an earlier fit."""
 
 
 def body_velocity_from_pose(
@@ -29,7 +33,9 @@ def body_velocity_from_pose(
     ``window=None`` differentiates by central differences in ``t``
     (:func:`numpy.gradient`, second order, one-sided at the ends). With a
     ``window`` [s], a local quadratic (Savitzky-Golay) fit over that window on a
-    uniform clock gives ``x'``, ``y'`` and a smoothed ``psi``, for noisy poses;
+    uniform clock (its step the median of the first :data:`CLOCK_INTERVALS`
+    intervals, so that each value depends on the samples within half a window of
+    it and no others) gives ``x'``, ``y'`` and a smoothed ``psi``, for noisy poses;
     the fit never spans a missing tick (a gap in ``t`` over 1.5 steps) or a
     sample flagged in ``bad``: samples within half a window of either, and
     segments shorter than a window, get NaN.
@@ -74,7 +80,7 @@ def _savgol_body_velocity(t, x, y, psi, window, bad):
     vy = np.full(n, np.nan)
     if n < 5:
         return vx, vy
-    h = float(np.median(np.diff(t)))
+    h = float(np.median(np.diff(t[:CLOCK_INTERVALS + 1])))
     w = max(round(window / h) // 2 * 2 + 1, 5)
     bad = np.zeros(n, bool) if bad is None else np.asarray(bad, bool)
     # segments between missing ticks and bad samples

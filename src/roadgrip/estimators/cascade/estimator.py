@@ -211,17 +211,23 @@ def prepare(drive: Drive, config: CascadeConfig) -> Prepared:
     return Prepared(info, CascadeSamples(inputs, drive_pose(drive), candidates))
 
 
+JITTER_MARGIN = 1.1
+"""Factor on half the pose window in the look-ahead: the fit's half-width is a number of
+samples, which a jittered clock (the DART recordings') stretches by a few percent."""
+
+
 def lookahead(config: CascadeConfig, info: DriveInfo | None = None) -> float:
     """Look-ahead [s]: a row depends on the samples up to its time plus this.
 
-    Half the pose-differentiation window (``pose_window / 2``, the centred fit) when the
-    cascade derives the body velocity from ``x, y, psi`` itself (``info.derived
-    ['pose_velocity'] == 'derived'``; without ``info``, whenever it may), else 0.
+    Half the longest pose-differentiation window (the centred fit), times
+    :data:`JITTER_MARGIN`, ``0.55 pose_window``, when the cascade derives the body
+    velocity from ``x, y, psi`` itself (``info.derived['pose_velocity'] == 'derived'``;
+    without ``info``, whenever it may), else 0.
     """
     if info is not None and info.derived.get("pose_velocity") != "derived":
         return 0.0
     if config.pose_velocity_std > 0 and config.pose_window > 0:
-        return 0.5 * float(config.pose_window)
+        return 0.5 * JITTER_MARGIN * float(config.pose_window)
     return 0.0
 
 

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from roadgrip.inference.kinematic import kinematic_lateral_acceleration
 from roadgrip.signals import WHEELS, pose_velocity, rolling_speed, speed_wheels
 
-__all__ = ["POSE_DIFFERENCE_LOOKAHEAD", "Sample", "drive_inputs", "drive_vx", "drive_vy", "input_lookahead",
+__all__ = ["POSE_DIFFERENCE_LOOKAHEAD", "SUBSTEP_INTERVALS", "SUBSTEP_TOLERANCE", "Sample", "drive_inputs", "drive_vx", "drive_vy", "input_lookahead",
            "substeps", "upsample_inputs"]
 
 POSE_DIFFERENCE_LOOKAHEAD = 1.5
@@ -160,12 +160,26 @@ def drive_inputs(
     return np.column_stack([drive.col("t"), ay, drive.col("yaw_rate"), drive.col("steer"), vx, vy, ax])
 
 
+SUBSTEP_INTERVALS = 20
+"""Sample intervals of the start of a drive that fix its sub-step count (:func:`substeps`)."""
+
+SUBSTEP_TOLERANCE = 0.05
+"""An interval up to this fraction of ``max_dt`` longer than a whole number of ``max_dt``
+takes that number of steps (a jittered clock at a multiple of ``max_dt``)."""
+
+
 def substeps(t: NDArray, max_dt: float) -> int:
     """Filter steps per sample interval of :func:`upsample_inputs`: ``ceil(median dt /
-    max_dt)`` over the times ``t`` [s] (1 for fewer than two)."""
+    max_dt - SUBSTEP_TOLERANCE)``, the median over the first :data:`SUBSTEP_INTERVALS`
+    intervals of the times ``t`` [s] (1 for fewer than two).
+
+    The start of the drive fixes it, so that a later sample never changes it (the
+    filter is causal), and the tolerance keeps the jitter of a clock that ticks at a
+    multiple of ``max_dt`` from changing it by one."""
     if len(t) < 2:
         return 1
-    return max(1, math.ceil(float(np.median(np.diff(t))) / max_dt - 1e-9))
+    dt = float(np.median(np.diff(np.asarray(t, float)[:SUBSTEP_INTERVALS + 1])))
+    return max(1, math.ceil(dt / max_dt - SUBSTEP_TOLERANCE))
 
 
 def upsample_inputs(data: NDArray, max_dt: float, k: int | None = None) -> tuple[NDArray, NDArray, int]:
@@ -173,7 +187,7 @@ def upsample_inputs(data: NDArray, max_dt: float, k: int | None = None) -> tuple
 
     The lateral model is integrated by forward Euler with the friction held over a step;
     for small, stiff vehicles at low sample rates (the JetRacer at 10 Hz) that step is
-    unstable. With ``k = ceil(median dt / max_dt)`` the filter runs on ``k - 1``
+    unstable. With ``k`` steps per interval (:func:`substeps`) the filter runs on ``k - 1``
     interpolated rows between recorded ones (and the filter widens ``R`` by ``sqrt(k)`` so
     that the information per recorded sample is unchanged).
 
