@@ -149,3 +149,29 @@ def test_a_bus_that_goes_away_ends_with_its_reason_or_reconnects(drive_file, cod
         assert stats.reconnects == 1 and stats.ended == "end of log" and stats.rows == drive.n
     else:
         assert stats.ended == "source failed: the bus went away" and stats.rows == 400
+
+
+def test_rows_the_estimator_refuses_end_the_loop_with_its_words(drive_file, codec):
+    from roadgrip.live.assembler import RowAssembler
+    from roadgrip.live.loop import run_live
+    from roadgrip.live.runner import LiveEstimator
+    from roadgrip.live.sinks import ListSink
+
+    drive, _ = drive_file
+    db, m = codec
+    frames: list = []
+    from roadgrip.live.replay import replay_drive
+
+    replay_drive(drive, frames.append, FrameEncoder(db, m), speed=float("inf"))
+
+    class Refusing(LiveEstimator):
+        def feed(self, rows):
+            if rows[-1].t > 2.0:
+                raise ValueError("sample time does not follow")
+            return super().feed(rows)
+
+    decoder = FrameDecoder(db, m)
+    stats = run_live(_Failing(frames, len(frames) + 1), RowAssembler(decoder),
+                     Refusing("brls", drive.vehicle, decoder.columns), [ListSink()], max_batch=1)
+    assert stats.ended.startswith("estimator stopped at t = 2.010 s: sample time does not follow")
+    assert stats.rows == 201

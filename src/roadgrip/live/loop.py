@@ -8,7 +8,8 @@ from the receipt of the frame that completed it to its write by the last sink.
 A source that raises (a bus that went away: ``can.CanError`` or ``OSError``) ends the
 loop with the reason in :attr:`LiveStats.ended`, or, with ``reconnect``, is opened
 again (every second, up to ``reconnect`` attempts). A source silent for ``idle``
-seconds ends the loop (``ended = 'idle ...'``); a log source ends at its end.
+seconds ends the loop (``ended = 'idle ...'``); a log source ends at its end; rows the
+estimator refuses (``ValueError``) end it with the estimator's message.
 """
 
 from __future__ import annotations
@@ -147,7 +148,11 @@ def run_live(source: Any, assembler: RowAssembler, estimator: LiveEstimator, sin
         if not pending:
             continue
         warm = estimator.started
-        out = estimator.feed([r for r, _ in pending])
+        try:
+            out = estimator.feed([r for r, _ in pending])
+        except ValueError as exc:  # an input the estimator refuses: end with its words, not a traceback
+            ended = f"estimator stopped at t = {pending[0][0].t:.3f} s: {exc}"
+            break
         for s in sinks:
             s.write(out)
         done = clock()
