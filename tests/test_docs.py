@@ -54,18 +54,23 @@ def _links(page: Path) -> list[str]:
     return [t for t in _LINK.findall(prose) if not re.match(r"[a-z]+:", t)]
 
 
-@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
-def test_every_relative_link_resolves(page):
+def _link_problems(page: Path, root: Path = ROOT) -> list[str]:
+    """The relative links of ``page`` whose file, or heading, does not exist."""
     bad = []
     for target in _links(page):
         path, _, anchor = target.partition("#")
         dest = (page.parent / path).resolve() if path else page
-        rel = dest.relative_to(ROOT).as_posix() if dest.is_relative_to(ROOT) else str(dest)
+        rel = dest.relative_to(root).as_posix() if dest.is_relative_to(root) else str(dest)
         if not dest.exists():
             bad.append(f"{target}: no file {rel}")
-            continue
-        if anchor and dest.suffix == ".md" and anchor not in _anchors(dest):
+        elif anchor and dest.suffix == ".md" and anchor not in _anchors(dest):
             bad.append(f"{target}: no heading #{anchor} in {rel}")
+    return bad
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
+def test_every_relative_link_resolves(page):
+    bad = _link_problems(page)
     assert not bad, f"{page.name}: " + "; ".join(bad)
 
 
@@ -116,28 +121,30 @@ def _resolve(words: list[str]) -> tuple[Any, str]:
     return cmd, " ".join(path)
 
 
-def _documented_commands() -> list[tuple[str, str]]:
-    return [(p.name, c) for p in PAGES for c in _commands(p)]
-
-
-def test_the_pages_show_commands():
-    names = {c.split()[1] for _, c in _documented_commands()}
-    assert {"demo", "estimate", "calibrate", "vehicle", "map"} <= names
-
-
-@pytest.mark.parametrize("where, line", _documented_commands(), ids=lambda x: " ".join(x.split())[:60])
-def test_every_documented_command_exists_with_its_options(where, line):
+def _command_problem(line: str) -> str | None:
+    """What is wrong with the command line ``roadgrip ...``, or None."""
     words = shlex.split(line.replace("...", " "))[1:]
     cmd, name = _resolve(words)
-    assert cmd is not None, f"{where}: `roadgrip {name}` is not a command of `roadgrip --help`"
+    if cmd is None:
+        return f"`roadgrip {name}` is not a command of `roadgrip --help`"
     if _is_group(cmd):
         rest = [w for w in words[len(name.split()):] if w != "--help"]
-        assert not rest, f"{where}: `roadgrip {name}` needs a sub-command, not {rest}"
-        return
+        return f"`roadgrip {name}` needs a sub-command, not {rest}" if rest else None
     known = {o for p in cmd.params for o in (*p.opts, *p.secondary_opts)} | {"--help"}
     given = [w.split("=")[0] for w in words if re.match(r"--?[a-zA-Z]", w)]
     unknown = [o for o in given if o not in known]
-    assert not unknown, f"{where}: `roadgrip {name}` has no option {unknown} ({line.strip()})"
+    return f"`roadgrip {name}` has no option {unknown} ({line.strip()})" if unknown else None
+
+
+def test_the_pages_show_commands():
+    names = {c.split()[1] for p in PAGES for c in _commands(p)}
+    assert {"demo", "estimate", "calibrate", "vehicle", "map"} <= names
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
+def test_every_documented_command_exists_with_its_options(page):
+    bad = [msg for line in _commands(page) if (msg := _command_problem(line))]
+    assert not bad, f"{page.name}: " + "; ".join(bad)
 
 
 def test_the_checks_catch_what_they_claim(tmp_path):
@@ -152,12 +159,17 @@ def test_the_checks_catch_what_they_claim(tmp_path):
         "for s in 0 1; do roadgrip simulate x --seed $s -o y.parquet; done\n```\n\n"
         "Run `roadgrip frobnicate now`.\n")
     assert _links(page) == ["docs/a.md#a-section", "docs/b.md", "docs/a.md#nope"]
+    assert _link_problems(page, tmp_path.resolve()) == ["docs/b.md: no file docs/b.md",
+                                                         "docs/a.md#nope: no heading #nope in docs/a.md"]
     assert _slug("Fleet maps on Dask: `roadgrip fleet`") == "fleet-maps-on-dask-roadgrip-fleet"
     assert "a-section" in _anchors(docs / "a.md") and "nope" not in _anchors(docs / "a.md")
     cmds = _commands(page)
     assert [c.split()[1] for c in cmds] == ["estimate", "simulate", "frobnicate"]
     assert "--bogus" in cmds[0]
-    assert _resolve(["frobnicate"])[0] is None
-    assert _resolve(["vehicle", "template", "-o", "x.yaml"])[1] == "vehicle template"
-    estimate, _ = _resolve(["estimate"])
-    assert "--bogus" not in {o for p in estimate.params for o in p.opts}
+    assert "no option ['--bogus']" in _command_problem(cmds[0])
+    assert _command_problem(cmds[1]) is None
+    assert "not a command" in _command_problem(cmds[2])
+    assert _command_problem("roadgrip vehicle template -o x.yaml") is None
+    assert "not a command" in _command_problem("roadgrip vehicle frob")
+    assert "needs a sub-command" in _command_problem("roadgrip vehicle -o x.yaml")
+    assert _command_problem("roadgrip --help") is None
