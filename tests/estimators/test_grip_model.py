@@ -113,6 +113,9 @@ def test_demonstrated_channel_shows_high_grip_above_the_split_and_never_low():
     with pytest.raises(ValueError, match="lateral_evidence"):
         replace(m, lateral_evidence="pose")
     assert GripModel.from_dict(m.to_dict()) == m
+    off = replace(m, braking_evidence=False)
+    back = GripModel.from_dict(off.to_dict())
+    assert back == off and back.braking_evidence is False and back.lateral_evidence == "demonstrated"
 
 
 def test_brls_claim_expires_and_is_made_afresh():

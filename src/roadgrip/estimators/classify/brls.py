@@ -229,7 +229,7 @@ def model_regressors(
         # braking slips only with a fitted model: the vehicle's default takes the slip
         # stiffness from the cornering stiffness, and its braking residuals called the dry
         # asphalt after a wet patch 'low' for 3.7 s on the multi-body figure-eight
-        fitted = config.grip is not None
+        fitted = config.grip is not None and config.grip.braking_evidence
         ch, _ = channels(kin_f, ax_f, ay_f, steer, params, grip_of(config, params), config.min_speed,
                          braking=fitted)
         settled = braking.memory < BRAKING_MEMORY_MAX

@@ -340,7 +340,9 @@ def saturation_calibration(
     than the sideslip on a car without wheel speeds or pose), so the lateral channel's
     evidence is then the lateral acceleration alone
     (:func:`~roadgrip.estimators.classify.grip_model.demonstrated_channel`, which shows
-    high grip and never low), on when the drives reach it and it holds their label.
+    high grip and never low), on when the drives reach it and it holds their label. A
+    longitudinal channel that fails with its braking samples is tried on traction alone
+    (``GripModel.braking_evidence``).
 
     With ``estimate_friction`` the classes' peak friction comes from the drives
     (:func:`fit_class_friction`, then the stiffness and gains are fitted again);
@@ -379,8 +381,18 @@ def saturation_calibration(
         else:
             on[name] = lo is not None and lo < 0.5
     lateral = "slips"
+    braking = True
     if len(labels) == 1:
         on["long"] = on["long"] and _holds_label(cfg, data, "long")
+        if not on["long"]:
+            # the braking slips (against a coasting speed, with the wheels' radius errors)
+            # may contradict the label where the traction slips hold it
+            traction = replace(cfg, grip=replace(model, braking_evidence=False))
+            _, pooled_t = _median_positions(traction, data)
+            med = pooled_t["long"][labels[0]]
+            if med is not None and (med > 0.5 if labels[0] == "high" else med < 0.5) \
+                    and _holds_label(traction, data, "long"):
+                model, cfg, on["long"], braking = traction.grip, traction, True, False
         # the slip angles' lateral channel is not shown to separate the classes by one
         # class (with two it fails on the multi-body cars; on the planar dry-gravel-dry it
         # holds the dry label, yet the slip map called dry asphalt 'low' in a lane change):
@@ -404,7 +416,7 @@ def saturation_calibration(
             "friction": dict(friction), "friction_estimated": bool(estimate_friction),
             "median_positions": positions, "class_median_positions": pooled,
             "long_channel": "on" if on["long"] else "off", "lat_channel": "on" if on["lat"] else "off",
-            "lateral_evidence": lateral}
+            "lateral_evidence": lateral, "braking_evidence": braking}
     if demonstrated is not None:
         diag["friction_demonstrated"] = dict(demonstrated)
     return cfg, sm, diag

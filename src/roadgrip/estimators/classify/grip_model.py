@@ -122,6 +122,10 @@ class GripModel:
         Relative model error ``eps`` of the longitudinal / lateral channel [-].
     lateral_evidence : {'slips', 'demonstrated'}
         The lateral channel's regression (:data:`LATERAL_EVIDENCE`).
+    braking_evidence : bool
+        Whether the longitudinal channel takes braking samples (a calibrated model's;
+        off where a one-class calibration finds them contradicting its label, as wheel
+        radius and speed errors bias the braking slips).
     alpha_offset_f, alpha_offset_r : float
         Zero errors of the kinematic stage's front and rear slip angles [rad], which
         :func:`channels` subtracts: a steering-angle offset, a yaw misalignment of the
@@ -150,6 +154,7 @@ class GripModel:
     alpha_offset_f: float = 0.0
     alpha_offset_r: float = 0.0
     lateral_evidence: str = "slips"
+    braking_evidence: bool = True
 
     def __post_init__(self) -> None:
         if self.lateral_evidence not in LATERAL_EVIDENCE:
@@ -176,14 +181,15 @@ class GripModel:
                                  f"got {v!r}")
 
     def to_dict(self) -> dict[str, Any]:
-        return {k: (v if isinstance(v, str) else float(v)) for k, v in asdict(self).items()}
+        return {k: (v if isinstance(v, (str, bool)) else float(v)) for k, v in asdict(self).items()}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> GripModel:
         unknown = set(d) - set(cls.__dataclass_fields__)
         if unknown:
             raise ValueError(f"unknown grip model setting(s) {sorted(unknown)}")
-        return cls(**{k: (str(v) if k == "lateral_evidence" else float(v)) for k, v in d.items()})
+        kinds = {"lateral_evidence": str, "braking_evidence": bool}
+        return cls(**{k: kinds.get(k, float)(v) for k, v in d.items()})
 
 
 def default_grip_model(params: VehicleParams, mu_high: float, mu_low: float) -> GripModel:

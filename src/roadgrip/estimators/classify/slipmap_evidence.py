@@ -239,7 +239,8 @@ def saturation_evidence(
                          y_long=np.where(settled, ch.y_long, 0.0))
         # only a fitted model: the vehicle's default takes the slip stiffness from the
         # cornering stiffness (as the bRLS, grip_model.channels)
-        onset = braking_samples(kin, ax) & np.atleast_1d(braking.onset()) if config.grip is not None else None
+        fitted = config.grip is not None and config.grip.braking_evidence
+        onset = braking_samples(kin, ax) & np.atleast_1d(braking.onset()) if fitted else None
         if onset is not None and onset.any():
             chb, _ = channels(kin, ax, ay, steer, params, grip, config.min_speed, braking=True)
             ch = ch._replace(phi_long=np.where(onset, chb.phi_long, ch.phi_long),
