@@ -188,3 +188,52 @@ def test_fit_on_mutated_drives_names_or_fits(mutations, seed):
         else:
             assert v.note, v
     assert res.vehicle.mass == _sim().vehicle.mass
+
+
+def test_calibration_round_trip(tmp_path: Path):
+    """The fitted file's calibration undoes the injected offset and delays when a drive is
+    read with it (the CLI's loader), and the vehicle fields load unchanged."""
+    from roadgrip.cli._common import load_drive
+    from roadgrip.inference.vehicle_identification import read_calibration
+
+    res = _fit_injected()
+    car = tmp_path / "car.yaml"
+    car.write_text(res.to_yaml())
+    cal = read_calibration(car)
+    assert {"steer_offset", "steer_delay", "delay_accelerometer"} <= set(cal)
+    drive_file = tmp_path / "drive.parquet"
+    _injected().save(drive_file)
+    d = load_drive(str(drive_file), None, str(car))
+    assert d.meta.extra["calibration"] == cal
+    truth = _sim().data.set_index("t")
+    t = d.t[50:-50]
+    err_steer = d.col("steer")[50:-50] - np.interp(t, truth.index, truth["steer"])
+    assert abs(float(np.mean(err_steer))) < np.deg2rad(0.05)
+    raw = _injected()
+    raw_err = raw.col("steer") - np.interp(raw.t, truth.index, truth["steer"])
+    assert float(np.std(err_steer)) < 0.5 * float(np.std(raw_err))  # the 50 ms lag is gone
+    lag_ay = d.col("ay")[50:-50] - np.interp(t, truth.index, truth["ay"])
+    assert float(np.std(lag_ay)) < 0.1  # sensor noise 0.05 m/s², was the 80 ms lag
+    assert load_vehicle(car) == res.vehicle
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("calibration: 3", "'calibration' must be a mapping"),
+    ("calibration: {steer_gain: 1.0}", "unknown calibration 'steer_gain'"),
+    ("calibration: {steer_scale: -1.0}", "'steer_scale' = -1.0 must be > 0"),
+    ("calibration: {delay_speed: .nan}", "'delay_speed' = nan must be a number"),
+])
+def test_bad_calibration_is_named(tmp_path: Path, text, message):
+    from roadgrip.inference.vehicle_identification import read_calibration
+
+    p = tmp_path / "car.yaml"
+    p.write_text(yaml_dump_sedan() + text + "\n")
+    load_vehicle(p)  # the vehicle fields are fine
+    with pytest.raises(ValueError, match=message.replace("(", r"\(")):
+        read_calibration(p)
+
+
+def yaml_dump_sedan() -> str:
+    import yaml
+
+    return yaml.safe_dump(PRESETS["sedan"].to_dict(), sort_keys=False)

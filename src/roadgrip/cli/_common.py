@@ -103,10 +103,16 @@ AlignOpt = Annotated[bool, typer.Option(
 
 def load_drive(path: str, fmt: str | None, vehicle: str | None,
                topics: str | None = None, channels: str | None = None, dbc: str | None = None):
-    """Read a drive file or data set (:func:`roadgrip.io.read_drive`)."""
+    """Read a drive file or data set (:func:`roadgrip.io.read_drive`), with the sensor
+    calibration of a vehicle file applied (``roadgrip vehicle fit`` writes it)."""
     from roadgrip.io import read_drive
 
-    return read_drive(path, format=fmt, vehicle=vehicle, topics=topics, channels=channels, dbc=dbc)
+    drive = read_drive(path, format=fmt, vehicle=vehicle, topics=topics, channels=channels, dbc=dbc)
+    if vehicle is not None:
+        from roadgrip.inference.vehicle_identification import apply_calibration, read_calibration
+
+        drive = apply_calibration(drive, read_calibration(vehicle))
+    return drive
 
 
 @contextmanager

@@ -53,6 +53,8 @@ exclusive except for the body gradients (0: rigid body or unknown), whose upper
 bound 0.05 (28 deg/g) is exclusive; other bounds are inclusive.
 """
 _ZERO_ALLOWED = ("roll_gradient", "pitch_gradient")
+CALIBRATION_KEY = "calibration"
+"""Key of a vehicle file's sensor calibration (not a vehicle field)."""
 _DYNAMIC_INDEX = (0.1, 10.0)  # yaw_inertia / (mass lf lr)
 _STIFFNESS_PER_LOAD = (0.5, 100.0)  # axle cornering stiffness / static axle load [1/rad]
 
@@ -227,7 +229,9 @@ class VehicleParams:
     def from_yaml(cls, path: str | Path) -> VehicleParams:
         """Read a YAML file (UTF-8 with or without byte-order mark, or UTF-16).
 
-        ``name`` defaults to the file's stem.
+        ``name`` defaults to the file's stem. A ``calibration`` mapping (the sensors'
+        calibration that ``roadgrip vehicle fit`` writes) is not a vehicle field and is
+        left to :func:`roadgrip.inference.vehicle_identification.read_calibration`.
         """
         try:
             data = yaml.safe_load(_decode(Path(path).read_bytes(), path))
@@ -240,6 +244,8 @@ class VehicleParams:
             raise ValueError(f"vehicle file {path} is not valid YAML: {msg}") from None
         if isinstance(data, dict) and "name" not in data:
             data = {"name": Path(path).stem, **data}
+        if isinstance(data, dict):  # the sensors' calibration (roadgrip vehicle fit): not a field
+            data = {k: v for k, v in data.items() if k != CALIBRATION_KEY}
         try:
             return cls.from_dict(data)
         except (ValueError, TypeError) as exc:
