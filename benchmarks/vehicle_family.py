@@ -6,7 +6,7 @@ Prints one row a vehicle (the two named ones first, for comparison): base, drive
 mass, yaw inertia, CG position and height, axle cornering stiffnesses, understeer gradient,
 roll gradient; then per scenario the largest axle friction utilisation reached (the 99.9th
 percentile of the larger of the two axles, so that one sample does not decide); for the snow
-slalom the largest front slip angle over the front tire's peak slip angle on snow, and for
+slalom the largest front and rear slip angles over their tires' peak slip angles on snow, and for
 dry-gravel-dry the largest utilisation on gravel while cornering (its slalom and lane change).
 Each scenario runs at its multi-body default duration and seed 0; ``ROADGRIP_DRIVE_CACHE``
 caches the drives.
@@ -50,7 +50,7 @@ def main() -> None:
     for sc in args.scenarios:
         head += f" {'util ' + short[sc]:>11}"
         if sc == "snow-slalom":
-            head += f" {'af/peak':>7}"
+            head += f" {'af/peak':>7} {'ar/peak':>7}"
         if sc == "dry-gravel-dry":
             head += f" {'gravel corner':>13}"
     print(head)
@@ -68,8 +68,9 @@ def main() -> None:
             util = np.maximum(d.col("util_f_true"), d.col("util_r_true"))
             row += f" {np.quantile(util, 0.999):>11.2f}"
             if sc == "snow-slalom":
-                peak_f, _ = axle_peak_slip(v, 0.3)
-                row += f" {np.abs(d.col('alpha_f_true')).max() / peak_f:>7.1f}"
+                peak_f, peak_r = axle_peak_slip(v, 0.3)
+                row += (f" {np.abs(d.col('alpha_f_true')).max() / peak_f:>7.1f}"
+                        f" {np.abs(d.col('alpha_r_true')).max() / peak_r:>7.1f}")
             if sc == "dry-gravel-dry":
                 t = d.t
                 corner = (t >= _GRAVEL_CORNERING[0]) & (t < _GRAVEL_CORNERING[1])

@@ -270,28 +270,41 @@ def test_a_family_drive_is_reproducible_from_its_seeds():
 
 
 # -- excitation --------------------------------------------------------------------------
-def _excitation(vehicle: str):
+def _excitation(vehicle: str, duration: float = 60.0):
     v = mb_vehicle(vehicle, sensors="ideal")
     snow = simulate_scenario("snow-slalom", seed=0, engine="multibody", vehicle=vehicle, sensors="ideal",
-                             duration=60.0, cache=False)
-    peak_f, _ = axle_peak_slip(v, 0.3)
-    return snow, peak_f
+                             duration=duration, cache=False)
+    return snow, axle_peak_slip(v, 0.3)
 
 
 def test_snow_slalom_drives_a_family_vehicle_past_its_front_peak():
-    snow, peak_f = _excitation("random:102")
+    snow, (peak_f, peak_r) = _excitation("random:102")
     alpha = np.abs(snow.col("alpha_f_true"))
     assert alpha.max() > 2.0 * peak_f
     assert np.quantile(snow.col("util_f_true"), 0.99) > 0.95
+    assert np.abs(snow.col("alpha_r_true")).max() < 2.0 * peak_r  # the car understeers: the rear holds
+
+
+def test_a_spin_is_named():
+    """A tire whose lateral peak snaps (curvature 0.22, outside the family's range) spins this van
+    in the snow slalom: the engine says so instead of dividing by zero."""
+    v = sample_vehicle(117, sensors="ideal")
+    snappy = dataclasses.replace(v.commonroad, tire=dataclasses.replace(v.commonroad.tire, p_ey1=0.22))
+    from roadgrip.sim.mb_scenarios import MB_BUILDERS
+
+    with pytest.raises(RuntimeError, match="spun"):
+        MB_BUILDERS["snow-slalom"](0, 40.0, False, dataclasses.replace(v, commonroad=snappy))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("vehicle", ["ford-escort", "vw-vanagon", *(f"random:{s}" for s in range(100, 105))])
 def test_scenarios_excite_each_family_vehicle_as_the_named_two(vehicle):
-    """Snow slalom past the front tires' peak slip; dry-gravel-dry at utilisation >= 0.6
-    on gravel while cornering (slalom and lane change of the gravel segment)."""
-    snow, peak_f = _excitation(vehicle)
+    """Snow slalom (its full 200 s) past the front tires' peak slip, the rear's below twice its
+    own; dry-gravel-dry at utilisation >= 0.6 on gravel while cornering (slalom and lane change
+    of the gravel segment)."""
+    snow, (peak_f, peak_r) = _excitation(vehicle, duration=200.0)
     assert np.abs(snow.col("alpha_f_true")).max() > 2.0 * peak_f
+    assert np.abs(snow.col("alpha_r_true")).max() < 2.0 * peak_r  # no spin
     dgd = simulate_scenario("dry-gravel-dry", seed=0, engine="multibody", vehicle=vehicle, sensors="ideal",
                             cache=False)
     t = dgd.t

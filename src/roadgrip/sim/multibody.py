@@ -188,7 +188,11 @@ def simulate_multibody(
     steps = MBStepping(dt=dt, n_steps=n, n_settle=round(SETTLE_TIME * INTERNAL_RATE), stride=stride)
     driver = MBDriver(lookahead0=float(lookahead[0]), lookahead_gain=float(lookahead[1]), preview=0.6,
                       k_steer=20.0, kp=1.0, ki=0.2, slip_limit=SLIP_LIMIT)
-    states, derivs, inputs, wheels, surf = integrate_mb(x0, steps, params, path.encode(), driver, field)
+    try:
+        states, derivs, inputs, wheels, surf = integrate_mb(x0, steps, params, path.encode(), driver, field)
+    except ZeroDivisionError:  # the package divides by each wheel's forward speed, clipped at zero
+        raise RuntimeError(f"multi-body simulation of {name} with {mbv.name} failed: a wheel's forward speed "
+                           "reached zero while driving (the vehicle spun)") from None
     if not np.all(np.isfinite(states)):
         bad = int(np.argmax(~np.isfinite(states).all(1)))
         raise RuntimeError(f"multi-body simulation diverged (first non-finite state at t = {bad / output_rate:.2f} s)")

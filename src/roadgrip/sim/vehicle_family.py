@@ -71,7 +71,8 @@ FAMILY_RANGES: dict[str, tuple[float, float, str, str]] = {
     "longitudinal_stiffness": (16.0, 28.0, "-", "tire's longitudinal slip stiffness per unit load p_kx1 (22.3)"),
     "shape_lateral": (1.20, 1.50, "-", "lateral shape factor p_cy1 (1.35)"),
     "shape_longitudinal": (1.45, 1.80, "-", "longitudinal shape factor p_cx1 (1.64)"),
-    "curvature_lateral": (-0.50, 0.30, "-", "lateral curvature factor p_ey1 (-0.007)"),
+    "curvature_lateral": (-0.60, 0.00, "-", "lateral curvature factor p_ey1 (-0.007; a positive one sharpens "
+                                             "the peak into a snap: one at 0.22 spun a van in the snow slalom)"),
     "curvature_longitudinal": (0.00, 0.60, "-", "longitudinal curvature factor p_ex1 (0.46)"),
     "peak_load_x": (-0.20, -0.05, "-", "relative change of the longitudinal peak per relative load change"),
     "peak_load_y": (-0.20, -0.05, "-", "relative change of the lateral peak per relative load change"),
