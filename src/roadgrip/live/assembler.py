@@ -2,7 +2,9 @@
 
 A *cycle* is one frame of every mapped message. A row is complete when the cycle holds
 every message; a message that comes again before the cycle is complete (the next cycle
-has begun) closes it incomplete. In an incomplete row a message lost once keeps its
+has begun) closes it incomplete, and so does the clock message (with a ``t`` signal),
+which opens every cycle: a lost clock frame costs its row (dropped, counted) and never
+shifts the rows after it. In an incomplete row a message lost once keeps its
 last value (sample and hold) while it is silent for less than its ``timeout``; past
 that its columns are *stale* and the row says which (:attr:`Row.stale`), so that the
 estimator is not fed invented values.
@@ -77,7 +79,8 @@ class RowAssembler:
         if values is None:
             return []
         rows = []
-        if frame_id in self._seen:
+        # a message seen again, or the clock message (which opens every cycle), closes the cycle
+        if frame_id in self._seen or (frame_id == self.clock_id and self._seen):
             row = self._close()
             if row is not None:
                 rows.append(row)

@@ -127,8 +127,9 @@ class LiveEstimator:
 
     Attributes
     ----------
-    tables : list of DataFrame
-        The estimator's own tables per chunk, when ``keep_tables`` (tests).
+    tables, inputs : list of DataFrame
+        The estimator's own tables and the samples it was given, per chunk, when
+        ``keep_tables`` (tests).
     """
 
     def __init__(self, method: str, vehicle: VehicleParams, columns: list[str], options: dict[str, Any] | None = None,
@@ -158,6 +159,7 @@ class LiveEstimator:
         self.state: Any = None
         self.keep_tables = keep_tables
         self.tables: list[pd.DataFrame] = []
+        self.inputs: list[pd.DataFrame] = []
 
     @property
     def started(self) -> bool:
@@ -178,11 +180,13 @@ class LiveEstimator:
 
     def _run(self, rows: list[Row]) -> list[LiveRow]:
         self._feed.chunk = self._drive(rows)
+        self._feed_data = self._feed.chunk.data
         res = next(self._gen)
         self.state = res.state
         table = res.table
         if self.keep_tables:
             self.tables.append(table)
+            self.inputs.append(self._feed_data)
         if self._informed and len(table):
             table = table.copy()
             table.loc[table.index[0], "excited"] = True  # informed by earlier chunks
