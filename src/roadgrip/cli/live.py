@@ -51,7 +51,7 @@ def live(
     view: Annotated[int | None, typer.Option(
         "--view", help="Serve the Foxglove live view on this port (ws://127.0.0.1:PORT).")] = None,
     warmup: Annotated[float, typer.Option(help="Seconds of rows the estimator derives its constants from [s].")] = 1.0,
-    idle: Annotated[float, typer.Option(help="End after this long without a frame [s].")] = 5.0,
+    idle: Annotated[float, typer.Option(help="End after this long without a frame, once frames came [s].")] = 5.0,
     reconnect: Annotated[int, typer.Option(help="Times to reopen a bus that went away.")] = 0,
     max_rows: Annotated[int | None, typer.Option(help="End after this many rows.")] = None,
     particles: Annotated[int | None, typer.Option(help="gpssm: number of particles.")] = None,

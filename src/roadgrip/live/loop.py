@@ -8,7 +8,7 @@ from the receipt of the frame that completed it to its write by the last sink.
 A source that raises (a bus that went away: ``can.CanError`` or ``OSError``) ends the
 loop with the reason in :attr:`LiveStats.ended`, or, with ``reconnect``, is opened
 again (every second, up to ``reconnect`` attempts). A source silent for ``idle``
-seconds ends the loop (``ended = 'idle ...'``); a log source ends at its end; rows the
+seconds after its first frame ends the loop (``ended = 'idle ...'``); a log source ends at its end; rows the
 estimator refuses (``ValueError``) end it with the estimator's message.
 """
 
@@ -85,7 +85,7 @@ def run_live(source: Any, assembler: RowAssembler, estimator: LiveEstimator, sin
     poll : float
         Longest wait for one frame [s].
     idle : float or None
-        End after this long without a frame [s] (None: never).
+        End after this long without a frame [s], counted from the first frame (None: never).
     max_batch : int
         Frames taken per turn at most.
     max_rows : int, optional
@@ -104,7 +104,7 @@ def run_live(source: Any, assembler: RowAssembler, estimator: LiveEstimator, sin
     import can
 
     stats = LiveStats()
-    last_frame = time.monotonic()
+    last_frame: float | None = None  # the idle time counts from the first frame
     ended = ""
     clock = time.perf_counter
     while not ended:
@@ -127,7 +127,7 @@ def run_live(source: Any, assembler: RowAssembler, estimator: LiveEstimator, sin
         if msg is None:
             if getattr(source, "at_end", False):
                 ended = "end of log"
-            elif idle is not None and time.monotonic() - last_frame > idle:
+            elif idle is not None and last_frame is not None and time.monotonic() - last_frame > idle:
                 ended = f"idle {idle:g} s"
             continue
         last_frame = time.monotonic()
