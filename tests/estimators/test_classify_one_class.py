@@ -19,6 +19,7 @@ from roadgrip.constants import GRIP_CLASS_SPLIT
 from roadgrip.estimators import run_estimator
 from roadgrip.estimators.classify import calibrate
 from roadgrip.estimators.classify.common import mirrored_friction
+from roadgrip.estimators.classify.fit import fit_slip_offset
 
 
 @pytest.mark.parametrize(("label", "mu"), [("high", 1.0), ("high", 1.45), ("low", 0.3), ("low", 0.69)])
@@ -129,3 +130,28 @@ def test_cli_calibrate_from_one_dry_drive(planar, tmp_path):
     res = runner.invoke(app, ["calibrate", str(path), "-o", str(out)])
     assert res.exit_code != 0
     assert "--label" in str(res.exception)
+
+
+def test_slip_offset_is_the_driven_wheels_scale_error(planar):
+    """A 0.6 % scale error of the driven (front) wheel speeds shifts the fitted zero error of
+    the driven slip by 1 - 1 / 1.006 (the slip against the free-rolling wheels), and the
+    one-class calibration keeps it in the model."""
+    from roadgrip.inference.kinematic import drive_lateral_acceleration, estimate_kinematics
+
+    dry, _ = planar
+    assert dry.vehicle.drive == "fwd"
+    frame = dry.data.copy()
+    frame[["omega_fl", "omega_fr"]] *= 1.006
+    scaled = dry.with_data(frame)
+
+    def offset(drive):
+        kin = estimate_kinematics(drive)
+        return fit_slip_offset([(drive, "high", kin, drive_lateral_acceleration(drive, kin, "imu"))])
+
+    b0, fit0 = offset(dry)
+    b1, fit1 = offset(scaled)
+    assert fit0["fitted"] and fit1["fitted"]
+    assert b1 - b0 == pytest.approx(1.0 - 1.0 / 1.006, abs=3e-4)
+    cal = calibrate([(scaled, "high")])
+    assert cal.brls.grip.kappa_offset == pytest.approx(b1)
+    assert cal.diagnostics["slip_zero"]["offset"] == pytest.approx(b1)

@@ -128,13 +128,15 @@ UNITS = {
     "gain_x": "-", "gain_y": "-", "gain": "-", "model_error_x": "-", "model_error_y": "-",
     "model_error": "-", "relative_residual": "-", "stiffness_over_parameters": "-",
     "fraction_in_labelled_class": "-", "resistance_0": "m/s²", "resistance_2": "1/m",
-    "road_load": "m/s², 1/m", "alpha_offset_f": "rad", "alpha_offset_r": "rad",
+    "road_load": "m/s², 1/m", "alpha_offset_f": "rad", "alpha_offset_r": "rad", "kappa_offset": "-",
+    "offset": "-", "slope_per_mps2": "1/(m/s²)",
     "offset_deg": "deg", "slope_deg_per_mps2": "deg/(m/s²)", "D": "-",
 }
 """Units of the calibration's entries by their last key, as the calibration file holds them."""
 
 GRIP_FITTED = ("c_long", "c_lat", "mu_high", "mu_low", "gain_x", "gain_y", "model_error_x",
-               "model_error_y", "resistance_0", "resistance_2", "alpha_offset_f", "alpha_offset_r")
+               "model_error_y", "resistance_0", "resistance_2", "alpha_offset_f", "alpha_offset_r",
+               "kappa_offset")
 """The saturation model's parameters that ``roadgrip calibrate`` fits or sets from the drives."""
 
 

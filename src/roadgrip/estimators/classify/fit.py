@@ -48,6 +48,7 @@ from roadgrip.estimators.classify.common import DEFAULT_FRICTION, mirrored_frict
 from roadgrip.estimators.classify.frontend import FIRST_STEP_S
 from roadgrip.estimators.classify.grip_model import (
     ALPHA_OFFSET_MAX,
+    KAPPA_OFFSET_MAX,
     LONG_LATERAL_GATE,
     UNCALIBRATED_MODEL_ERROR,
     GripModel,
@@ -68,7 +69,8 @@ from roadgrip.inference.kinematic import (
     drive_lateral_acceleration,
 )
 
-__all__ = ["fit_class_friction", "fit_grip_model", "fit_slip_angle_offsets", "saturation_calibration"]
+__all__ = ["fit_class_friction", "fit_grip_model", "fit_slip_angle_offsets", "fit_slip_offset",
+           "saturation_calibration"]
 
 STIFFNESS_PRIOR = 0.2
 """Standard deviation of the log stiffness around the vehicle's parameters."""
@@ -97,12 +99,12 @@ _GAINS = np.linspace(0.85, 1.3, 19)
 
 
 def _channel_data(drive: Drive, kin: KinematicOutput, ay: NDArray, axis: str, min_speed: float,
-                  tau: float):
+                  tau: float, kappa_offset: float = 0.0):
     """Slips, measured acceleration and the samples a channel uses (arrays), the slips and
     accelerations low-passed over ``tau`` [s] as the classifiers do."""
     kin, ax, ay, braking, _ = prefilter(kin, drive.col("ax"), ay, drive.t, tau, FIRST_STEP_S,
                                         np.zeros(PREFILTER_SIZE))
-    kf, kr, on_x = traction_slips(kin.kappa, kin.wheels_valid, ax, drive.vehicle)
+    kf, kr, on_x = traction_slips(kin.kappa, kin.wheels_valid, ax, drive.vehicle, kappa_offset)
     moving = np.abs(kin.vx) >= min_speed
     if axis == "x":
         settled = braking.memory < BRAKING_MEMORY_MAX
@@ -138,7 +140,7 @@ def _with_road_load(model: GripModel, rows, params, axis: str) -> tuple[GripMode
 
 def fit_grip_model(
     data: Sequence[tuple[Drive, str, KinematicOutput, NDArray]], friction: dict[str, float],
-    min_speed: float = 0.5, tau: float = 0.3,
+    min_speed: float = 0.5, tau: float = 0.3, kappa_offset: float = 0.0,
 ) -> tuple[GripModel, dict[str, Any]]:
     """Stiffnesses, gains and model error of the saturation model (steps 1-2 of the module).
 
@@ -149,6 +151,8 @@ def fit_grip_model(
         Peak friction of each class (the model's ``mu_high``, ``mu_low``).
     min_speed, tau : float
         Slowest speed used [m/s]; the input filter's time constant [s].
+    kappa_offset : float
+        Zero error of the driven slip [-] (:func:`fit_slip_offset`), kept in the model.
 
     Returns
     -------
@@ -157,10 +161,10 @@ def fit_grip_model(
         Per channel the fitted stiffness, gain, residual and sample count.
     """
     params = data[0][0].vehicle
-    base = default_grip_model(params, friction["high"], friction["low"])
+    base = replace(default_grip_model(params, friction["high"], friction["low"]), kappa_offset=kappa_offset)
     fitted: dict[str, Any] = {}
     for axis, c_name, g_name in (("x", "c_long", "gain_x"), ("y", "c_lat", "gain_y")):
-        rows = [(_channel_data(d, kin, ay, axis, min_speed, tau), friction[lab])
+        rows = [(_channel_data(d, kin, ay, axis, min_speed, tau, kappa_offset), friction[lab])
                 for d, lab, kin, ay in data]
         base = replace(base, resistance_0=0.0, resistance_2=0.0) if axis == "x" else base
         n = sum(int(r[0][2].sum()) for r in rows)
@@ -243,6 +247,50 @@ def fit_slip_angle_offsets(
                     "slope_deg_per_mps2": [float(np.degrees(sf)), float(np.degrees(sr))]}
 
 
+SLIP_ZERO_ACCEL = (-0.15, 2.5)
+"""Longitudinal accelerations [m/s²] over which the driven slip's zero error is fitted:
+cruising and moderate traction, the linear range of every surface the classes cover."""
+
+
+def fit_slip_offset(
+    data: Sequence[tuple[Drive, str, KinematicOutput, NDArray]], min_speed: float = 5.0,
+) -> tuple[float, dict[str, Any]]:
+    """Zero error of the driven axle's slip against the free-rolling wheels [-].
+
+    The intercept of the least-squares line ``kappa = s a_x + b`` over the straight
+    (``|a_y| < 0.5`` m/s²) samples faster than ``min_speed`` [m/s] with ``a_x`` in
+    :data:`SLIP_ZERO_ACCEL`, pooled over the drives: wheel-speed scale errors between
+    the axles (tire radii, encoder scales; a few per mille) shift the ratio of the axles'
+    speeds by as much as a gravel road's slip at 1.5 m/s². The intercept also holds the
+    slip that carries the road load at cruise, which the fit then does not see as road
+    load (the same forces in the linear range). 0 without
+    :data:`ZERO_SLIP_MIN_SAMPLES` samples, or for an all-wheel-drive car; clipped to
+    :data:`~roadgrip.estimators.classify.grip_model.KAPPA_OFFSET_MAX`.
+
+    Returns
+    -------
+    offset : float
+    fit : dict
+        Samples, whether fitted, the offset and the slope [1/(m/s²)].
+    """
+    params = data[0][0].vehicle
+    xs, ks = [], []
+    for drive, _lab, kin, ay in data:
+        ax = drive.col("ax")
+        kf, kr, _ = traction_slips(kin.kappa, kin.wheels_valid, ax, params)
+        driven, valid = (kf, kin.wheels_valid[:, 0:2]) if params.drive == "fwd" else (kr, kin.wheels_valid[:, 2:4])
+        use = (np.abs(np.asarray(kin.vx, float)) >= min_speed) & (np.abs(ay) < 0.5) & valid.any(-1)
+        use &= (ax > SLIP_ZERO_ACCEL[0]) & (ax < SLIP_ZERO_ACCEL[1]) & np.isfinite(driven)
+        xs.append(ax[use])
+        ks.append(driven[use])
+    a = np.concatenate(xs)
+    if params.drive == "awd" or a.size < ZERO_SLIP_MIN_SAMPLES:
+        return 0.0, {"samples": int(a.size), "fitted": False}
+    s, b = np.polyfit(a, np.concatenate(ks), 1)
+    b = float(np.clip(b, -KAPPA_OFFSET_MAX, KAPPA_OFFSET_MAX))
+    return b, {"samples": int(a.size), "fitted": True, "offset": b, "slope_per_mps2": float(s)}
+
+
 FRICTION_GRID = np.round(np.arange(0.1, 1.51, 0.025), 3)
 """Peak frictions tried when a class's friction is estimated from its drives."""
 
@@ -262,7 +310,7 @@ def fit_class_friction(
     params = data[0][0].vehicle
     out = {}
     for lab in sorted({la for _, la, _, _ in data}):
-        rows = [(*_channel_data(d, kin, ay, axis, min_speed, tau), axis)
+        rows = [(*_channel_data(d, kin, ay, axis, min_speed, tau, model.kappa_offset), axis)
                 for d, la, kin, ay in data if la == lab for axis in ("x", "y")]
         sse = np.zeros(FRICTION_GRID.size)
         for k, mu in enumerate(FRICTION_GRID):
@@ -362,12 +410,14 @@ def saturation_calibration(
     # the tire fits see the slip angles as the classifiers will (less the zero errors)
     level = [(d, lab, kin._replace(alpha_f=kin.alpha_f - off_f, alpha_r=kin.alpha_r - off_r), ay)
              for d, lab, kin, ay in data]
-    model, fitted = fit_grip_model(level, friction, base.min_speed, base.slip_filter_tau_s)
+    # one class: the driven slip's zero error (with two, the classes' own fit holds it)
+    kappa_offset, slip_zero = fit_slip_offset(level) if len(labels) == 1 else (0.0, {"fitted": False})
+    model, fitted = fit_grip_model(level, friction, base.min_speed, base.slip_filter_tau_s, kappa_offset)
     demonstrated = None
     if estimate_friction:
         demonstrated = fit_class_friction(level, model, base.min_speed, base.slip_filter_tau_s)
         friction = _labelled_friction(demonstrated, labels)
-        model, fitted = fit_grip_model(level, friction, base.min_speed, base.slip_filter_tau_s)
+        model, fitted = fit_grip_model(level, friction, base.min_speed, base.slip_filter_tau_s, kappa_offset)
     model = replace(model, alpha_offset_f=off_f, alpha_offset_r=off_r)
     cfg = replace(base, grip=model)
     positions, pooled = _median_positions(cfg, data)
@@ -413,6 +463,7 @@ def saturation_calibration(
     sm = replace(slipmap_saturation(model, hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf,
                                     lateral=on["lat"]), longitudinal=on["long"])
     diag = {"model": "saturation", "labels": "+".join(labels), "grip_fit": fitted, "slip_angle_zero": zero,
+            "slip_zero": slip_zero,
             "friction": dict(friction), "friction_estimated": bool(estimate_friction),
             "median_positions": positions, "class_median_positions": pooled,
             "long_channel": "on" if on["long"] else "off", "lat_channel": "on" if on["lat"] else "off",

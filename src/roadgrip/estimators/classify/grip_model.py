@@ -51,6 +51,7 @@ __all__ = [
     "BRAKING_ACCEL",
     "BRAKING_MIN_SPEED",
     "DEMONSTRATED_MARGIN",
+    "KAPPA_OFFSET_MAX",
     "LATERAL_EVIDENCE",
     "LONG_LATERAL_GATE",
     "UNCALIBRATED_MODEL_ERROR",
@@ -70,6 +71,10 @@ __all__ = [
 UNCALIBRATED_MODEL_ERROR = 0.25
 """Relative model error of the uncalibrated model (stiffness from the vehicle's
 parameters, unknown accelerometer gains from pitch and roll) [-]."""
+
+KAPPA_OFFSET_MAX = 0.05
+"""Largest zero error of the driven axle's slip a model accepts [-] (5 % between the axles'
+wheel speeds: beyond it a wheel-speed signal is broken, not offset)."""
 
 LATERAL_EVIDENCE = ("slips", "demonstrated")
 """What the lateral channel regresses: the measured lateral acceleration between the two
@@ -122,6 +127,12 @@ class GripModel:
         Relative model error ``eps`` of the longitudinal / lateral channel [-].
     lateral_evidence : {'slips', 'demonstrated'}
         The lateral channel's regression (:data:`LATERAL_EVIDENCE`).
+    kappa_offset : float
+        Zero error of the driven axle's slip against the free-rolling wheels [-], which
+        :func:`traction_slips` subtracts: wheel-speed scale errors between the axles (tire
+        radii, encoder scales) shift it by a constant that the model would read as
+        saturation (0 without a calibration;
+        :func:`roadgrip.estimators.classify.fit.fit_slip_offset`).
     braking_evidence : bool
         Whether the longitudinal channel takes braking samples (a calibrated model's;
         off where a one-class calibration finds them contradicting its label, as wheel
@@ -155,6 +166,7 @@ class GripModel:
     alpha_offset_r: float = 0.0
     lateral_evidence: str = "slips"
     braking_evidence: bool = True
+    kappa_offset: float = 0.0
 
     def __post_init__(self) -> None:
         if self.lateral_evidence not in LATERAL_EVIDENCE:
@@ -174,6 +186,9 @@ class GripModel:
         for name in ("model_error_x", "model_error_y"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise ValueError(f"grip model {name} must be >= 0, got {getattr(self, name)!r}")
+        if not (math.isfinite(self.kappa_offset) and abs(self.kappa_offset) <= KAPPA_OFFSET_MAX):
+            raise ValueError(f"grip model kappa_offset must be finite and within +-{KAPPA_OFFSET_MAX}, "
+                             f"got {self.kappa_offset!r}")
         for name in ("alpha_offset_f", "alpha_offset_r"):
             v = getattr(self, name)
             if not (math.isfinite(v) and abs(v) <= ALPHA_OFFSET_MAX):
@@ -329,14 +344,15 @@ def _rolling_over_speed(k: NDArray) -> NDArray:
 
 
 def traction_slips(
-    kappa: NDArray, wheels_valid: NDArray, ax: NDArray, params: VehicleParams,
+    kappa: NDArray, wheels_valid: NDArray, ax: NDArray, params: VehicleParams, offset: float = 0.0,
 ) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
     """Axle slips for the model and the samples where the driven axle's slip is known.
 
     In traction (``ax > 0``) the undriven axle rolls freely: where both axles'
     wheel speeds are measured, the driven axle's slip is taken against the
-    undriven wheels, ``1 - omega_undriven / omega_driven`` (the undriven axle's
-    slip set to 0), which no error of the speed estimate can bias; elsewhere
+    undriven wheels, ``1 - omega_undriven / omega_driven - offset`` (``offset`` the
+    zero error of that ratio, ``GripModel.kappa_offset``; the undriven axle's slip set
+    to 0), which no error of the speed estimate can bias; elsewhere
     the kinematic stage's slips are kept. An all-wheel-drive car has no
     free-rolling wheel, so none of its samples is traction here. Braking, where
     every wheel slips against a speed that coasts on the accelerometer, is
@@ -358,7 +374,7 @@ def traction_slips(
     v_dr = valid[:, 0:2].any(-1) if front_driven else valid[:, 2:4].any(-1)
     v_un = valid[:, 2:4].any(-1) if front_driven else valid[:, 0:2].any(-1)
     both = v_dr & v_un
-    rel = 1.0 - _rolling_over_speed(k_un) / _rolling_over_speed(k_dr)
+    rel = 1.0 - _rolling_over_speed(k_un) / _rolling_over_speed(k_dr) - offset
     k_dr = np.where(both, rel, k_dr)
     k_un = np.where(both, 0.0, k_un)
     on = v_dr & (ax > 0.0) & (k_dr >= 0.0)
@@ -429,7 +445,7 @@ def channels(
     """
     ax = np.atleast_1d(np.asarray(ax, float))
     ay = np.atleast_1d(np.asarray(ay, float))
-    kf, kr, on_x = traction_slips(kin.kappa, kin.wheels_valid, ax, params)
+    kf, kr, on_x = traction_slips(kin.kappa, kin.wheels_valid, ax, params, model.kappa_offset)
     vx = np.atleast_1d(np.asarray(kin.vx, float))
     brake = braking_samples(kin, ax) if braking else np.zeros(ax.shape, bool)
     if brake.any():  # both axles' own slips, not the driven one's against the free wheels
