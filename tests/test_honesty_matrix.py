@@ -18,12 +18,6 @@ KNOWN_DISHONEST = {
     # the GP-SSM's lateral velocity runs away at 30-60 m/s and its band does not say so
     # (short corpus: 80 % of the samples miss the INS vy by more than the band)
     ("revs", "gpssm"): "vy band excludes the INS lateral velocity",
-    # the lateral velocity jumps to -4 m/s (truth 0) at 28.3 s at 12.8 m/s in a slalom;
-    # the guard flags and resets it (the yaw-rate and slide checks) but only after 0.5-1 s
-    # each time: vy band wrong on 6.8 %, the front band on 1.2 % (observed 0.59 on dry
-    # asphalt of 1.0 for the second before the first reset; 64 % and 38 % before the slide
-    # check and the relearning rule)
-    ("sim:dry-gravel-dry:0", "gpssm"): "vy drift flagged late: vy band and front peak band wrong",
 }
 
 

@@ -38,7 +38,7 @@ def _front_nonlinear_fraction(drive) -> float:
 
 
 def test_registry_and_unknown_name():
-    assert set(NAMES) == {"snow-slalom", "dry-gravel-dry", "f1tenth-patches", "straight-cruise"}
+    assert set(NAMES) == {"snow-slalom", "dry-gravel-dry", "f1tenth-patches", "straight-cruise", "sine-burst"}
     assert set(SCENARIOS) == {*NAMES, "figure-eight"}
     for name, sc in SCENARIOS.items():
         assert sc.name == name and sc.duration > 0 and sc.output_rate > 0 and sc.description
@@ -263,3 +263,22 @@ def test_other_seeds_stay_finite_and_within_friction(seed):
         for axle in ("f", "r"):
             assert np.all(np.abs(df[f"Fy{axle}_true"]) <= 1.01 * df["mu_true"] * df[f"Fz{axle}_true"])
         assert np.abs(df["vy_true"]).max() < 0.3 * df["vx_true"].max()  # no spin-out
+
+
+def test_sine_burst_grows_into_the_front_tires_limit():
+    """Four bursts of growing amplitude (SINE_BURSTS): the lateral acceleration peaks grow
+    burst by burst to about 0.87 g, and the last burst takes the front slip past the dry
+    Magic Formula's peak slip (about 10 deg) while the rear stays below it."""
+    import numpy as np
+
+    from roadgrip.sim.scenarios import SINE_BURST_PERIOD, SINE_BURSTS
+    from roadgrip.tire import SURFACES
+
+    d = simulate_scenario("sine-burst", seed=0)
+    assert d.duration == pytest.approx(30.0, abs=0.05) and d.n == 1501
+    ay = np.abs(d.col("ay_true") if d.has("ay_true") else d.col("ay"))
+    peaks = [ay[(d.t >= t0) & (d.t <= t0 + 2 * SINE_BURST_PERIOD + 0.3)].max() for t0, _ in SINE_BURSTS]
+    assert np.all(np.diff(peaks) > 0)
+    assert 0.8 * 9.80665 < peaks[-1] < 0.95 * 9.80665
+    peak_slip, _ = SURFACES["dry_asphalt"].lateral.peak()
+    assert np.abs(d.col("alpha_f_true")).max() > peak_slip > np.abs(d.col("alpha_r_true")).max()

@@ -10,6 +10,8 @@ dry-gravel-dry      sedan      paper 002: dry -> gravel -> dry with acceleration
 f1tenth-patches     f1tenth    paper 003: laps of a closed track with low- and
                                high-grip patches; pose with localisation noise
 straight-cruise     sedan      no excitation: straight at constant speed
+sine-burst          sedan      30 s: four sine-steer bursts at 11 m/s growing to
+                               0.87 g on dry asphalt (a short manoeuvre)
 figure-eight        (mb)       laps of a figure-eight with snow, gravel and a wet
                                crossing braked on every second lap
 ==================  =========  =====================================================
@@ -284,6 +286,33 @@ def _f1tenth_patches(seed: int, duration: float, progress: bool) -> Drive:
 
 
 # ------------------------------------------------------------------------------------
+# sine-burst: a short manoeuvre of a public peer's kind
+# ------------------------------------------------------------------------------------
+SINE_BURSTS = ((2.0, 3.0), (9.0, 5.0), (16.0, 7.0), (23.0, 8.5))
+"""``(start [s], lateral-acceleration amplitude [m/s²])`` of the four bursts of
+``sine-burst``, each two periods of :data:`SINE_BURST_PERIOD`."""
+
+SINE_BURST_PERIOD = 1.5
+"""Period of the steering sine of ``sine-burst`` [s]."""
+
+
+def _sine_burst(seed: int, duration: float, progress: bool) -> Drive:
+    from roadgrip.sim.runner import simulate
+
+    vehicle = PRESETS["sedan"]
+    rng = np.random.default_rng([seed, 5])
+    j = rng.uniform(0.95, 1.05, size=len(SINE_BURSTS))
+    windows = tuple((t0, t0 + 2 * SINE_BURST_PERIOD, Slalom(amp * k, SINE_BURST_PERIOD))
+                    for (t0, amp), k in zip(SINE_BURSTS, j, strict=True))
+    man = Maneuver(ConstantSpeed(11.0), Schedule(windows, fade=0.3), yaw_gain=0.3, sideslip_gain=1.5)
+    return simulate(
+        vehicle, man, ConstantFriction("dry_asphalt"), [surface_from_preset("dry_asphalt")],
+        duration=duration, model="lateral", output_rate=50.0, internal_rate=500.0,
+        sensors=SNOW_SENSORS, seed=seed, name="sine-burst", progress=progress,
+    )
+
+
+# ------------------------------------------------------------------------------------
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
     for s in (
@@ -307,6 +336,12 @@ SCENARIOS: dict[str, Scenario] = {
             "sedan on dry asphalt, straight at 20 m/s: almost no excitation (multi-body: the "
             "friction drops to 0.3 half-way)",
             _straight_cruise, ("planar", "multibody"), 120.0,
+        ),
+        Scenario(
+            "sine-burst", "sedan", 30.0, 50.0,
+            "sedan on dry asphalt at 11 m/s, lateral model: four sine-steer bursts growing to "
+            "0.87 g (a short manoeuvre)",
+            _sine_burst, ("lateral",),
         ),
         Scenario(
             "figure-eight", "ford-escort", 280.0, 100.0,
