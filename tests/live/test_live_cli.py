@@ -175,3 +175,31 @@ def test_rows_the_estimator_refuses_end_the_loop_with_its_words(drive_file, code
                      Refusing("brls", drive.vehicle, decoder.columns), [ListSink()], max_batch=1)
     assert stats.ended.startswith("estimator stopped at t = 2.010 s: sample time does not follow")
     assert stats.rows == 201
+
+
+@pytest.mark.parametrize("speed", [1.0, 4.0])
+def test_a_log_source_hands_out_frames_when_their_time_has_come(tmp_path, speed):
+    import time
+
+    import can
+
+    from roadgrip.live.replay import LogSource
+
+    log = tmp_path / "paced.asc"
+    with can.Logger(str(log)) as writer:
+        for k in range(21):  # 0.2 s of frames
+            writer.on_message_received(can.Message(timestamp=100.0 + 0.01 * k, arbitration_id=0x100, data=b"\x00" * 8))
+    src = LogSource(log, speed)
+    t0 = time.monotonic()
+    got = []
+    while not src.at_end:
+        m = src.recv(0.05)
+        if m is not None:
+            got.append(time.monotonic() - t0)
+    assert len(got) == 21
+    assert got[-1] >= 0.2 / speed * 0.95  # not before its time
+    assert got[-1] <= 0.2 / speed + 0.5  # nor long after (a loaded machine)
+    unpaced = LogSource(log)  # the default: every frame at once
+    t0 = time.monotonic()
+    assert sum(unpaced.recv(0.05) is not None for _ in range(21)) == 21
+    assert time.monotonic() - t0 < 0.15  # paced at 1, the 0.2 s of frames would take 0.2 s

@@ -40,6 +40,8 @@ def live(
     channel: ChannelOpt = None,
     log: Annotated[Path | None, typer.Option(
         "--log", help="Read the frames from a CAN log (.blf, .asc, .trc) instead of a bus.")] = None,
+    speed: Annotated[float, typer.Option(
+        help="--log: log seconds per wall second (1: as recorded; 0: as fast as possible).")] = 0.0,
     dbc: DbcFileOpt = None,
     signals: MapOpt = None,
     vehicle: VehicleOpt = None,
@@ -69,6 +71,8 @@ def live(
     if vss not in (None, "-"):
         opt.check_output(vss, "--vss")
     address = _udp(udp) if udp is not None else None
+    if not (speed >= 0 and math.isfinite(speed)):
+        raise ValueError(f"--speed must be 0 (as fast as possible) or a positive factor, got {speed}")
     if not (math.isfinite(warmup) and warmup > 0):
         raise ValueError(f"--warmup must be a positive number of seconds, got {warmup}")
     from roadgrip.io.can import FrameDecoder, FrameEncoder
@@ -86,7 +90,9 @@ def live(
     est = LiveEstimator(method, veh, decoder.columns, options, warmup=warmup, seed=seed)
 
     def open_source() -> Any:
-        return LogSource(log) if log is not None else open_bus(interface, channel)  # type: ignore[arg-type]
+        if log is not None:
+            return LogSource(log, speed if speed > 0 else float("inf"))
+        return open_bus(interface, channel)  # type: ignore[arg-type]
 
     source = open_source()
     sinks: list[Any] = []

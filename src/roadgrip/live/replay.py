@@ -46,6 +46,9 @@ class LogSource:
     ----------
     path : str or Path
         ``.blf``, ``.asc`` or ``.trc``.
+    speed : float
+        Log seconds per wall second: a frame is handed out when its time has come (``inf``:
+        at once, the default).
 
     Attributes
     ----------
@@ -53,7 +56,7 @@ class LogSource:
         Every frame has been read.
     """
 
-    def __init__(self, path: str | Path):
+    def __init__(self, path: str | Path, speed: float = float("inf")):
         import can
 
         p = Path(path)
@@ -61,17 +64,36 @@ class LogSource:
             raise ValueError(f"no such file: {p}")
         if p.suffix.lower() not in CAN_LOG_SUFFIXES:
             raise ValueError(f"{p.name}: a CAN log is {', '.join(CAN_LOG_SUFFIXES)}")
+        if not speed > 0:
+            raise ValueError(f"speed must be positive, got {speed}")
         self._reader: Iterator[Any] = iter(can.LogReader(str(p)))
+        self.speed = float(speed)
+        self._next: Any = None
+        self._start: tuple[float, float] | None = None  # (wall time, log time) of the first frame
         self.at_end = False
 
     def recv(self, timeout: float | None = None) -> Any:
         if self.at_end:
             return None
-        try:
-            return next(self._reader)
-        except StopIteration:
-            self.at_end = True
-            return None
+        if self._next is None:
+            try:
+                self._next = next(self._reader)
+            except StopIteration:
+                self.at_end = True
+                return None
+        if math.isfinite(self.speed):
+            now = time.monotonic()
+            if self._start is None:
+                self._start = (now, float(self._next.timestamp))
+            due = self._start[0] + (float(self._next.timestamp) - self._start[1]) / self.speed
+            if due > now:
+                wait = due - now
+                if timeout is not None and wait > timeout:
+                    time.sleep(timeout)
+                    return None
+                time.sleep(wait)
+        msg, self._next = self._next, None
+        return msg
 
     def shutdown(self) -> None:
         self.at_end = True
