@@ -31,22 +31,22 @@ SHORT = _specs("short")
 _FIGURE_EIGHT_GPSSM = ("one learned curve per axle cannot follow the figure-eight's friction "
                        "patches (dry 1.0, snow 0.3, gravel 0.6, wet 0.6): its bands outlive the "
                        "10-s grace after a change; vy band wrong 33-59 %")
-_FIGURE_EIGHT_CASCADE = "road (VSS) band narrower than the prior excludes a patch's friction: 10-19 %"
 KNOWN_DISHONEST_FULL: dict[tuple[str, str], str] = {
     # measured with benchmarks/honesty_matrix.py --size full (docs/validation-honesty.md):
     # share of samples with a wrong claim on the worst output path
-    ("mb:ford-escort:figure-eight:0", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 23.6 %
-    ("mb:ford-escort:figure-eight:1", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 19.7 %
-    ("mb:vw-vanagon:figure-eight:0", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 22.1 %
-    ("mb:vw-vanagon:figure-eight:1", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 27.0 %
-    ("mb:ford-escort:figure-eight:0", "cascade"): _FIGURE_EIGHT_CASCADE,  # VSS 10.0 %
-    ("mb:ford-escort:figure-eight:1", "cascade"): _FIGURE_EIGHT_CASCADE,  # VSS 16.8 %
-    ("mb:vw-vanagon:figure-eight:0", "cascade"): _FIGURE_EIGHT_CASCADE,  # VSS 18.9 %
-    ("mb:vw-vanagon:figure-eight:1", "cascade"): _FIGURE_EIGHT_CASCADE,  # VSS 18.9 %
-    # an upper band below the demonstrated floor (0.8 % / 1.7 % of the samples)
-    ("dart:0909-141245", "gpssm"): "axle band below the demonstrated floor on 0.8 %",
-    ("dart:0909-165303", "gpssm"): "axle band below the demonstrated floor on 1.7 %",
-    ("revs", "gpssm"): "vy band excludes the INS lateral velocity on 86.7 % (8.2 % flagged diverged)",
+    ("mb:ford-escort:figure-eight:0", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 23.6 %, vy 41.8 %
+    ("mb:ford-escort:figure-eight:1", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 21.5 %, vy 59.3 %
+    ("mb:vw-vanagon:figure-eight:0", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 22.1 %, vy 28.8 %
+    ("mb:vw-vanagon:figure-eight:1", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 23.8 %, vy 52.2 %
+    # the kinematic a_y (r vx + dvy/dt, the DART preset) is the GP-SSM's floor, the rule's
+    # is the accelerometer's: an upper band below the accelerometer's floor on 0.8 % / 1.7 %
+    ("dart:0909-141245", "gpssm"): "axle band below the accelerometer's demonstrated floor on 0.8 %",
+    ("dart:0909-165303", "gpssm"): "axle band below the accelerometer's demonstrated floor on 1.7 %",
+    ("revs", "gpssm"): "vy band excludes the INS lateral velocity on 78.4 % (3.0 % flagged diverged)",
+    # one judged sample of 37 (the patches leave the rest inside the grace windows): at the
+    # first turn-in (0.72 s) vy -0.110 +- 0.020 against the truth's 0.030, 0.001 m/s past the
+    # band; honest with 400 particles (a Monte Carlo miss of the vy band's width)
+    ("sim:f1tenth-patches:0", "gpssm"): "vy band misses the truth by 0.001 m/s on 1 of 37 judged samples",
 }
 """The same for the full corpus (``make verify``), measured with ``benchmarks/honesty_matrix.py``."""
 

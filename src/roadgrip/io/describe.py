@@ -47,6 +47,7 @@ import numpy as np
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import SIGNAL_COLUMNS, TRUTH_COLUMNS, Drive
 from roadgrip.drive_units import PAIRS, pair_ratios
+from roadgrip.io.sections import Section, format_text
 from roadgrip.tire import FrictionModel, bracketed_root
 from roadgrip.truth import friction_utilisation, has_parametric_truth, utilisation_source
 from roadgrip.vehicle.params import VehicleParams, driven_wheels
@@ -368,30 +369,6 @@ def _fmt(v: float) -> str:
     return f"{v:.4g}"
 
 
-@dataclass(frozen=True)
-class Section:
-    """One table of a drive description.
-
-    Attributes
-    ----------
-    title : str
-    columns : tuple of str
-        Column names.
-    rows : tuple of tuple of str
-        Formatted cells, one tuple per row.
-    right : frozenset of str
-        Columns aligned right (numbers).
-    header : bool
-        Whether the column names are shown (the overview is a key-value list).
-    """
-
-    title: str
-    columns: tuple[str, ...]
-    rows: tuple[tuple[str, ...], ...]
-    right: frozenset[str] = frozenset()
-    header: bool = True
-
-
 def describe_drive(drive: Drive, *, mu_peak: float | None = None) -> list[Section]:
     """The summary of a drive that ``roadgrip info`` prints, as formatted tables.
 
@@ -594,18 +571,3 @@ def _units_section(drive: Drive, chunked: bool) -> Section | None:
     title = "units and signs from kinematic consistency" + (" (first chunk)" if chunked else "")
     return Section(title, ("pair", "ratio", "accepted", "windows agreeing", "verdict"), tuple(rows),
                    right=frozenset({"ratio", "windows agreeing"}))
-
-
-def format_text(sections: list[Section]) -> str:
-    """Plain-text rendering of :func:`describe_drive`: each table titled, columns padded."""
-    out = []
-    for sec in sections:
-        rows = [sec.columns, *sec.rows] if sec.header else list(sec.rows)
-        widths = [max((len(r[i]) for r in rows), default=0) for i in range(len(sec.columns))]
-        out.append(sec.title)
-        for r in rows:
-            cells = [c.rjust(w) if name in sec.right else c.ljust(w)
-                     for c, w, name in zip(r, widths, sec.columns, strict=True)]
-            out.append("  " + "  ".join(cells).rstrip())
-        out.append("")
-    return "\n".join(out)
