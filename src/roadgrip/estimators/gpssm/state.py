@@ -18,7 +18,6 @@ from roadgrip.estimators.gpssm.config import GPSSMConfig
 from roadgrip.estimators.gpssm.guard import Guard
 from roadgrip.estimators.gpssm.inputs import Sample
 from roadgrip.estimators.gpssm.model import State, VehicleConstants, vehicle_constants
-from roadgrip.signals import tilt_gains
 from roadgrip.vehicle.params import VehicleParams, axle_loads
 
 GAIN_MIN, GAIN_MAX = 0.5, 2.0
@@ -43,7 +42,7 @@ class Context:
     substeps : int
     """
 
-    __slots__ = ("config", "gain_prior", "gain_sigma", "gain_walk", "kernel", "sigma_ay", "sigma_yaw_rate", "substeps",
+    __slots__ = ("config", "gain_sigma", "gain_walk", "kernel", "sigma_ay", "sigma_yaw_rate", "substeps",
                  "veh", "vehicle")
 
     def __init__(self, config: GPSSMConfig, vehicle: VehicleParams, substeps: int = 1) -> None:
@@ -61,9 +60,6 @@ class Context:
         # the accelerometer gain is learned from an accelerometer only (not from r vx + dvy/dt)
         imu = config.ay_source == "imu"
         self.gain_sigma = config.ay_gain_sigma if imu else 0.0
-        # the gain the vehicle's declared roll gradient gives a body-fixed accelerometer
-        # (1 + g roll_gradient, roadgrip.signals.tilt_gains); 1 for the kinematic a_y
-        self.gain_prior = float(np.clip(tilt_gains(vehicle)[1], GAIN_MIN, GAIN_MAX)) if imu else 1.0
         self.gain_walk = config.ay_gain_walk if (imu and config.ay_gain_sigma > 0.0) else 0.0
         self.kernel: dict[str, Any] = {}
 
@@ -230,9 +226,9 @@ def init_state(ctx: Context, sample: Sample, seed: int = 0) -> GPSSMState:
     x = np.empty((N, State.SIZE))
     x[:, State.VY] = config.sigma_vy0 * rng.standard_normal(N)
     x[:, State.YAW_RATE] = sample.yaw_rate + ctx.sigma_yaw_rate * rng.standard_normal(N)
-    x[:, State.AY_GAIN] = ctx.gain_prior
+    x[:, State.AY_GAIN] = 1.0
     if ctx.gain_sigma > 0.0:
-        x[:, State.AY_GAIN] = np.clip(ctx.gain_prior + ctx.gain_sigma * rng.standard_normal(N), GAIN_MIN, GAIN_MAX)
+        x[:, State.AY_GAIN] = np.clip(1.0 + ctx.gain_sigma * rng.standard_normal(N), GAIN_MIN, GAIN_MAX)
     return GPSSMState(
         k=0,
         t=float(sample.t),
