@@ -84,7 +84,7 @@ def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measu
     limit = None if limit_deg is None else math.radians(limit_deg)
     # (no re-initialisation on divergence here: it restarts the particles, which turns
     # the implementations' rounding differences into different paths)
-    # (a wide accelerometer-gain prior, 0.1: gains that differ between particles, so that
+    # (the accelerometer-gain prior 0.1 named: gains that differ between particles, so that
     # the per-particle gain paths are compared; on some paths fastmath's rounding grows
     # past these tolerances in Psi, 1e-7 of 400, as with 0.05 and this seed)
     cfg = _cfg(d, basis, n=24, proposal=proposal, max_sideslip=math.radians(3.0), slip_limit=limit,
@@ -277,8 +277,8 @@ def test_straight_drive_leaves_the_prior_and_says_so():
     assert t["mu_front"].iloc[-1] < 0.05
     # and nothing bounds it from above but the physical limit
     assert (t["mu_front_upper"] == GPSSMConfig.peak_max).all() and (t["mu_rear_upper"] == 2.0).all()
-    # the paper's setting (tensor basis, fixed accelerometer gain, the default) leaves the
-    # prior mean; with a learned gain the mean stays well inside the prior band too
+    # the paper's setting (tensor basis, fixed accelerometer gain) leaves the prior mean;
+    # with the learned gain (the default) the mean stays well inside the prior band too
     alpha = np.radians(np.r_[-12.0:-5.0:1.0, 6.0:13.0:1.0])
     for gain_sigma, tol in ((0.0, 0.05), (0.1, 0.1)):
         f, _ = _online(GPSSMConfig(basis="tensor:10x10", particles=30, ay_gain_sigma=gain_sigma), d)

@@ -1,7 +1,6 @@
-"""The GP-SSM's accelerometer gain when it is learned (``GPSSMConfig.ay_gain_sigma`` > 0,
-``ay_gain_gate``) against the planar simulator, whose accelerometer reads the true lateral
-acceleration (gain 1). (The default fixes the gain at the vehicle's, the config's docstring
-says why.)"""
+"""The GP-SSM's learned accelerometer gain (``GPSSMConfig.ay_gain_sigma`` > 0, the default,
+and ``ay_gain_gate``) against the planar simulator, whose accelerometer reads the true
+lateral acceleration (gain 1)."""
 
 import numpy as np
 import pytest
