@@ -145,3 +145,39 @@ def test_a_compressed_csv_name_reads_as_canonical(tmp_path):
     assert detect_format(packed) == "canonical"
     back = read_drive(packed, vehicle=drive.vehicle)
     np.testing.assert_array_equal(back.col("ay"), read_drive(plain, vehicle=drive.vehicle).col("ay"))
+
+
+BAD_ENTRIES = {
+    "no source": ({"unit": "g"}, "expected a mapping with '{key}'"),
+    "not a mapping": (3, "expected a mapping with '{key}'"),
+    "unknown key": ({"{key}": "A", "gain": 2}, r"unknown key\(s\) \['gain'\]"),
+    "unknown unit": ({"{key}": "A", "unit": "furlong"}, "unit 'furlong' is not understood"),
+    "unit of another quantity": ({"{key}": "A", "unit": "deg/s"}, "unit 'deg/s' measures rate, but 'ax' is a acceleration"),
+    "sign": ({"{key}": "A", "sign": 2}, "sign must be"),
+    "boolean sign": ({"{key}": "A", "sign": True}, "sign must be"),
+    "zero scale": ({"{key}": "A", "scale": 0}, "scale must be"),
+    "text scale": ({"{key}": "A", "scale": "x"}, "scale must be"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_ENTRIES))
+@pytest.mark.parametrize("reader", ["mdf", "can"])
+def test_channel_and_signal_maps_share_one_entry_check(case, reader):
+    """The MDF4 channel map and the CAN signal map refuse the same entry mistakes alike,
+    each naming its own source key, and accept the shorthand and their own extra keys."""
+    from roadgrip.io.can import load_signal_map
+    from roadgrip.io.mdf import load_channel_map
+
+    load, key, section, extra = {"mdf": (load_channel_map, "channel", "channels", {"group": 1}),
+                                 "can": (load_signal_map, "signal", "signals", {"message": "M", "timeout": 0.2})
+                                 }[reader]
+    entry, message = BAD_ENTRIES[case]
+    if isinstance(entry, dict):
+        entry = {k.format(key=key): v for k, v in entry.items()}
+    with pytest.raises(ValueError, match=f"map: {section[:-1]} 'ax': " + message.format(key=key)):
+        load({section: {"ax": entry}})
+    ok = load({section: {"ax": "A", "ay": {key: "B", "unit": "m/s²", "sign": -1, **extra}}})
+    assert ok[section]["ax"] == {key: "A"} and ok[section]["ay"]["sign"] == -1
+    other = {"mdf": {"message": "M"}, "can": {"group": 1}}[reader]  # the other reader's key
+    with pytest.raises(ValueError, match="unknown key"):
+        load({section: {"ax": {key: "A", **other}}})

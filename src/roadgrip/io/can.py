@@ -50,8 +50,14 @@ import numpy as np
 import pandas as pd
 
 from roadgrip.drive import SIGNAL_COLUMNS, Drive, DriveValidationError
-from roadgrip.io.mapping import QUANTITY_OF, UNITS, map_vehicle, read_map
-from roadgrip.io.mdf import si_unit
+from roadgrip.io.mapping import (
+    QUANTITY_OF,
+    check_map_entry,
+    map_vehicle,
+    read_map,
+    si_unit,
+    unit_factor,
+)
 from roadgrip.io.resample import make_clock, resample
 from roadgrip.vehicle.params import VehicleParams
 
@@ -81,22 +87,11 @@ SHIPPED_MAP = _DATA / "roadgrip.yaml"
 """The signal map of :data:`SHIPPED_DBC`."""
 
 _TOP_KEYS = {"vehicle", "rate", "max_gap", "timeout", "integrity", "output", "signals", "extras", "description"}
-_ENTRY_KEYS = {"signal", "message", "unit", "sign", "scale", "axis", "timeout"}
 _INTEGRITY = (None, "xor8")
 
 
 def _positive(v: Any) -> bool:
     return not isinstance(v, bool) and isinstance(v, int | float) and v > 0 and math.isfinite(v)
-
-
-def _unit_factor(unit: str, target: str | None, where: str) -> float:
-    key = si_unit(unit)
-    if key is None:
-        raise ValueError(f"{where}: unit {unit!r} is not understood; known: {', '.join(UNITS)}")
-    quantity, factor = UNITS[key]
-    if target is not None and quantity != QUANTITY_OF[target]:
-        raise ValueError(f"{where}: unit {unit!r} measures {quantity}, but {target!r} is a {QUANTITY_OF[target]}")
-    return factor
 
 
 def load_signal_map(spec: str | Path | dict[str, Any]) -> dict[str, Any]:
@@ -127,23 +122,11 @@ def load_signal_map(spec: str | Path | dict[str, Any]) -> dict[str, Any]:
                 raise ValueError(f"{where} is not a canonical signal ({', '.join(SIGNAL_COLUMNS)})")
             if section == "extras" and target in SIGNAL_COLUMNS:
                 raise ValueError(f"{where} clashes with a canonical column")
-            if isinstance(entry, str):
-                entry = {"signal": entry}
-            if not isinstance(entry, dict) or not isinstance(entry.get("signal"), str):
-                raise ValueError(f"{where}: expected a mapping with 'signal'")
-            bad = sorted(set(entry) - _ENTRY_KEYS)
-            if bad:
-                raise ValueError(f"{where}: unknown key(s) {bad}; known: {sorted(_ENTRY_KEYS)}")
-            if entry.get("unit") is not None:
-                _unit_factor(str(entry["unit"]), target if section == "signals" else None, where)
-            if entry.get("sign", 1) not in (1, -1):
-                raise ValueError(f"{where}: sign must be +1 or -1, got {entry['sign']!r}")
-            scale = entry.get("scale", 1.0)
-            if isinstance(scale, bool) or not isinstance(scale, int | float) or not math.isfinite(scale) or scale == 0:
-                raise ValueError(f"{where}: scale must be a finite non-zero number, got {scale!r}")
+            entry = check_map_entry(entry, where, key="signal", extra_keys=("message", "timeout"),
+                                    target=target if section == "signals" else None)
             if entry.get("timeout") is not None and not _positive(entry["timeout"]):
                 raise ValueError(f"{where}: timeout must be a positive number, got {entry['timeout']!r}")
-            out[section][str(target)] = dict(entry)
+            out[section][str(target)] = entry
     return out
 
 
@@ -259,7 +242,7 @@ class FrameDecoder:
                         raise ValueError(f"{where} has no unit in the DBC: give one in the map ('unit:')")
                     if dbc_unit and map_unit is not None and si_unit(dbc_unit) != si_unit(str(map_unit)):
                         raise ValueError(f"{where}: the DBC says {dbc_unit!r}, the map {map_unit!r}")
-                    factor = _unit_factor(dbc_unit or str(map_unit), target, where)
+                    factor = unit_factor(dbc_unit or str(map_unit), target, where)
                 factor *= float(entry.get("sign", 1)) * float(entry.get("scale", 1.0))
                 timeout = float(entry.get("timeout") or default_timeout)
                 by_msg.setdefault(msg.frame_id, []).append((target, sig.name, factor, timeout))

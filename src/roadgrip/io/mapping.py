@@ -38,7 +38,8 @@ from roadgrip.drive import SIGNAL_COLUMNS, Drive
 from roadgrip.io._csv import read_csv_exact
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
-__all__ = ["QUANTITY_OF", "UNITS", "load_mapping", "map_vehicle", "read_map", "read_mapped"]
+__all__ = ["ENTRY_KEYS", "QUANTITY_OF", "UNITS", "UNIT_ALIASES", "check_map_entry", "load_mapping", "map_vehicle",
+           "read_map", "read_mapped", "si_unit", "unit_factor"]
 
 UNITS: dict[str, tuple[str, float]] = {
     "m/s^2": ("acceleration", 1.0),
@@ -76,6 +77,105 @@ QUANTITY_OF: dict[str, str] = {
 
 _TOP_KEYS = {"columns", "vehicle", "time_zero", "keep", "source", "description"}
 _ENTRY_KEYS = {"column", "unit", "sign", "scale", "axis"}
+
+UNIT_ALIASES: dict[str, str] = {
+    "m/s²": "m/s^2", "m/s/s": "m/s^2", "m s-2": "m/s^2", "mps2": "m/s^2",
+    "°/s": "deg/s", "deg/sec": "deg/s", "grad/s": "deg/s", "dps": "deg/s",
+    "rad/sec": "rad/s", "1/min": "rpm", "U/min": "rpm", "rev/min": "rpm",
+    "°": "deg", "grad": "deg", "kph": "km/h", "kmh": "km/h", "km/hr": "km/h",
+    "mps": "m/s", "sec": "s", "G": "g",
+}  # fmt: skip
+"""Unit spellings found in MDF files and DBCs -> the names of :data:`UNITS`."""
+
+ENTRY_KEYS = ("unit", "sign", "scale", "axis")
+"""Keys every entry of a channel or signal map takes besides its source key."""
+
+
+def si_unit(unit: str) -> str | None:
+    """The :data:`UNITS` name of a unit spelling (:data:`UNIT_ALIASES`), or None if unknown."""
+    u = unit.strip()
+    u = UNIT_ALIASES.get(u, u)
+    return u if u in UNITS else None
+
+
+def unit_factor(unit: str, target: str | None, where: str) -> float:
+    """The factor to SI of ``unit`` (any spelling of :data:`UNIT_ALIASES`).
+
+    Parameters
+    ----------
+    unit : str
+        The unit as the file or the map spells it.
+    target : str, optional
+        The canonical column it fills: the unit must measure its quantity
+        (:data:`QUANTITY_OF`); None for an extra column (any known unit).
+    where : str
+        The map entry or channel, for the message.
+
+    Raises
+    ------
+    ValueError
+        An unknown unit, or one that measures another quantity than ``target``.
+    """
+    key = si_unit(unit)
+    if key is None:
+        raise ValueError(
+            f"{where}: unit {unit!r} is not understood; known: {', '.join(UNITS)} "
+            f"(and {', '.join(UNIT_ALIASES)})"
+        )
+    quantity, factor = UNITS[key]
+    if target is not None and quantity != QUANTITY_OF[target]:
+        raise ValueError(f"{where}: unit {unit!r} measures {quantity}, but {target!r} is a {QUANTITY_OF[target]}")
+    return factor
+
+
+def check_map_entry(entry: Any, where: str, *, key: str, extra_keys: tuple[str, ...] = (),
+                    target: str | None = None) -> dict[str, Any]:
+    """One entry of a channel map (MDF4) or signal map (CAN), checked.
+
+    Parameters
+    ----------
+    entry : str or dict
+        ``{key: name, unit:, sign:, scale:, axis:, ...}``, or the source name alone
+        (shorthand for ``{key: name}``).
+    where : str
+        The map and the entry, for messages (``"car.yaml: channel 'ax'"``).
+    key : str
+        The key naming the source (``'channel'``, ``'signal'``); required, a string.
+    extra_keys : tuple of str
+        Keys the reader takes besides :data:`ENTRY_KEYS` (``'group'``; ``'message'``,
+        ``'timeout'``); their values are the caller's to check.
+    target : str, optional
+        The canonical column the entry fills (its unit must fit); None for an extra.
+
+    Returns
+    -------
+    dict
+        The entry as a mapping.
+
+    Raises
+    ------
+    ValueError
+        Naming ``where``: no source name, unknown keys, a unit that is unknown or does
+        not fit ``target``, a sign other than +-1, a scale that is not a finite
+        non-zero number.
+    """
+    if isinstance(entry, str):
+        entry = {key: entry}
+    if not isinstance(entry, dict) or not isinstance(entry.get(key), str):
+        raise ValueError(f"{where}: expected a mapping with {key!r}")
+    known = {key, *ENTRY_KEYS, *extra_keys}
+    bad = sorted(map(str, set(entry) - known))
+    if bad:
+        raise ValueError(f"{where}: unknown key(s) {bad}; known: {sorted(known)}")
+    if entry.get("unit") is not None:
+        unit_factor(str(entry["unit"]), target, where)
+    sign = entry.get("sign", 1)
+    if isinstance(sign, bool) or sign not in (1, -1):
+        raise ValueError(f"{where}: sign must be +1 or -1, got {sign!r}")
+    scale = entry.get("scale", 1.0)
+    if isinstance(scale, bool) or not isinstance(scale, int | float) or not math.isfinite(scale) or scale == 0:
+        raise ValueError(f"{where}: scale must be a finite non-zero number, got {scale!r}")
+    return dict(entry)
 
 
 

@@ -44,30 +44,21 @@ import numpy as np
 import pandas as pd
 
 from roadgrip.drive import SIGNAL_COLUMNS, Drive, DriveValidationError
-from roadgrip.io.mapping import QUANTITY_OF, UNITS, map_vehicle, read_map
+from roadgrip.io.mapping import (
+    QUANTITY_OF,
+    UNIT_ALIASES,
+    check_map_entry,
+    map_vehicle,
+    read_map,
+    si_unit,
+    unit_factor,
+)
 from roadgrip.io.resample import make_clock, resample
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = ["UNIT_ALIASES", "load_channel_map", "read_mdf", "si_unit"]
 
-UNIT_ALIASES: dict[str, str] = {
-    "m/s²": "m/s^2", "m/s/s": "m/s^2", "m s-2": "m/s^2", "mps2": "m/s^2",
-    "°/s": "deg/s", "deg/sec": "deg/s", "grad/s": "deg/s", "dps": "deg/s",
-    "rad/sec": "rad/s", "1/min": "rpm", "U/min": "rpm", "rev/min": "rpm",
-    "°": "deg", "grad": "deg", "kph": "km/h", "kmh": "km/h", "km/hr": "km/h",
-    "mps": "m/s", "sec": "s", "G": "g",
-}
-"""Unit spellings found in MDF files -> the names of :data:`roadgrip.io.mapping.UNITS`."""
-
 _TOP_KEYS = {"vehicle", "rate", "max_gap", "channels", "extras", "description"}
-_ENTRY_KEYS = {"channel", "group", "unit", "sign", "scale", "axis"}
-
-
-def si_unit(unit: str) -> str | None:
-    """The :data:`~roadgrip.io.mapping.UNITS` name of a unit spelling, or None if unknown."""
-    u = unit.strip()
-    u = UNIT_ALIASES.get(u, u)
-    return u if u in UNITS else None
 
 
 def load_channel_map(spec: str | Path | dict[str, Any]) -> dict[str, Any]:
@@ -101,35 +92,10 @@ def load_channel_map(spec: str | Path | dict[str, Any]) -> dict[str, Any]:
                 )
             if section == "extras" and target in SIGNAL_COLUMNS:
                 raise ValueError(f"{where} clashes with a canonical column")
-            if isinstance(entry, str):
-                entry = {"channel": entry}
-            if not isinstance(entry, dict) or not isinstance(entry.get("channel"), str):
-                raise ValueError(f"{where}: expected a mapping with 'channel'")
-            bad = sorted(set(entry) - _ENTRY_KEYS)
-            if bad:
-                raise ValueError(f"{where}: unknown key(s) {bad}; known: {sorted(_ENTRY_KEYS)}")
-            if entry.get("unit") is not None:
-                _unit_factor(str(entry["unit"]), target if section == "channels" else None, where)
-            if entry.get("sign", 1) not in (1, -1):
-                raise ValueError(f"{where}: sign must be +1 or -1, got {entry['sign']!r}")
-            scale = entry.get("scale", 1.0)
-            if isinstance(scale, bool) or not isinstance(scale, int | float) or not math.isfinite(scale) or scale == 0:
-                raise ValueError(f"{where}: scale must be a finite non-zero number, got {scale!r}")
-            out[section][str(target)] = dict(entry)
+            entry = check_map_entry(entry, where, key="channel", extra_keys=("group",),
+                                    target=target if section == "channels" else None)
+            out[section][str(target)] = entry
     return out
-
-
-def _unit_factor(unit: str, target: str | None, where: str) -> float:
-    key = si_unit(unit)
-    if key is None:
-        raise ValueError(
-            f"{where}: unit {unit!r} is not understood; known: {', '.join(UNITS)} "
-            f"(and {', '.join(UNIT_ALIASES)})"
-        )
-    quantity, factor = UNITS[key]
-    if target is not None and quantity != QUANTITY_OF[target]:
-        raise ValueError(f"{where}: unit {unit!r} measures {quantity}, but {target!r} is a {QUANTITY_OF[target]}")
-    return factor
 
 
 def _get(mdf: Any, entry: dict[str, Any], target: str, fname: str):
@@ -208,7 +174,7 @@ def read_mdf(
                     if file_unit and map_unit is not None and si_unit(file_unit) != si_unit(str(map_unit)):
                         raise ValueError(f"{where}: the file says {file_unit!r}, the map {map_unit!r}")
                     unit = file_unit or str(map_unit)
-                    factor = _unit_factor(unit, target if section == "channels" else None, where)
+                    factor = unit_factor(unit, target if section == "channels" else None, where)
                     units[target] = unit
                 ts = np.asarray(sig.timestamps, dtype=float)
                 v = np.asarray(sig.samples, dtype=float)
