@@ -35,6 +35,12 @@ an :class:`Estimator` record of five parts:
     every row before ``T - lookahead`` unchanged (``tests/test_causality.py``);
     ``info`` (a :class:`DriveInfo`, or None for the largest over all drives)
     lets it depend on the drive's columns and nominal rate, never on its samples.
+``prepare_rows(drive, config, info) -> samples`` (optional)
+    The per-step samples of a piece of a drive whose start ``prepare`` has seen
+    (``info``): what ``prepare`` derives from the start (the GP-SSM's sub-steps per
+    sample interval) is taken from ``info``, not from the piece. Online stepping
+    (:class:`~roadgrip.estimators.online.OnlineEstimator`) prepares the newest samples
+    with it; without it, ``prepare(piece, config).samples``.
 
 The registry in :mod:`roadgrip.estimators` maps a method name to its record.
 """
@@ -196,6 +202,7 @@ class Estimator:
     run: Callable[..., EstimateResult]
     prior_band: Callable[[Any], tuple[float, float]]
     lookahead: Callable[[Any, DriveInfo | None], float] = no_lookahead
+    prepare_rows: Callable[[Drive, Any, DriveInfo], Sequence[Any]] | None = None
 
 
 def rows_to_table(rows: Iterable[Mapping[str, Any] | None]) -> pd.DataFrame:

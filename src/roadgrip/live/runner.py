@@ -1,10 +1,12 @@
-"""An estimator fed row by row, through the methods' streaming API.
+"""An estimator fed row by row: the package's one stepping path with the live contract.
 
-:class:`LiveEstimator` holds the first ``warmup`` seconds of rows, gives them to the
-method's ``run_chunks`` as the first chunk (what ``prepare`` derives from a drive, it
-derives from them), and from then on gives every batch of new rows as the next chunk:
-the rows of the causal batch run ``run_chunks([first warmup seconds, the rest])``, to
-the float round-off the methods' streaming documents. During the warm-up nothing is
+:class:`LiveEstimator` gives every fresh row to an
+:class:`~roadgrip.estimators.online.OnlineEstimator`, which holds the first ``warmup``
+seconds of rows, derives from them what the method's ``prepare`` derives from a drive,
+steps them, and from then on prepares and steps each row as it comes (one protocol
+``step`` and about 0.1 ms, no DataFrame): the rows of the causal batch run
+``run_chunks([first warmup seconds, the rest])`` (``tests/live/test_live_equals_batch.py``,
+to the float round-off the methods' streaming documents). During the warm-up nothing is
 claimed (reason ``'warming_up'``).
 
 A row whose signals are stale (:class:`~roadgrip.live.assembler.Row`) is not given to
@@ -20,14 +22,15 @@ the grip class, per-axle estimates and the reason a claim is withheld.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
 
-from roadgrip.drive import Drive
 from roadgrip.estimators import get
+from roadgrip.estimators.array_frame import ArrayFrame
+from roadgrip.estimators.online import OnlineEstimator
+from roadgrip.estimators.protocol import rows_to_table
 from roadgrip.io.vss import VSS_PREFIX, vss_records
 from roadgrip.live.assembler import Row
 from roadgrip.vehicle.params import VehicleParams
@@ -35,7 +38,7 @@ from roadgrip.vehicle.params import VehicleParams
 __all__ = ["LIVE_METHODS", "REASONS", "WARMUP_S", "LiveEstimator", "LiveRow"]
 
 LIVE_METHODS = ("cascade", "brls", "slipmap", "gpssm")
-"""Methods with a streaming ``run_chunks`` (continue from a state over a block of samples)."""
+"""Methods run live (every method of the registry steps; these four are tested live)."""
 
 REASONS = ("ok", "warming_up", "signal_timeout", "no_claim")
 """Why a row claims what it claims (the DBC's ``Reason`` values, in this order)."""
@@ -93,43 +96,32 @@ def _withheld(t: float, reason: str, detail: str = "") -> LiveRow:
     return LiveRow(t, nan, nan, nan, "unknown", nan, nan, reason, detail)
 
 
-class _Feed:
-    """An iterator the streaming generator pulls its next chunk from."""
-
-    def __init__(self) -> None:
-        self.chunk: Drive | None = None
-
-    def __iter__(self) -> Iterator[Drive]:
-        return self
-
-    def __next__(self) -> Drive:
-        if self.chunk is None:
-            raise StopIteration
-        chunk, self.chunk = self.chunk, None
-        return chunk
-
-
 class LiveEstimator:
     """One method run on rows as they arrive (module docstring).
 
     Parameters
     ----------
     method : str
-        One of the streaming methods (cascade, brls, slipmap, gpssm).
+        One of :data:`LIVE_METHODS`.
     vehicle : VehicleParams
     columns : list of str
         The canonical columns the rows carry (``t`` first).
     options : dict, optional
         Estimator options (:meth:`EstimatorConfig.from_options`).
     warmup : float
-        Seconds of rows in the first chunk [s].
+        Seconds of rows before the first estimate [s] (what ``prepare`` derives from a
+        drive comes from them).
     seed : int
+    keep_tables : bool
+        Keep the estimator's rows and the samples it was given (tests).
 
     Attributes
     ----------
+    online : OnlineEstimator
+        The stepping estimator (its ``state`` is the method's step state).
     tables, inputs : list of DataFrame
-        The estimator's own tables and the samples it was given, per chunk, when
-        ``keep_tables`` (tests).
+        The estimator's own rows and the samples it was given (one table each), when
+        ``keep_tables``.
     """
 
     def __init__(self, method: str, vehicle: VehicleParams, columns: list[str], options: dict[str, Any] | None = None,
@@ -138,12 +130,6 @@ class LiveEstimator:
             raise ValueError(f"live runs {', '.join(LIVE_METHODS)}, not {method!r}")
         if not warmup > 0:
             raise ValueError(f"warmup must be positive, got {warmup}")
-        if method == "cascade":
-            from roadgrip.estimators.cascade.stream import run_chunks
-        elif method == "gpssm":
-            from roadgrip.estimators.gpssm.stream import run_chunks
-        else:
-            from roadgrip.estimators.classify.stream import run_chunks
         est = get(method)
         self.method = method
         self.config = est.Config.from_options(options or {})
@@ -151,101 +137,97 @@ class LiveEstimator:
         self.vehicle = vehicle
         self.columns = [c for c in columns if c != "t"]
         self.warmup = float(warmup)
-        self._feed = _Feed()
-        self._gen = run_chunks(self._feed, self.config, seed)
-        self._held: list[Row] = []
-        self._meta: Any = None
+        self.online = OnlineEstimator(method, vehicle, self.config, seed=seed, warmup=self.warmup)
         self._informed = False
-        self.state: Any = None
+        self._out_columns: list[str] | None = None
         self.keep_tables = keep_tables
-        self.tables: list[pd.DataFrame] = []
-        self.inputs: list[pd.DataFrame] = []
+        self._kept_rows: list[dict[str, Any]] = []
+        self._kept_inputs: list[dict[str, float]] = []
 
     @property
     def started(self) -> bool:
         """The warm-up is over."""
-        return self._meta is not None
+        return self.online.started
 
-    def _drive(self, rows: list[Row]) -> Drive:
-        data = {"t": np.fromiter((r.t for r in rows), float, len(rows))}
-        for c in self.columns:
-            data[c] = np.fromiter((r.values[c] for r in rows), float, len(rows))
-        df = pd.DataFrame(data)
-        if self._meta is None:
-            d = Drive.from_frame(df, self.vehicle, source="live")
-            self._meta = d.meta
-            return d
-        # the decoder checked every value against the DBC's range; the times increase
-        return Drive(df, self._meta)
+    @property
+    def state(self) -> Any:
+        """The method's step state after the last row (None during the warm-up)."""
+        return self.online.state
 
-    def _run(self, rows: list[Row]) -> list[LiveRow]:
-        self._feed.chunk = self._drive(rows)
-        self._feed_data = self._feed.chunk.data
-        res = next(self._gen)
-        self.state = res.state
-        table = res.table
-        if self.keep_tables:
-            self.tables.append(table)
-            self.inputs.append(self._feed_data)
-        if self._informed and len(table):
-            table = table.copy()
-            table.loc[table.index[0], "excited"] = True  # informed by earlier chunks
-        if len(table) and "excited" in table.columns and bool(table["excited"].to_numpy(bool).any()):
+    @property
+    def tables(self) -> list[pd.DataFrame]:
+        """The estimator's rows so far as one table (``keep_tables``)."""
+        return [rows_to_table(self._kept_rows)] if self._kept_rows else []
+
+    @property
+    def inputs(self) -> list[pd.DataFrame]:
+        """The samples given to the estimator so far as one table (``keep_tables``)."""
+        return [pd.DataFrame(self._kept_inputs, columns=["t", *self.columns])] if self._kept_inputs else []
+
+    def feed(self, rows: list[Row]) -> list[LiveRow]:
+        """The output rows of ``rows`` (one each, in order)."""
+        out: list[LiveRow | None] = []
+        stepped: list[dict[str, Any]] = []
+        at: list[int] = []  # where each estimator row goes in ``out``
+        for r in rows:
+            if r.stale:
+                gap = "never received" if not math.isfinite(r.silent_s) else f"silent {r.silent_s:.2f} s"
+                out.append(_withheld(r.t, "signal_timeout", f"{', '.join(r.stale)} {gap}"))
+                continue
+            sample = {"t": r.t, **{c: r.values[c] for c in self.columns}}
+            warm = self.started
+            got = self.online.push(sample)
+            if self.keep_tables:
+                self._kept_inputs.append(sample)
+                self._kept_rows.extend(got)
+            if not warm:  # the warm-up's rows (all of them once it ends) claim nothing
+                out.append(_withheld(r.t, "warming_up"))
+                if got:
+                    self._answered(got)
+                continue
+            at.extend(range(len(out), len(out) + len(got)))
+            out.extend([None] * len(got))
+            stepped.extend(got)
+        if stepped:
+            for i, live in zip(at, self._answered(stepped), strict=True):
+                out[i] = live
+        assert all(o is not None for o in out)
+        return out  # type: ignore[return-value]
+
+    def _answered(self, rows: list[dict[str, Any]]) -> list[LiveRow]:
+        """The estimator's rows as live rows (VSS values, class, axles)."""
+        if self._out_columns is None:
+            self._out_columns = list(rows[0])
+        table = ArrayFrame.from_records(rows, self._out_columns)
+        excited = table["excited"].to_numpy(bool) if "excited" in table.columns else np.zeros(len(rows), bool)
+        if self._informed and len(rows):
+            excited = excited.copy()
+            excited[0] = True  # informed by earlier rows
+            table = ArrayFrame({**{c: table[c] for c in table.columns}, "excited": excited})
+        if excited.any():
             self._informed = True
-        records = vss_records(table, self.method, self.prior)
-        cls = table["grip_class"].astype(str).to_numpy()
-        mf, mr = table["mu_front"].to_numpy(float), table["mu_rear"].to_numpy(float)
+        records = vss_records(table, self.method, self.prior)  # type: ignore[arg-type]
         nan = float("nan")
         out = []
-        for i, rec in enumerate(records):
+        for row, rec in zip(rows, records, strict=True):
             mp = rec.get(VSS_PREFIX + "MostProbable", nan)
             lo = rec.get(VSS_PREFIX + "LowerBound", nan)
             up = rec.get(VSS_PREFIX + "UpperBound", nan)
             claims = any(math.isfinite(v) for v in (mp, lo, up))
-            out.append(LiveRow(rec["t"], mp, lo, up, str(cls[i]), float(mf[i]), float(mr[i]),
+            out.append(LiveRow(rec["t"], mp, lo, up, str(row.get("grip_class", "unknown")),
+                               float(row.get("mu_front", nan)), float(row.get("mu_rear", nan)),
                                "ok" if claims else "no_claim", ""))
-        return out
-
-    def feed(self, rows: list[Row]) -> list[LiveRow]:
-        """The output rows of ``rows`` (one each, in order)."""
-        out: list[LiveRow] = []
-        batch: list[Row] = []
-        for r in rows:
-            if r.stale:
-                if batch:
-                    out.extend(self._step(batch))
-                    batch = []
-                gap = "never received" if not math.isfinite(r.silent_s) else f"silent {r.silent_s:.2f} s"
-                out.append(_withheld(r.t, "signal_timeout", f"{', '.join(r.stale)} {gap}"))
-            else:
-                batch.append(r)
-        if batch:
-            out.extend(self._step(batch))
-        return out
-
-    def _step(self, rows: list[Row]) -> list[LiveRow]:
-        if self.started:
-            return self._run(rows)
-        out = []
-        for i, r in enumerate(rows):
-            self._held.append(r)
-            out.append(_withheld(r.t, "warming_up"))
-            if len(self._held) >= 2 and self._held[-1].t - self._held[0].t + 1e-9 >= self.warmup:
-                first, self._held = self._held, []
-                self._run(first)  # the first chunk: its rows were answered 'warming_up'
-                if i + 1 < len(rows):
-                    out.extend(self._run(rows[i + 1:]))
-                break
         return out
 
     def curve(self, alpha: np.ndarray) -> Any:
         """The learned friction curves with their 95 % band at slip angles ``alpha`` [rad]
         (:class:`~roadgrip.estimators.gpssm.posterior.CurvePosterior`), for the GP-SSM
         after its warm-up; None otherwise (the other methods learn no curve)."""
-        if self.method != "gpssm" or self.state is None or self.state.filter is None:
+        fs = self.state
+        if self.method != "gpssm" or fs is None or fs.state is None:
             return None
         from roadgrip.blas_threads import one_blas_thread
         from roadgrip.estimators.gpssm.posterior import posterior_curves
 
         with one_blas_thread():
-            return posterior_curves(self.state.ctx, self.state.filter, np.asarray(alpha, float))
+            return posterior_curves(fs.ctx, fs.state, np.asarray(alpha, float))

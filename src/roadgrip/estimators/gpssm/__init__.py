@@ -112,6 +112,7 @@ from roadgrip.estimators.gpssm.estimator import (
     FilterState,
     init,
     prepare,
+    prepare_rows,
     prior_band,
     run,
     run_filter,
@@ -161,6 +162,7 @@ __all__ = [
     "init_state",
     "posterior_curves",
     "prepare",
+    "prepare_rows",
     "prior_band",
     "resample",
     "run",
@@ -182,5 +184,6 @@ ESTIMATOR = Estimator(
     run=run,
     prior_band=prior_band,
     lookahead=input_lookahead,
+    prepare_rows=prepare_rows,
 )
 """The GP-SSM estimator record (:mod:`roadgrip.estimators.protocol`)."""

@@ -29,7 +29,7 @@ from roadgrip.estimators.gpssm.stepping import step_unthreaded
 from roadgrip.estimators.protocol import DriveInfo, Prepared
 from roadgrip.vehicle.params import VehicleParams
 
-__all__ = ["GPSSM", "FilterState", "config_inputs", "init", "prepare", "prior_band", "run", "run_block", "run_filter",
+__all__ = ["GPSSM", "FilterState", "config_inputs", "init", "prepare", "prepare_rows", "prior_band", "run", "run_block", "run_filter",
            "step"]
 
 PROGRESS_EVERY = 50
@@ -57,8 +57,21 @@ def prepare(drive: Any, config: GPSSMConfig) -> Prepared:
     with interpolated sub-steps (``recorded=False``) where the sample interval exceeds
     ``config.max_dt``; ``info.derived['substeps']`` is their number per interval."""
     data, keep, k = upsample_inputs(config_inputs(drive, config), config.max_dt)
-    samples = [Sample(*row, recorded=bool(kept)) for row, kept in zip(data, keep, strict=True)]
-    return Prepared(DriveInfo.from_drive(drive, substeps=int(k)), samples)
+    return Prepared(DriveInfo.from_drive(drive, substeps=int(k)), _samples(data, keep))
+
+
+def prepare_rows(drive: Any, config: GPSSMConfig, info: DriveInfo) -> list[Sample]:
+    """The input samples of a piece of a drive whose start :func:`prepare` has seen, with
+    the start's sub-steps per interval (``info.derived['substeps']``, as a streamed drive's
+    later chunks, :mod:`~roadgrip.estimators.gpssm.stream`): the interval from the piece's
+    first row to its second is interpolated as the whole drive's run does it."""
+    k = int(info.derived.get("substeps", 1))
+    data, keep, _ = upsample_inputs(config_inputs(drive, config), config.max_dt, k)
+    return _samples(data, keep)
+
+
+def _samples(data: NDArray[np.float64], keep: NDArray[np.bool_]) -> list[Sample]:
+    return [Sample(*row, recorded=bool(kept)) for row, kept in zip(data, keep, strict=True)]
 
 
 def init(info: DriveInfo, config: GPSSMConfig, seed: int = 0) -> FilterState:
