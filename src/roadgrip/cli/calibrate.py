@@ -48,11 +48,17 @@ def read_calibration(path: str | Path) -> Calibration:
         raise ValueError(f"calibration file {p} does not exist")
     try:
         doc = yaml.safe_load(p.read_text())
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"calibration file {p} is not text (byte {exc.start}: {exc.reason})") from None
     except yaml.YAMLError as exc:
-        raise ValueError(f"calibration file {p} is not valid YAML: {exc}") from None
+        raise ValueError(f"calibration file {p} is not valid YAML: {' '.join(str(exc).split())}") from None
     if not isinstance(doc, dict) or "roadgrip_calibration" not in doc:
         raise ValueError(f"{p} is not a roadgrip calibration file (no 'roadgrip_calibration' key)")
-    return Calibration.from_dict(doc, str(p))
+    try:
+        return Calibration.from_dict(doc, str(p))
+    except (TypeError, KeyError, AttributeError, ValueError) as exc:  # a field of the wrong type or range
+        msg = " ".join(str(exc).split())
+        raise ValueError(msg if str(p) in msg else f"calibration file {p}: {msg or type(exc).__name__}") from None
 
 
 def split_window(path: str) -> tuple[str, tuple[float, float] | None]:

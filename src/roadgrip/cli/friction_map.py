@@ -32,9 +32,13 @@ def _estimates_table(path: str, vehicle: str | None, fmt: str | None,
 
     p = Path(path)
     if p.is_file() and p.suffix.lower() in (".parquet", ".pq"):
+        import pyarrow as pa
         import pyarrow.parquet as pq
 
-        md = pq.read_schema(str(p)).metadata or {}
+        try:
+            md = pq.read_schema(str(p)).metadata or {}
+        except (OSError, pa.ArrowException):  # truncated or not Parquet: the drive reader says so, by name
+            md = {}
         if ESTIMATE_KEY in md:
             res = EstimateResult.read_parquet(p)
             return res.table, f"estimates ({res.method})"

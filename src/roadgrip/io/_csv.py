@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-__all__ = ["Table", "TableError", "read_csv_exact", "read_table", "read_text"]
+__all__ = ["Table", "TableError", "read_csv_exact", "read_csv_numbers", "read_table", "read_text"]
 
 _PANDAS_MAJOR = int(pd.__version__.split(".")[0])
 
@@ -48,6 +48,46 @@ def read_csv_exact(src: Any, **kwargs: Any) -> pd.DataFrame:
     if _PANDAS_MAJOR < 3:
         kwargs.setdefault("float_precision", "round_trip")
     return pd.read_csv(src, **kwargs)
+
+
+def read_csv_numbers(path: str | Path, numeric: tuple[str, ...] | list[str], what: str) -> pd.DataFrame:
+    """A recorder's CSV (:func:`read_csv_exact`) whose damage is refused by name.
+
+    Parameters
+    ----------
+    path : str or Path
+    numeric : sequence of str
+        Columns that must hold numbers where present (a missing one is the caller's
+        to name); an empty cell is a missing value (NaN).
+    what : str
+        The file in messages (``"DS1/imuData.csv"``).
+
+    Raises
+    ------
+    TableError
+        Empty or not text, rows a CSV parser cannot split, or text in a numeric
+        column (``what: column 'c' holds 'n/a' at line 7, not a number``).
+    """
+    try:
+        df = read_csv_exact(path)
+    except pd.errors.EmptyDataError:
+        raise TableError(f"{what} is empty") from None
+    except UnicodeDecodeError as exc:
+        raise TableError(f"{what}: bytes that are not UTF-8 text at byte {exc.start} ({exc.reason}); "
+                         "not a CSV table") from None
+    except pd.errors.ParserError as exc:
+        raise TableError(f"{what}: not a readable CSV table ({' '.join(str(exc).split())[:160]})") from None
+    for c in numeric:
+        if c in df.columns and not pd.api.types.is_numeric_dtype(df[c]):
+            num = pd.to_numeric(df[c], errors="coerce")
+            bad = (num.isna() & df[c].notna()).to_numpy()
+            if not bad.any():  # an object column of numbers and missing values
+                df[c] = num
+                continue
+            i = int(np.flatnonzero(bad)[0])
+            raise TableError(f"{what}: column {c!r} holds {str(df[c].iloc[i])[:40]!r} at line {i + 2}, "
+                             "not a number")
+    return df
 
 
 def _decompress(raw: bytes, name: str) -> bytes:

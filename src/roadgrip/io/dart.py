@@ -41,8 +41,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from roadgrip.drive import Drive
-from roadgrip.io._csv import read_csv_exact
+from roadgrip.drive import Drive, DriveValidationError
+from roadgrip.io._csv import read_csv_numbers
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
 __all__ = ["DART_COLUMNS", "DART_STEER_FIT", "TRACKED_POINT_FROM_REAR", "dart_steer_angle", "read_dart"]
@@ -184,10 +184,7 @@ def read_dart(path: str | Path, vehicle: str | Path | VehicleParams | None = Non
     if not path.is_file():
         raise ValueError(f"no such file: {path}")
     veh = load_vehicle(vehicle if vehicle is not None else "jetracer")
-    try:
-        raw = read_csv_exact(path)
-    except pd.errors.EmptyDataError:
-        raise ValueError(f"{path.name} is empty") from None
+    raw = read_csv_numbers(path, DART_COLUMNS, path.name)
     missing = [c for c in DART_COLUMNS if c not in raw.columns]
     if missing:
         raise ValueError(f"{path.name} is not a DART recording: missing column(s) {missing}")
@@ -266,4 +263,7 @@ def read_dart(path: str | Path, vehicle: str | Path | VehicleParams | None = Non
             "ax/ay/yaw_rate": "IMU columns as recorded (m/s², rad/s, ISO axes)",
         },
     }
-    return Drive.from_frame(df, veh, source=str(path), extra=extra)
+    try:
+        return Drive.from_frame(df, veh, source=str(path), extra=extra)
+    except DriveValidationError as exc:  # name the file, as the other readers do
+        raise DriveValidationError(f"{path.name}: {exc}") from None

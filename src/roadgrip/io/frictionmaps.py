@@ -89,8 +89,8 @@ import numpy as np
 import pandas as pd
 
 from roadgrip.constants import GRAVITY
-from roadgrip.drive import Drive
-from roadgrip.io._csv import read_csv_exact
+from roadgrip.drive import Drive, DriveValidationError
+from roadgrip.io._csv import read_csv_numbers
 from roadgrip.io.derived import body_velocity_from_pose, white_noise_std
 from roadgrip.io.resample import resample
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
@@ -128,29 +128,29 @@ def quaternion_yaw(qx, qy, qz, qw) -> np.ndarray:
 
 def _first_second(folder: Path) -> int:
     """Whole Unix second of the first IMU stamp: the reference of the relative times."""
-    f = folder / "imuData.csv"
-    try:
-        first = pd.read_csv(f, nrows=1)
-    except pd.errors.EmptyDataError:
-        raise ValueError(f"frictionmaps run {folder.name}: imuData.csv is empty") from None
-    if "s" not in first.columns or first.empty:
+    first = read_csv_numbers(folder / "imuData.csv", ("s",), f"frictionmaps run {folder.name}: imuData.csv")
+    s = first["s"].to_numpy(float) if "s" in first.columns else np.array([])
+    s = s[np.isfinite(s)]
+    if not len(s):
         raise ValueError(f"frictionmaps run {folder.name}: imuData.csv has no 's' stamps")
-    return int(first["s"].iloc[0])
+    return int(s[0])
 
 
 def _read_stream(folder: Path, name: str, cols: tuple[str, ...], s_ref: int) -> pd.DataFrame:
     f = folder / name
     if not f.is_file():
         raise ValueError(f"frictionmaps run {folder.name}: missing {name}")
-    try:
-        df = read_csv_exact(f)
-    except pd.errors.EmptyDataError:
-        raise ValueError(f"frictionmaps run {folder.name}: {name} is empty") from None
+    df = read_csv_numbers(f, ("s", "ns", *cols), f"frictionmaps run {folder.name}: {name}")
     missing = [c for c in ("s", "ns", *cols) if c not in df.columns]
     if missing:
         raise ValueError(f"frictionmaps run {folder.name}: {name} lacks column(s) {missing}")
     # relative to a whole second: keeps nanosecond resolution in float64
-    t = (df["s"].to_numpy(np.int64) - s_ref).astype(float) + 1e-9 * df["ns"].to_numpy(float)
+    # (whole seconds below 2**53 subtract exactly in float64)
+    t = (df["s"].to_numpy(float) - s_ref) + 1e-9 * df["ns"].to_numpy(float)
+    if not np.isfinite(t).all() or np.abs(t).max(initial=0.0) > 1e9:
+        i = int(np.flatnonzero(~(np.isfinite(t) & (np.abs(t) <= 1e9)))[0])
+        raise ValueError(f"frictionmaps run {folder.name}: {name}: stamp s, ns = {df['s'].iloc[i]}, "
+                         f"{df['ns'].iloc[i]} at line {i + 2} is missing or not a time of this run")
     out = pd.DataFrame({"t": t})
     for c in cols:
         out[c] = df[c].to_numpy(float)
@@ -521,4 +521,7 @@ def read_frictionmaps(
             **({"vx_motor": "-coreData.RPM / 7800 [m/s]"} if has_core else {}),
         },
     }
-    return Drive.from_frame(df, veh, source=str(folder), extra=extra)
+    try:
+        return Drive.from_frame(df, veh, source=str(folder), extra=extra)
+    except DriveValidationError as exc:  # name the file, as the other readers do
+        raise DriveValidationError(f"frictionmaps run {folder.name}: {exc}") from None

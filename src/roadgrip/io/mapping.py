@@ -34,7 +34,7 @@ import pandas as pd
 import yaml
 
 from roadgrip.constants import GRAVITY
-from roadgrip.drive import SIGNAL_COLUMNS, Drive
+from roadgrip.drive import SIGNAL_COLUMNS, Drive, DriveValidationError
 from roadgrip.io._csv import read_csv_exact
 from roadgrip.vehicle.params import VehicleParams, load_vehicle
 
@@ -230,8 +230,12 @@ def read_map(spec: str | Path | dict[str, Any], *, kind: str, file_kind: str, se
             m = yaml.safe_load(p.read_text())
         except FileNotFoundError:
             raise ValueError(f"{file_kind} not found: {p}{missing_hint}") from None
+        except IsADirectoryError:
+            raise ValueError(f"{file_kind} {p} is a folder, not a file") from None
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{file_kind} {name} is not text (byte {exc.start}: {exc.reason})") from None
         except yaml.YAMLError as exc:
-            raise ValueError(f"{file_kind} {name} is not valid YAML: {exc}") from None
+            raise ValueError(f"{file_kind} {name} is not valid YAML: {' '.join(str(exc).split())}") from None
     if not isinstance(m, dict) or not isinstance(m.get(section), dict) or not m[section]:
         raise ValueError(f"{name}: a {kind} needs a non-empty '{section}' section")
     unknown = sorted(set(m) - top_keys)
@@ -345,4 +349,7 @@ def read_mapped(
         "mapping": {k: dict(v) for k, v in m["columns"].items()},
         "t_offset_s": t_offset,
     }
-    return Drive.from_frame(df[order], veh, source=str(p), extra=extra)
+    try:
+        return Drive.from_frame(df[order], veh, source=str(p), extra=extra)
+    except DriveValidationError as exc:  # name the file, as the other readers do
+        raise DriveValidationError(f"{p.name}: {exc}") from None

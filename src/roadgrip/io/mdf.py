@@ -180,8 +180,14 @@ def read_mdf(
                 v = np.asarray(sig.samples, dtype=float)
                 if v.ndim != 1:
                     raise ValueError(f"{where} is not a scalar channel (samples of shape {v.shape})")
-                if len(ts) > 1 and (np.diff(ts) <= 0).any():
-                    keep = np.concatenate([np.diff(ts) > 0, [True]])
+                step = np.diff(ts)
+                if not np.isfinite(ts).all() or (step < 0).any():
+                    i = int(np.argmax(~np.isfinite(ts))) if not np.isfinite(ts).all() else int(np.argmax(step < 0)) + 1
+                    raise ValueError(f"{where}: its time stamps go backwards (or are not finite) at sample "
+                                     f"{i} (t = {ts[i]:.6g} s after {ts[i - 1] if i else math.nan:.6g} s): "
+                                     "a logger clock reset; split the file there")
+                if (step == 0).any():  # a repeated stamp: the latest value holds
+                    keep = np.concatenate([step > 0, [True]])
                     ts, v = ts[keep], v[keep]
                 factor *= float(entry.get("sign", 1)) * float(entry.get("scale", 1.0))
                 streams[target] = pd.DataFrame({"t": ts, target: v * factor})
