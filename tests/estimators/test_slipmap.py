@@ -108,6 +108,44 @@ def test_recursion_eq16_converges_and_says_unknown_without_information():
         assert o.grip_class == outb.grip_class[i]
 
 
+def test_index_paced_by_evidence_holds_through_the_silence_after_a_transient():
+    """2 s of evidence for 'high', three samples of a transient for 'low' (the end of an
+    acceleration, a_x and the slips arriving with different latencies), then 3 s without
+    evidence. Eq. 16's F ends at the transient's value; the paper's low-pass settles on it
+    ('low'); paced by the evidence the index keeps what it had after the transient."""
+    from roadgrip.estimators.classify.slipmap_config import saturation_config
+
+    dt, n_hi, n_tr, n_off = 0.01, 200, 3, 300
+    n = n_hi + n_tr + n_off
+    t = np.arange(n) * dt
+    p_high = np.r_[np.full(n_hi, 0.45), np.full(n_tr, 0.03), np.zeros(n_off)]
+    p_low = np.r_[np.full(n_hi, 0.05), np.full(n_tr, 0.47), np.zeros(n_off)]
+    p_old = 1.0 - p_high - p_low
+    w = 2.0 * (p_high + p_low)
+    z = np.zeros(n)
+    ev = SlipMapEvidence(z, z, w, z, p_high, p_low, p_old, z)
+    f = 0.5  # eq. 16 by hand: F_k = p_old F_{k-1} + p_high
+    for k in range(n):
+        f = p_old[k] * f + p_high[k]
+    paced = saturation_config(hold_high_s=np.inf, hold_low_s=np.inf)
+    assert paced.paced_by_evidence and not default_config().paced_by_evidence
+    _, out_t = slipmap_batch(t, ev, replace(paced, paced_by_evidence=False))
+    _, out_e = slipmap_batch(t, ev, paced)
+    # with full evidence (rate above support_min) the two are the same recursion
+    np.testing.assert_allclose(out_e.grip_index[:n_hi], out_t.grip_index[:n_hi], rtol=1e-12)
+    assert out_e.grip_class[n_hi - 1] == out_t.grip_class[n_hi - 1] == "high"
+    assert f < 0.2
+    assert out_t.grip_index[-1] == pytest.approx(f, abs=1e-3)
+    assert out_t.grip_class[-1] == "low"
+    after = out_e.grip_index[n_hi + n_tr - 1]
+    assert (out_e.grip_index[n_hi + n_tr:] == after).all() and after > 0.6
+    assert (out_e.grip_class[n_hi:] == "high").all()
+    st = slipmap_init()  # step equals batch, paced
+    for i in range(n):
+        st, o = slipmap_step(st, dt, SlipMapEvidence(*(np.atleast_1d(np.asarray(a)[i]) for a in ev)), paced)
+        assert o.grip_index == pytest.approx(out_e.grip_index[i], rel=1e-12)
+
+
 def test_config_validation_and_roundtrip():
     cfg = default_config()
     assert SlipMapConfig.from_dict(cfg.to_dict()) == cfg

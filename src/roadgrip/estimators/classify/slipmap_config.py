@@ -76,6 +76,11 @@ class SlipMapConfig:
     support_min : float
         Evidence rate (low-passed ``p_high + p_low``, time constant 0.3 s) at
         which the evidence supports the class.
+    paced_by_evidence : bool
+        The output low-pass advances at full speed only where the sample's evidence
+        ``p_high + p_low`` reaches ``support_min`` (in proportion below it, not at all
+        without evidence), so that the index holds through a silence what the evidence
+        said, not eq. 16's last transient. ``False``: the paper's low-pass in time.
     """
 
     long_curve: MagicFormula
@@ -99,6 +104,7 @@ class SlipMapConfig:
     hold_high_s: float = math.inf
     hold_low_s: float = math.inf
     support_min: float = 0.02
+    paced_by_evidence: bool = True
 
     def __post_init__(self) -> None:
         if self.model not in SLIPMAP_MODELS:
@@ -161,6 +167,7 @@ def default_config(mu_mid: float = 0.8) -> SlipMapConfig:
     return SlipMapConfig(
         long_curve=replace(dry.longitudinal, D=mu_mid),
         lat_curve=replace(dry.lateral, D=mu_mid),
+        paced_by_evidence=False,
     )
 
 
@@ -173,10 +180,10 @@ def saturation_config(
     The paper's curves stay in the settings but are not used. Direction scales of
     half a noise unit (the evidence is whitened and the inputs prefiltered over
     0.05 s), no exclusion boxes (the separation weight replaces them), an output
-    low-pass of 0.25 s and the claim times of
+    low-pass of 0.25 s paced by the evidence and the claim times of
     :func:`roadgrip.estimators.classify.brls_config.saturation_config`.
     """
     return replace(default_config(), model="saturation", grip=grip, lateral=lateral,
                    sigma_x=0.5, sigma_y=0.5, slip_min_long=0.0, slip_min_lat=0.0, accel_min=0.0,
                    info_min=1.0, prefilter_tau_s=0.05, lowpass_tau_s=0.25, support_min=0.1,
-                   hold_high_s=hold_high_s, hold_low_s=hold_low_s)
+                   hold_high_s=hold_high_s, hold_low_s=hold_low_s, paced_by_evidence=True)

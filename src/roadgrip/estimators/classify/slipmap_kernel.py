@@ -70,17 +70,19 @@ def _state_from_vector(v: NDArray[np.float64]) -> SlipMapState:
 
 
 class Holds(NamedTuple):
-    """Claim settings of the recursion: hysteresis, claim times [s], support rate."""
+    """Claim settings of the recursion: hysteresis, claim times [s], support rate, and
+    whether the output low-pass is paced by the evidence (1.0) or by time (0.0)."""
 
     hyst: float
     hold_high_s: float
     hold_low_s: float
     support_min: float
+    paced: float
 
 
 def _holds(config: SlipMapConfig) -> Holds:
     return Holds(float(config.hysteresis), float(config.hold_high_s), float(config.hold_low_s),
-                 float(config.support_min))
+                 float(config.support_min), float(config.paced_by_evidence))
 
 
 @numba.njit(cache=True)
@@ -94,7 +96,14 @@ def _recur(st, dt, p_high, p_low, p_old, w_sum, tau, h):  # pragma: no cover - c
         st[F] = 0.5
         st[F_LP] = 0.5
     st[F] = p_old * st[F] + p_high
-    k = 1.0 - np.exp(-dt / tau)
+    # paced by the evidence (config.paced_by_evidence), the index moves at full speed where
+    # the sample's evidence rate reaches support_min, in proportion below it, and not at all
+    # without evidence: the paper's low-pass would settle, through the silence after a
+    # manoeuvre, on F's last value, which with eq. 16's short memory is the manoeuvre's
+    # final transient (the end of an acceleration, where a_x and the slips arrive with
+    # different bus latencies)
+    pace = min(1.0, (p_high + p_low) / h.support_min) if h.paced > 0.5 else 1.0
+    k = 1.0 - np.exp(-dt / tau * pace)
     st[F_LP] = st[F_LP] + k * (st[F] - st[F_LP])
     st[INFO] = st[INFO] + w_sum
     st[RATE] = st[RATE] + (1.0 - np.exp(-dt / RATE_TAU_S)) * (p_high + p_low - st[RATE])
