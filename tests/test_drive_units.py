@@ -4,7 +4,8 @@ Two generated corpora of kinematically exact drives (single-track kinematics wit
 understeer, noisy sensors): valid drives with standstill, reversing, constant (held),
 saturated and dropout segments, with and without a pose and wheel speeds, on a sedan
 and a 1:10 car, must never be refused; the same drives with one channel in a wrong unit
-or with a flipped sign must be refused naming that channel in at least 95 % of cases.
+or with a flipped sign (g, deg/s, degrees, km/h, rpm, time in ms; every sign) must be
+refused naming that channel in at least 95 % of cases.
 """
 
 from __future__ import annotations
@@ -105,7 +106,7 @@ MISTAKES = {
     "ay in g": ("ay", 1 / GRAVITY), "ax in g": ("ax", 1 / GRAVITY),
     "yaw_rate in deg/s": ("yaw_rate", 180 / math.pi), "steer in degrees": ("steer", 180 / math.pi),
     "vx in km/h": ("vx", 3.6), "wheels in rpm": ("omega", 60 / (2 * math.pi)),
-    "psi in degrees": ("psi", 180 / math.pi),
+    "psi in degrees": ("psi", 180 / math.pi), "t in ms": ("t", 1000.0),
     "ay flipped": ("ay", -1.0), "ax flipped": ("ax", -1.0), "yaw_rate flipped": ("yaw_rate", -1.0),
     "steer flipped": ("steer", -1.0), "vx flipped": ("vx", -1.0), "psi flipped": ("psi", -1.0),
 }  # fmt: skip
