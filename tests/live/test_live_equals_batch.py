@@ -42,13 +42,14 @@ def test_the_dbc_carries_each_signal_within_half_a_bit(drive, carried):
         assert np.abs(carried.col(c) - drive.col(c)).max() <= half * (1 + 1e-9) + 1e-12, c
 
 
-@pytest.mark.parametrize("method", ["cascade", "brls"])
-def test_live_gives_the_rows_of_the_causal_batch_run(drive, carried, codec, method):
-    est, sink, stats = replay_live(drive, method, codec)
+@pytest.mark.parametrize(("method", "options"), [("cascade", None), ("brls", None), ("slipmap", None),
+                                                 ("gpssm", {"particles": 50})])
+def test_live_gives_the_rows_of_the_causal_batch_run(drive, carried, codec, method, options):
+    est, sink, stats = replay_live(drive, method, codec, options=options)
     assert stats.ended == "idle 1 s" and stats.rows == drive.n
     assert stats.frames_report["accepted"] == 5 * drive.n and stats.dropped_rows == 0
     live = pd.concat(est.tables, ignore_index=True)
-    batch = causal_batch(carried, method, WARMUP_ROWS)
+    batch = causal_batch(carried, method, WARMUP_ROWS, options)
     assert len(live) == len(batch) == drive.n
     assert _float_diff(live, batch) <= 1e-9
     assert (live["grip_class"].to_numpy() == batch["grip_class"].to_numpy()).all()

@@ -15,8 +15,9 @@ on:
 * a causal method (look-ahead 0) prepares each new sample with the sample before it
   (a difference, the interpolated sub-steps of the GP-SSM) through the method's
   ``prepare_rows`` (or ``prepare``) on those two rows held as NumPy columns
-  (:class:`~roadgrip.estimators.array_frame.ArrayFrame`), and steps it: a row costs
-  one ``step`` and some 0.1 ms, with no DataFrame built;
+  (:class:`~roadgrip.estimators.array_frame.ArrayFrame`), and steps it (``step_donated``
+  where the method has one: its state is not used again): a row costs one ``step`` and
+  some 0.1 ms, with no DataFrame built;
 * a method with a look-ahead (a pose differentiated by a centred fit) keeps the samples
   of ``2 lookahead`` plus :data:`CONTEXT_SAMPLES` intervals behind the last row out and
   those of the look-ahead in front of it, prepares that window at each sample and steps
@@ -174,12 +175,12 @@ class OnlineEstimator:
 
     def _step(self, samples: Sequence[Any], until: float) -> list[dict[str, Any]]:
         """Step the samples after the last stepped one up to ``until`` [s]."""
-        est = self.estimator
+        step = self.estimator.step_donated or self.estimator.step  # the old state is not used again
         out: list[dict[str, Any]] = []
         for s in samples:
             if s.t <= self._done or s.t > until:
                 continue
-            self.state, r = est.step(self.state, s)
+            self.state, r = step(self.state, s)
             if r is not None:
                 out.append(dict(r))
             self._done = float(s.t)

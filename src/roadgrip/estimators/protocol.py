@@ -41,6 +41,10 @@ an :class:`Estimator` record of five parts:
     sample interval) is taken from ``info``, not from the piece. Online stepping
     (:class:`~roadgrip.estimators.online.OnlineEstimator`) prepares the newest samples
     with it; without it, ``prepare(piece, config).samples``.
+``step_donated(state, sample) -> (state, row)`` (optional)
+    ``step`` allowed to overwrite the arrays of its input state, which the caller gives
+    up (a filter whose pure ``step`` copies a large state first). Online stepping uses it;
+    without it, ``step``.
 
 The registry in :mod:`roadgrip.estimators` maps a method name to its record.
 """
@@ -203,6 +207,7 @@ class Estimator:
     prior_band: Callable[[Any], tuple[float, float]]
     lookahead: Callable[[Any, DriveInfo | None], float] = no_lookahead
     prepare_rows: Callable[[Drive, Any, DriveInfo], Sequence[Any]] | None = None
+    step_donated: Callable[[Any, Any], tuple[Any, Mapping[str, Any] | None]] | None = None
 
 
 def rows_to_table(rows: Iterable[Mapping[str, Any] | None]) -> pd.DataFrame:

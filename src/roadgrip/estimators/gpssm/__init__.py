@@ -117,6 +117,7 @@ from roadgrip.estimators.gpssm.estimator import (
     run,
     run_filter,
     step,
+    step_donated,
 )
 from roadgrip.estimators.gpssm.inputs import (
     Sample,
@@ -169,6 +170,7 @@ __all__ = [
     "run_filter",
     "run_many",
     "step",
+    "step_donated",
     "step_reference",
     "upsample_inputs",
 ]
@@ -185,5 +187,6 @@ ESTIMATOR = Estimator(
     prior_band=prior_band,
     lookahead=input_lookahead,
     prepare_rows=prepare_rows,
+    step_donated=step_donated,
 )
 """The GP-SSM estimator record (:mod:`roadgrip.estimators.protocol`)."""

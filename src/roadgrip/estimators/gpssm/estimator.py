@@ -30,7 +30,7 @@ from roadgrip.estimators.protocol import DriveInfo, Prepared
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = ["GPSSM", "FilterState", "config_inputs", "init", "prepare", "prepare_rows", "prior_band", "run", "run_block", "run_filter",
-           "step"]
+           "step", "step_donated"]
 
 PROGRESS_EVERY = 50
 """Output rows between two calls of the progress callback."""
@@ -82,8 +82,14 @@ def init(info: DriveInfo, config: GPSSMConfig, seed: int = 0) -> FilterState:
 def step(fs: FilterState, sample: Sample) -> tuple[FilterState, dict[str, Any] | None]:
     """One sample: the next state and the output row (None for a sub-step). The input
     state is left unchanged."""
-    state = None if fs.state is None else copy_state(fs.state)
-    new, est = filter_step(fs.ctx, state, sample, fs.seed)
+    return step_donated(fs if fs.state is None else fs._replace(state=copy_state(fs.state)), sample)
+
+
+def step_donated(fs: FilterState, sample: Sample) -> tuple[FilterState, dict[str, Any] | None]:
+    """:func:`step` that reuses (overwrites) the arrays of ``fs``, which the caller gives up:
+    the same state and row without the copy of the particles' statistics (about half of a
+    step's time at the default 400 particles)."""
+    new, est = filter_step(fs.ctx, fs.state, sample, fs.seed)
     return fs._replace(state=new), (_row(est) if sample.recorded else None)
 
 
