@@ -10,14 +10,13 @@ import pytest
 from roadgrip.io.can import (
     FAULTS,
     SHIPPED_DBC,
-    SHIPPED_MAP,
     FrameDecoder,
     FrameEncoder,
-    load_dbc,
     load_signal_map,
     read_can_log,
     xor8,
 )
+from roadgrip.live.replay import shipped_codec
 
 # the shipped DBC's resolutions, in SI per bit: the half of each bounds the quantisation
 LSB = {"t": 1e-3, "ax": 1e-3, "ay": 1e-3, "yaw_rate": 0.01 * math.pi / 180.0, "steer": 1e-4,
@@ -26,7 +25,7 @@ LSB = {"t": 1e-3, "ax": 1e-3, "ay": 1e-3, "yaw_rate": 0.01 * math.pi / 180.0, "s
 
 @pytest.fixture(scope="module")
 def codec():
-    return load_dbc(SHIPPED_DBC), load_signal_map(SHIPPED_MAP)
+    return shipped_codec()
 
 
 def _sample(**kw) -> dict[str, float]:
@@ -121,7 +120,7 @@ def test_a_can_log_reads_back_as_the_drive_within_half_a_bit(tmp_path, suffix):
     from roadgrip.sim.scenarios import simulate_scenario
 
     drive = simulate_scenario("dry-gravel-dry", seed=1, duration=5.0)
-    db, m = load_dbc(SHIPPED_DBC), load_signal_map(SHIPPED_MAP)
+    db, m = shipped_codec()
     log = tmp_path / f"drive{suffix}"
     with can.Logger(str(log)) as writer:
         sent = replay_drive(drive, writer.on_message_received, FrameEncoder(db, m), speed=float("inf"))

@@ -1,49 +1,25 @@
 """Helpers of the live tests: a drive replayed through python-can's in-process virtual bus into
-the live loop, and the causal batch run it is compared with."""
+the live loop (:func:`roadgrip.live.replay.replay_live`), and the causal batch run it is
+compared with."""
 
 from __future__ import annotations
-
-import itertools
-import threading
 
 import pandas as pd
 
 from roadgrip.drive import Drive
-from roadgrip.io.can import FrameDecoder, FrameEncoder
-
-_channels = itertools.count()
-
 
 
 def replay_live(drive: Drive, method: str, codec, *, options=None, send_wrapper=None, drop=None,
                 speed: float = float("inf"), warmup: float = 1.0):
     """Replay ``drive`` on a fresh virtual bus and run the live loop on it.
 
-    Returns the estimator (its tables kept), the list sink and the loop's stats.
+    Returns the estimator (its tables kept), the rows written and the loop's stats.
     """
-    from roadgrip.live.assembler import RowAssembler
-    from roadgrip.live.loop import run_live
-    from roadgrip.live.replay import open_bus, replay_drive
-    from roadgrip.live.runner import LiveEstimator
-    from roadgrip.live.sinks import ListSink
+    from roadgrip.live.replay import replay_live as replay
 
-    db, m = codec
-    name = f"test-live-{next(_channels)}"
-    rx, tx = open_bus("virtual", name), open_bus("virtual", name)
-    decoder = FrameDecoder(db, m)
-    est = LiveEstimator(method, drive.vehicle, decoder.columns, options, warmup=warmup, keep_tables=True)
-    sink = ListSink()
-    send = tx.send if send_wrapper is None else send_wrapper(tx.send)
-    th = threading.Thread(target=replay_drive, args=(drive, send, FrameEncoder(db, m)),
-                          kwargs={"speed": speed, "drop": drop}, daemon=True)
-    th.start()
-    try:
-        stats = run_live(rx, RowAssembler(decoder), est, [sink], poll=0.05, idle=1.0)
-    finally:
-        th.join()
-        rx.shutdown()
-        tx.shutdown()
-    return est, sink, stats
+    res = replay(drive, method, codec=codec, options=options, speed=speed, warmup=warmup,
+                 send_wrapper=send_wrapper, drop=drop, keep_tables=True)
+    return res.estimator, res.rows, res.stats
 
 
 def causal_batch(drive: Drive, method: str, warmup_rows: int, options=None) -> pd.DataFrame:

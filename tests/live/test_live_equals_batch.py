@@ -45,7 +45,7 @@ def test_the_dbc_carries_each_signal_within_half_a_bit(drive, carried):
 @pytest.mark.parametrize(("method", "options"), [("cascade", None), ("brls", None), ("slipmap", None),
                                                  ("gpssm", {"particles": 50})])
 def test_live_gives_the_rows_of_the_causal_batch_run(drive, carried, codec, method, options):
-    est, sink, stats = replay_live(drive, method, codec, options=options)
+    est, rows, stats = replay_live(drive, method, codec, options=options)
     assert stats.ended == "idle 1 s" and stats.rows == drive.n
     assert stats.frames_report["accepted"] == 5 * drive.n and stats.dropped_rows == 0
     live = pd.concat(est.tables, ignore_index=True)
@@ -54,9 +54,9 @@ def test_live_gives_the_rows_of_the_causal_batch_run(drive, carried, codec, meth
     assert _float_diff(live, batch) <= 1e-9
     assert (live["grip_class"].to_numpy() == batch["grip_class"].to_numpy()).all()
     # the rows out: 'warming_up' through the first chunk, then the estimator's own rows
-    reasons = [r.reason for r in sink.rows]
+    reasons = [r.reason for r in rows]
     assert set(reasons[:WARMUP_ROWS]) == {"warming_up"} and "warming_up" not in reasons[WARMUP_ROWS:]
-    out_cls = np.array([r.grip_class for r in sink.rows[WARMUP_ROWS:]])
+    out_cls = np.array([r.grip_class for r in rows[WARMUP_ROWS:]])
     assert (out_cls == batch["grip_class"].to_numpy()[WARMUP_ROWS:]).all()
 
 

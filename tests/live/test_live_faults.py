@@ -59,8 +59,8 @@ def _faulty_run(drive, codec, method, n_random, stop, gap):
         t += 1e-6  # the drive's times are sums of steps: 13.0 may be 12.999999999999998
         return (stop[0] <= t < stop[1] and fid == WHEELS_FRONT) or gap[0] <= t < gap[1]
 
-    est, sink, stats = replay_live(drive, method, codec, send_wrapper=wrap, drop=drop)
-    return injector["i"], est, sink.rows, stats
+    est, rows, stats = replay_live(drive, method, codec, send_wrapper=wrap, drop=drop)
+    return injector["i"], est, rows, stats
 
 
 def _resumes_as_batch(drive, codec, est, method, lost_frames):

@@ -5,23 +5,27 @@ messages (:meth:`~roadgrip.io.can.FrameEncoder.encode_sample`, the clock message
 and sends them at the drive's pace divided by ``speed`` (``speed=inf``: as fast as the
 bus takes them). :func:`open_bus` opens any python-can interface (socketcan, vector,
 pcan, kvaser, virtual, udp_multicast, ...); :class:`LogSource` reads a CAN log
-(``.blf``, ``.asc``, ``.trc``) with the bus's ``recv``.
+(``.blf``, ``.asc``, ``.trc``) with the bus's ``recv``. :func:`replay_live` plays a drive
+onto a fresh in-process ``virtual`` bus from a thread and runs the live loop on it (the
+tests and the latency benchmark).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from roadgrip.drive import Drive
 from roadgrip.io.can import CAN_LOG_SUFFIXES, FrameEncoder
 
-__all__ = ["LogSource", "open_bus", "quantised", "replay_drive"]
+__all__ = ["LiveReplay", "LogSource", "open_bus", "quantised", "replay_drive", "replay_live", "shipped_codec"]
 
 
 def open_bus(interface: str, channel: str | int | None = None, **kwargs: Any) -> Any:
@@ -187,3 +191,115 @@ def quantised(drive: Drive, encoder: FrameEncoder) -> Drive:
             out[c].append(values[c])
     df = pd.DataFrame({c: np.asarray(v) for c, v in out.items()})
     return Drive.from_frame(df, drive.vehicle, source=f"{drive.meta.source} (quantised)")
+
+
+def shipped_codec() -> tuple[Any, dict[str, Any]]:
+    """The shipped DBC and its signal map (:data:`~roadgrip.io.can.SHIPPED_DBC`,
+    :data:`~roadgrip.io.can.SHIPPED_MAP`), loaded."""
+    from roadgrip.io.can import SHIPPED_DBC, SHIPPED_MAP, load_dbc, load_signal_map
+
+    return load_dbc(SHIPPED_DBC), load_signal_map(SHIPPED_MAP)
+
+
+class LiveReplay(NamedTuple):
+    """What :func:`replay_live` gives back.
+
+    Attributes
+    ----------
+    estimator : LiveEstimator
+        The estimator after the last row (its tables kept with ``keep_tables``).
+    rows : list of LiveRow
+        The rows written, in order.
+    stats : LiveStats
+        The loop's counts, latencies and why it ended.
+    backlog : int
+        Rows written later than one sample interval after the last frame was sent: 0 when
+        the loop kept up with the replay.
+    wall_s : float
+        Wall time from the start of the replay to the end of the loop [s].
+    """
+
+    estimator: Any
+    rows: list[Any]
+    stats: Any
+    backlog: int
+    wall_s: float
+
+
+_channels = itertools.count()
+
+
+def replay_live(drive: Drive, method: str, *, codec: tuple[Any, dict[str, Any]] | None = None,
+                options: dict[str, Any] | None = None, speed: float = float("inf"), warmup: float | None = None,
+                seed: int = 0, send_wrapper: Callable[[Callable[[Any], None]], Callable[[Any], None]] | None = None,
+                drop: Callable[[float, int], bool] | None = None, keep_tables: bool = False,
+                max_rows: int | None = None, idle: float = 1.0, poll: float = 0.05) -> LiveReplay:
+    """Replay ``drive`` onto a fresh ``virtual`` bus from a thread and run the live loop on it.
+
+    The sender shares the process (and the GIL) with the loop, as a bus driver's thread
+    would. The loop decodes, assembles, estimates (:class:`~roadgrip.live.runner.LiveEstimator`)
+    and writes each row to a list.
+
+    Parameters
+    ----------
+    drive : Drive
+        With every column of the signal map.
+    method : str
+        A live method (:data:`~roadgrip.live.runner.LIVE_METHODS`).
+    codec : (Database, dict), optional
+        DBC and signal map; default :func:`shipped_codec`.
+    options : dict, optional
+        Estimator options.
+    speed : float
+        Drive seconds per wall second (``inf``: as fast as the bus takes the frames).
+    warmup : float, optional
+        The estimator's warm-up [s] (default :data:`~roadgrip.live.runner.WARMUP_S`).
+    seed : int
+    send_wrapper : callable, optional
+        Wraps the bus's ``send`` (fault injection).
+    drop : callable, optional
+        ``drop(t, frame_id)``: frames left out (:func:`replay_drive`).
+    keep_tables : bool
+        Keep the estimator's rows and inputs (:class:`~roadgrip.live.runner.LiveEstimator`).
+    max_rows : int, optional
+        End the loop after this many rows (default: when the bus has been idle ``idle`` s).
+    idle, poll : float
+        The loop's idle end and longest wait for a frame [s] (:func:`~roadgrip.live.loop.run_live`).
+
+    Returns
+    -------
+    LiveReplay
+    """
+    from roadgrip.io.can import FrameDecoder
+    from roadgrip.live.assembler import RowAssembler
+    from roadgrip.live.loop import run_live
+    from roadgrip.live.runner import WARMUP_S, LiveEstimator
+    from roadgrip.live.sinks import ListSink
+
+    db, m = codec if codec is not None else shipped_codec()
+    name = f"roadgrip-replay-{next(_channels)}"
+    rx, tx = open_bus("virtual", name), open_bus("virtual", name)
+    decoder = FrameDecoder(db, m)
+    est = LiveEstimator(method, drive.vehicle, decoder.columns, options, warmup=WARMUP_S if warmup is None else warmup,
+                        seed=seed, keep_tables=keep_tables)
+    sink = ListSink()
+    send = tx.send if send_wrapper is None else send_wrapper(tx.send)
+    written_at_end = [0]
+    grace = 1.0 / drive.meta.sample_rate if drive.meta.sample_rate > 0 else 0.01
+
+    def sender() -> None:
+        replay_drive(drive, send, FrameEncoder(db, m), speed=speed, drop=drop)
+        time.sleep(grace)
+        written_at_end[0] = len(sink.rows)
+
+    th = threading.Thread(target=sender, daemon=True)
+    t0 = time.perf_counter()
+    th.start()
+    try:
+        stats = run_live(rx, RowAssembler(decoder), est, [sink], poll=poll, idle=idle, max_rows=max_rows)
+        wall = time.perf_counter() - t0
+    finally:
+        th.join()
+        rx.shutdown()
+        tx.shutdown()
+    return LiveReplay(est, sink.rows, stats, len(sink.rows) - written_at_end[0], wall)
