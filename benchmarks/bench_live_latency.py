@@ -17,7 +17,9 @@ Printed per method:
   shares the process and the GIL with the loop, so this is a lower bound);
 - the estimator's CPU time per row given one at a time (``time.thread_time``, p50 / p99
   [ms], over the first ``--rate-duration`` seconds), which the load of other processes
-  moves much less than the wall latency.
+  moves much less than the wall latency;
+- the machine's 1-minute load average at the end of the real-time run (the wall
+  latencies are those of a shared machine: compare runs at similar loads).
 
 Targets: p99 <= 2 ms (cascade, classifiers), <= 5 ms (gpssm with its defaults), with no
 backlog. Not a test: nothing fails when a target is missed, the table says so.
@@ -26,6 +28,7 @@ backlog. Not a test: nothing fails when a target is missed, the table says so.
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 TARGET_P99_MS = {"cascade": 2.0, "brls": 2.0, "slipmap": 2.0, "gpssm": 5.0}
@@ -73,16 +76,17 @@ def main() -> None:
     print(f"{args.scenario}, {args.duration:g} s at {drive.meta.sample_rate:.0f} Hz ({drive.n} rows), virtual bus; "
           f"rate and CPU over the first {short.duration:.0f} s", flush=True)
     print(f"{'method':8s} {'p50 ms':>7s} {'p99 ms':>7s} {'max ms':>7s} {'target':>7s} {'backlog':>8s} {'verdict':>8s} "
-          f"{'max rate Hz':>12s} {'cpu/row p50':>12s} {'cpu/row p99':>12s}")
+          f"{'max rate Hz':>12s} {'cpu/row p50':>12s} {'cpu/row p99':>12s} {'load':>5s}")
     for method in args.methods.split(","):
         live = replay_live(drive, method, speed=1.0, max_rows=drive.n)
         lat = live.stats.latency_summary()
+        load = os.getloadavg()[0]
         fast = replay_live(short, method, speed=float("inf"), max_rows=short.n)
         cpu50, cpu99 = _cpu_per_row(short, method)
         target = TARGET_P99_MS[method]
         ok = "met" if lat["p99"] <= target and live.backlog == 0 and live.stats.rows == drive.n else "not met"
         print(f"{method:8s} {lat['p50']:7.2f} {lat['p99']:7.2f} {lat['max']:7.2f} {target:7.1f} {live.backlog:8d} "
-              f"{ok:>8s} {short.n / fast.wall_s:12.0f} {cpu50:12.2f} {cpu99:12.2f}", flush=True)
+              f"{ok:>8s} {short.n / fast.wall_s:12.0f} {cpu50:12.2f} {cpu99:12.2f} {load:5.1f}", flush=True)
 
 
 if __name__ == "__main__":
