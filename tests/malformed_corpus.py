@@ -132,15 +132,19 @@ def _write_mdf(path: Path, df: pd.DataFrame, t_of: Callable[[str], np.ndarray] |
 
     t = df["t"].to_numpy(float)
     sigs = []
+
+    def signal(name: str, v: np.ndarray, unit: str = "") -> Signal:
+        v = value_of(name, v) if value_of else v
+        enc = {"encoding": "utf-8"} if v.dtype.kind == "S" else {}
+        return Signal(v, t_of(name) if t_of else t, name=name, unit=unit, **enc)
+
     for col, (name, unit, f) in _MDF_UNITS.items():
         if name != skip:
-            v = df[col].to_numpy(float) * f
-            sigs.append(Signal(value_of(name, v) if value_of else v, t_of(name) if t_of else t, name=name, unit=unit))
+            sigs.append(signal(name, df[col].to_numpy(float) * f, unit))
     for w in ("fl", "fr", "rl", "rr"):
         name = f"Whl_{w}"
         if name != skip:
-            v = df[f"omega_{w}"].to_numpy(float) * 60 / (2 * math.pi)
-            sigs.append(Signal(value_of(name, v) if value_of else v, t_of(name) if t_of else t, name=name))
+            sigs.append(signal(name, df[f"omega_{w}"].to_numpy(float) * 60 / (2 * math.pi)))
     mdf = MDF(version="4.10")
     for s in sigs:  # one group a channel: each may have its own time stamps
         mdf.append([s])
@@ -185,6 +189,8 @@ def _mutate_frame(df: pd.DataFrame, mutation: str, rng: np.random.Generator, pro
         df[col] = df[col].astype(object)
         df.loc[rows, col] = [str(rng.choice(TEXT_CELLS)) for _ in rows]
         return df, {col}
+    if mutation in ("nan_inf", "huge"):
+        df[col] = df[col].astype(float)
     if mutation == "nan_inf":
         df.loc[rows, col] = rng.choice([np.nan, np.inf, -np.inf], size=len(rows))
         return df, {col}
@@ -202,7 +208,8 @@ def _mutate_frame(df: pd.DataFrame, mutation: str, rng: np.random.Generator, pro
         if rng.random() < 0.5:
             df.loc[i:i + k - 1, tcol] = df.loc[i:i + k - 1, tcol].to_numpy()[::-1]
         else:
-            df.loc[i:, tcol] = df.loc[i:, tcol] - float(rng.uniform(0.1, 5.0))
+            shift = float(rng.uniform(0.1, 5.0))
+            df.loc[i:, tcol] = df.loc[i:, tcol] - (math.ceil(shift) if df[tcol].dtype.kind in "iu" else shift)
         return df, {tcol}
     if mutation == "missing_column":
         drop = str(rng.choice([c for c in df.columns if c not in protect] or list(df.columns)))

@@ -90,7 +90,8 @@ def test_regressions():
     """Uncaught before: a calibration field of the wrong type (TypeError from the
     classifier's config); a map file that is not text (UnicodeDecodeError without the
     file's name); an MDF4 channel whose clock goes backwards; a cut Parquet file given
-    to `roadgrip map` (pyarrow's message without the file's name)."""
+    to `roadgrip map` (pyarrow's message without the file's name); an estimates table with
+    an observation but not its flag (KeyError); an MDF4 channel of text (numpy's message)."""
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         for kind, mutation, seed, entry, expect in (
@@ -98,7 +99,22 @@ def test_regressions():
             ("channel_map", "random_bytes", 0, "read", "is not text"),
             ("mdf", "nonmonotonic_time", 0, "read", "time stamps go backwards"),
             ("estimates", "truncated", 0, "map", "estimates_truncated.parquet"),
+            ("estimates", "missing_column", 1017, "read", "comes without ['excited_front']"),
+            ("mdf", "wrong_dtype", 2, "read", "not numbers"),
         ):
             case = M.make_case(kind, mutation, seed, d / kind)
             out = M.run_entry(case, entry, d / "out")
             assert out.status == "refused" and expect in out.message, (kind, out)
+
+
+@pytest.mark.realdata
+def test_regressions_of_the_recording_readers():
+    """Uncaught before: text in a frictionmaps or DART CSV (numpy's message without a name)."""
+    if not (M.DART_RUN.is_file() and M.FM_RUN.is_dir()):
+        pytest.skip("../shared/data is not present")
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        for kind in ("frictionmaps", "dart"):
+            case = M.make_case(kind, "text_cells", 7, d / kind)
+            out = M.run_entry(case, "read", d / "out")
+            assert out.status == "refused" and "not a number" in out.message, (kind, out)

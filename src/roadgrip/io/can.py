@@ -36,7 +36,9 @@ lost frame costs one more frame.
 
 CAN logs (``.blf``, ``.asc``, ``.trc``, read by python-can) become a drive through the
 same map (:func:`read_can_log`): every mapped signal is a stream of its accepted
-frames, interpolated onto one uniform clock as MDF4 channels are.
+frames, interpolated onto one uniform clock as MDF4 channels are. Frames out of time
+order (a logger merging its channels) are put in order; of frames with the same time
+stamp, the last one read holds.
 """
 
 from __future__ import annotations
@@ -375,8 +377,12 @@ def read_can_log(
     if empty:
         raise ValueError(f"{p.name}: no accepted frame of {', '.join(empty)} "
                          f"(dropped: {dict(decoder.dropped) or 'none'})")
+    # frames out of time order (a logger merging its channels) are put in order; of
+    # frames with one time stamp, the last read holds
     if clock:  # the sample clock: frame times mapped onto the t signal's
         ft, st = np.array(clock).T
+        order = np.argsort(ft, kind="stable")
+        ft, st = ft[order], st[order]
         to_clock = lambda x: np.interp(x, ft, st)  # noqa: E731
     else:
         to_clock = np.asarray
@@ -385,8 +391,10 @@ def read_can_log(
         if c == "t":
             continue
         t = np.asarray(to_clock(np.asarray(ts[c])), float)
+        order = np.argsort(t, kind="stable")
+        t, v = t[order], np.asarray(vs[c])[order]
         keep = np.concatenate([np.diff(t) > 0, [True]])
-        streams[c] = pd.DataFrame({"t": t[keep], c: np.asarray(vs[c])[keep]})
+        streams[c] = pd.DataFrame({"t": t[keep], c: v[keep]})
     rates = [1.0 / np.median(np.diff(s["t"])) for s in streams.values() if len(s) > 1]
     rate = float(m.get("rate") or float(f"{max(rates):.6g}"))
     lo = max(s["t"].iloc[0] for s in streams.values())

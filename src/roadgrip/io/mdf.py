@@ -177,6 +177,9 @@ def read_mdf(
                     factor = unit_factor(unit, target if section == "channels" else None, where)
                     units[target] = unit
                 ts = np.asarray(sig.timestamps, dtype=float)
+                if np.asarray(sig.samples).dtype.kind not in "biuf":
+                    raise ValueError(f"{where} holds {np.asarray(sig.samples).dtype} samples "
+                                     f"(e.g. {np.asarray(sig.samples).ravel()[:1].tolist()}), not numbers")
                 v = np.asarray(sig.samples, dtype=float)
                 if v.ndim != 1:
                     raise ValueError(f"{where} is not a scalar channel (samples of shape {v.shape})")

@@ -92,6 +92,13 @@ def _numeric_columns(table: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
+def _companions(table: pd.DataFrame, column: str, needed: tuple[str, ...]) -> None:
+    """Refuse, naming them, the columns an estimate needs beside ``column`` that are missing."""
+    missing = [c for c in needed if c not in table.columns]
+    if missing:
+        raise ValueError(f"estimates column {column!r} comes without {missing}: the table is incomplete")
+
+
 def observations_from_estimates(table: pd.DataFrame, cell: float | None = None) -> Observations:
     """Excited friction observations of an estimates table, at the axle positions.
 
@@ -117,12 +124,14 @@ def observations_from_estimates(table: pd.DataFrame, cell: float | None = None) 
     t_all = table["t"].to_numpy(float) if "t" in table.columns else np.zeros(len(table))
     for axle in ("front", "rear"):
         if f"mu_{axle}_obs" in table.columns:
+            _companions(table, f"mu_{axle}_obs", (f"mu_{axle}_obs_std", f"excited_{axle}"))
             mu = table[f"mu_{axle}_obs"].to_numpy(float)
             sd = table[f"mu_{axle}_obs_std"].to_numpy(float)
             exc = table[f"excited_{axle}"].to_numpy(bool)
             sysc = f"mu_{axle}_obs_sys"
             b = table[sysc].to_numpy(float) if sysc in table.columns else np.zeros(len(table))
         elif f"mu_{axle}" in table.columns:
+            _companions(table, f"mu_{axle}", (f"mu_{axle}_lower", f"mu_{axle}_upper"))
             mu = table[f"mu_{axle}"].to_numpy(float)
             sd = (table[f"mu_{axle}_upper"].to_numpy(float) - table[f"mu_{axle}_lower"].to_numpy(float)) / (2 * Z95)
             exc = table["excited"].to_numpy(bool) if "excited" in table.columns else np.ones(len(table), bool)
