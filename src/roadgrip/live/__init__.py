@@ -4,10 +4,11 @@
 module              holds
 ==================  =================================================================
 ``assembler``       decoded frames -> rows of canonical signals, stale signals marked
-``runner``          an estimator fed row by row through its streaming API
+``runner``          an estimator fed row by row (the online stepping path), live rows
 ``sinks``           CAN frames, VSS JSON lines (stream, UDP), the Foxglove live view
 ``loop``            the live loop: source -> rows -> estimator -> sinks, with latency
-``replay``          a drive played onto a bus or into a log; buses and logs as sources
+``replay``          a drive played onto a bus or into a log; buses and logs as sources;
+                    a drive replayed into the live loop (tests, the latency benchmark)
 ==================  =================================================================
 
 Frames are decoded by :class:`roadgrip.io.can.FrameDecoder` (DBC + signal map, faults
