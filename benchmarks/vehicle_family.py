@@ -18,6 +18,21 @@ sample at true utilisation >= 0.6, no false switch; ``-`` where the calibration 
 the cascade's 5 m cells on ``figure-eight`` seed 0 (cells with >= 10 observations: how
 many, their mean |error|, the share within mean +- 1.96 std, confidently wrong cells), and
 whether each run is honest (:mod:`roadgrip.evaluate.honesty`).
+
+``--fit`` prints ``roadgrip vehicle fit`` against the truth, one row a vehicle, and the
+cascade's figure-eight cells again with the fitted vehicle and its sensor calibration
+(delays aligned, steering and accelerometer corrected) applied to the drive, as ``roadgrip
+estimate --vehicle car.yaml`` does. Rules fixed before measuring: the fit drive is
+``dry-gravel-dry`` seed 10 whole (180 s: two dry minutes with a slalom, a lane change,
+accelerations and brakings each, and the gravel minute; ``--mu 0.6`` so that the linear range
+``|a_y| < 0.24 g`` holds on gravel too; its dry minute alone leaves the stiffnesses undetermined
+even with error-free sensors). The truths: the front stiffness is the tire's in series with the
+steering compliance, ``1/(1/C_f + c)`` (a steering-angle sensor cannot tell the two apart, and it
+is what an estimator reading that sensor needs); the rear is the tire's; each delay is its
+sensor's latency minus the gyro's (the speed's: the undriven wheels', or the ``vx`` column's on
+an all-wheel drive, which is what :func:`roadgrip.signals.wheel_speed_vx` reads; the
+accelerometer's: ``a_y``'s); the steering offset is the road-wheel angle at a zero reading,
+``-offset/(1 + ratio_error)``. An undetermined value fails its criterion.
 """
 
 from __future__ import annotations
@@ -69,8 +84,10 @@ def _classifier_cells(name: str) -> str:
     return row
 
 
-def _cascade_cells(name: str) -> str:
-    """The cascade's 5 m cells on the figure-eight and its honesty (``--estimators``)."""
+def _cascade_cells(name: str, fit=None) -> str:
+    """The cascade's 5 m cells on the figure-eight and its honesty (``--estimators``); with
+    ``fit`` (a :class:`~roadgrip.inference.vehicle_identification.VehicleFit`), on the drive
+    calibrated by it and with its vehicle."""
     from roadgrip.constants import Z95
     from roadgrip.estimators import run_estimator
     from roadgrip.evaluate.honesty import score_result
@@ -78,7 +95,8 @@ def _cascade_cells(name: str) -> str:
     from roadgrip.mapping import grid_from_estimates
 
     d = simulate_scenario("figure-eight", seed=0, engine="multibody", vehicle=name)
-    res = run_estimator("cascade", d, {})
+    run_on = d if fit is None else _fitted_drive(d, fit)
+    res = run_estimator("cascade", run_on, {})
     score = score_map(d, grid_from_estimates(res.table, cell=5.0))
     c = score.cells[(score.cells["n_obs"] >= 10) & score.cells["mu_true"].notna()]
     err = (c["mu_mean"] - c["mu_true"]).abs()
@@ -87,6 +105,81 @@ def _cascade_cells(name: str) -> str:
     ok = len(c) > 0 and mae <= 0.05 and cover >= 0.9 and score.confidently_wrong == 0
     return (f" {len(c):>5d} {mae:>5.2f} {cover:>5.2f} {score.confidently_wrong:>5d} {'yes' if ok else 'no':>4}"
             f" {'yes' if score_result(res, d).honest else 'no':>6}")
+
+
+FIT_DRIVE = ("dry-gravel-dry", 10, 0.6)
+"""The fit's drive: scenario, seed and the ``--mu`` of its linear range (module docstring)."""
+FIT_LIMITS = {"stiffness": 0.10, "delay": 0.020, "offset": np.radians(0.1)}
+"""The issue's bounds: relative stiffness error [-], delay error [s], steering offset error [rad]."""
+
+
+def fit_family_vehicle(name: str):
+    """``roadgrip vehicle fit`` of a family vehicle on :data:`FIT_DRIVE`."""
+    from roadgrip.inference.vehicle_identification import fit_vehicle
+
+    scenario, seed, mu = FIT_DRIVE
+    return fit_vehicle(simulate_scenario(scenario, seed=seed, engine="multibody", vehicle=name), mu=mu)
+
+
+def _fitted_drive(d, fit):
+    """The drive as ``--vehicle car.yaml`` reads it: calibrated, with the fitted vehicle."""
+    from dataclasses import replace
+
+    from roadgrip.drive import Drive
+    from roadgrip.inference.vehicle_identification import CALIBRATION, apply_calibration
+
+    cal = {k: v.value for k, v in fit.values.items() if k in CALIBRATION and v.fitted}
+    out = apply_calibration(d, cal)
+    return Drive(out.data, replace(out.meta, vehicle=fit.vehicle.replace(name=d.vehicle.name)))
+
+
+def fit_errors(name: str, fit) -> dict[str, float]:
+    """Each fitted quantity's error against the truth (module docstring): stiffnesses
+    relative [-], delays [s], the steering offset [rad]; NaN where undetermined."""
+    from roadgrip.signals import undriven_wheels
+    from roadgrip.sim.vehicle_family import mb_vehicle as _mb
+
+    v = _mb(name)
+    vp, ch, st = v.params, v.sensors.channels, v.sensors.steering
+    gyro = ch["yaw_rate"].delay
+    speed = ch["omega_fl"].delay if undriven_wheels(vp.drive).any() else ch["vx"].delay
+    truth = {"cornering_stiffness_front": 1.0 / (1.0 / vp.cornering_stiffness_front + st.compliance),
+             "cornering_stiffness_rear": vp.cornering_stiffness_rear,
+             "delay_accelerometer": ch["ay"].delay - gyro, "steer_delay": ch["steer"].delay - gyro,
+             "delay_speed": speed - gyro, "delay_pose": ch["psi"].delay - gyro,
+             "steer_offset": -st.offset / (1.0 + st.ratio_error)}
+    out = {}
+    for k, true in truth.items():
+        fv = fit.values.get(k)
+        val = fv.value if fv is not None and fv.fitted else float("nan")
+        out[k] = (val / true - 1.0) if k.startswith("cornering") else val - true
+    return out
+
+
+def fit_passes(err: dict[str, float]) -> bool:
+    """The issue's criterion on :func:`fit_errors` (NaN fails)."""
+    lim = FIT_LIMITS
+    return bool(all(abs(err[k]) <= lim["stiffness"] for k in err if k.startswith("cornering"))
+                and all(abs(err[k]) <= lim["delay"] for k in err if "delay" in k)
+                and abs(err["steer_offset"]) <= lim["offset"])
+
+
+def fit_table(names: list[str]) -> None:
+    """Print the fit against the truth and the cascade with the fitted car (module docstring)."""
+    print(f"{'vehicle':<11} {'drive':<5} {'Cf %':>6} {'Cr %':>6} {'acc ms':>6} {'steer':>6} {'speed':>6} "
+          f"{'pose':>6} {'off deg':>7} {'pass':>4} | {'cells':>5} {'mae':>5} {'cover':>5} {'wrong':>5} "
+          f"{'pass':>4} {'honest':>6}")
+    t_start = time.perf_counter()
+    for name in names:
+        fit = fit_family_vehicle(name)
+        e = fit_errors(name, fit)
+        row = (f"{name:<11} {fit.vehicle.drive:<5} {100 * e['cornering_stiffness_front']:>+6.1f} "
+               f"{100 * e['cornering_stiffness_rear']:>+6.1f}")
+        for k in ("delay_accelerometer", "steer_delay", "delay_speed", "delay_pose"):
+            row += f" {1e3 * e[k]:>+6.0f}"
+        row += f" {np.degrees(e['steer_offset']):>+7.3f} {'yes' if fit_passes(e) else 'no':>4} |"
+        print(row + _cascade_cells(name, fit), flush=True)
+    print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
 
 
 def estimator_table(names: list[str]) -> None:
@@ -107,8 +200,13 @@ def main() -> None:
     ap.add_argument("--scenarios", nargs="*", default=list(SCENARIOS), choices=SCENARIOS)
     ap.add_argument("--estimators", action="store_true",
                     help="the classifiers' and the cascade's family criteria instead of the parameters")
+    ap.add_argument("--fit", action="store_true",
+                    help="vehicle fit against the truth and the cascade with the fitted car")
     args = ap.parse_args()
     names = ["ford-escort", "vw-vanagon", *(f"random:{s}" for s in _seeds(args.seeds))]
+    if args.fit:
+        fit_table(names[2:])
+        return
     if args.estimators:
         estimator_table(names[2:])
         return
