@@ -58,3 +58,39 @@ def test_bad_samples_are_named(patches):
         online.push({"t": recs[1]["t"], "ax": 0.0})
     with pytest.raises(ValueError, match="'t'"):
         online.push({"ax": 0.0})
+
+
+def test_a_warm_up_holds_the_first_rows_then_one_row_per_sample(patches):
+    """With a warm-up, nothing comes out before it has passed; then its rows at once and
+    one row per sample, all equal to the run's (a causal method: no look-ahead)."""
+    bare = patches.with_data(patches.data.drop(columns=["x", "y", "psi"]))
+    whole = run_estimator("cascade", bare).table
+    online = OnlineEstimator("cascade", bare.vehicle, warmup=1.0)
+    counts, rows = [], []
+    for rec in bare.data.to_dict("records"):
+        got = online.push(rec)
+        counts.append(len(got))
+        rows += got
+    assert online.finish() == []
+    first = int(np.searchsorted(bare.t - bare.t[0], 1.0 - 1e-9))  # the sample that ends the warm-up
+    assert sum(counts[:first]) == 0 and counts[first] == first + 1 and set(counts[first + 1:]) == {1}
+    table = online.table(rows)
+    num = whole.select_dtypes(["number", "bool"]).columns
+    np.testing.assert_allclose(table[num].to_numpy(float), whole[num].to_numpy(float), rtol=1e-9, atol=1e-12)
+
+
+def test_the_gpssm_keeps_the_sub_steps_of_the_start_across_a_gap(patches):
+    """Half a second of samples missing: the sub-steps per interval stay those of the start
+    (1 at 50 Hz), as the run interpolates them, not those of the gap's interval (13 at
+    ``max_dt`` 0.04 s), which the GP-SSM's ``prepare`` of the two rows around it would take."""
+    bare = patches.with_data(patches.data.drop(columns=["x", "y", "psi"]))
+    keep = (bare.t < bare.t[0] + 2.0) | (bare.t >= bare.t[0] + 2.5)
+    gapped = bare.with_data(bare.data[keep])
+    options = {"particles": 30}
+    whole = run_estimator("gpssm", gapped, options).table
+    online = OnlineEstimator("gpssm", gapped.vehicle, options)
+    rows = [r for rec in gapped.data.to_dict("records") for r in online.push(rec)] + online.finish()
+    assert online.info is not None and online.info.derived["substeps"] == 1
+    table = online.table(rows)
+    num = whole.select_dtypes(["number", "bool"]).columns
+    np.testing.assert_allclose(table[num].to_numpy(float), whole[num].to_numpy(float), rtol=1e-9, atol=1e-12)
