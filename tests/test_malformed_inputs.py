@@ -100,6 +100,7 @@ def test_regressions():
             ("mdf", "nonmonotonic_time", 0, "read", "time stamps go backwards"),
             ("estimates", "truncated", 0, "map", "estimates_truncated.parquet"),
             ("estimates", "missing_column", 1017, "read", "comes without ['excited_front']"),
+            ("estimates", "missing_column", 6017, "read", "comes without ['y_front']"),
             ("mdf", "wrong_dtype", 2, "read", "not numbers"),
         ):
             case = M.make_case(kind, mutation, seed, d / kind)

@@ -40,7 +40,11 @@ def grip_used_bound(table: pd.DataFrame, cell: float) -> tuple[NDArray[np.int64]
     for axle, f, fz in (("front", "Fyf", "Fzf"), ("rear", "Fyr", "Fzr")):
         if not {f, f"{f}_std", fz} <= set(table.columns):
             continue
-        xc, yc = (f"x_{axle}", f"y_{axle}") if f"x_{axle}" in table.columns else ("x", "y")
+        xc, yc = (f"x_{axle}", f"y_{axle}")
+        if {xc, yc} & set(table.columns):
+            _companions(table, xc if xc in table.columns else yc, (xc, yc))
+        else:
+            xc, yc = "x", "y"
         load = table[fz].to_numpy(float)
         lateral = np.maximum(np.abs(table[f].to_numpy(float)) - 2.0 * table[f"{f}_std"].to_numpy(float), 0.0)
         # the axle's longitudinal force uses the same friction (friction circle), where given
@@ -138,7 +142,11 @@ def observations_from_estimates(table: pd.DataFrame, cell: float | None = None) 
             b = np.zeros(len(table))
         else:
             continue
-        xc, yc = (f"x_{axle}", f"y_{axle}") if f"x_{axle}" in table.columns else ("x", "y")
+        xc, yc = (f"x_{axle}", f"y_{axle}")
+        if {xc, yc} & set(table.columns):
+            _companions(table, xc if xc in table.columns else yc, (xc, yc))
+        else:
+            xc, yc = "x", "y"
         x, y = table[xc].to_numpy(float), table[yc].to_numpy(float)
         b = np.where(np.isfinite(b), np.abs(b), 0.0)
         with np.errstate(over="ignore"):  # a standard deviation past 1e154 has no variance
