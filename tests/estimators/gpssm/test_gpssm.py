@@ -26,6 +26,7 @@ from roadgrip.estimators.gpssm import (
 )
 from roadgrip.estimators.gpssm import linalg as la
 from roadgrip.estimators.gpssm.accuracy import curve_accuracy
+from roadgrip.estimators.gpssm.guard import step_sigma_ay
 from roadgrip.sim.scenarios import simulate_scenario
 from roadgrip.vehicle import PRESETS
 
@@ -70,13 +71,14 @@ def test_other_seed_differs(snow20):
     assert not np.allclose(a["vy"], c["vy"])
 
 
-@pytest.mark.parametrize(("basis", "proposal", "measured_vy", "limit_deg"), [
-    ("tensor:4x4", "conditional", False, None), ("separable-odd:6", "conditional", False, None),
-    ("tensor-odd:5x5", "prior", False, None), ("separable:5", "prior", False, None),
-    ("separable-odd:6", "conditional", True, None), ("tensor-odd:5x5", "conditional", False, 1.0),
-    ("separable:5", "prior", False, 1.0),
+@pytest.mark.parametrize(("basis", "proposal", "measured_vy", "limit_deg", "ay_noise"), [
+    ("tensor:4x4", "conditional", False, None, 0.0), ("separable-odd:6", "conditional", False, None, 0.0),
+    ("tensor-odd:5x5", "prior", False, None, 0.0), ("separable:5", "prior", False, None, 0.0),
+    ("separable-odd:6", "conditional", True, None, 0.0), ("tensor-odd:5x5", "conditional", False, 1.0, 0.0),
+    ("separable:5", "prior", False, 1.0, 0.0), ("separable-odd:6", "conditional", False, None, 0.8),
+    ("tensor:4x4", "prior", False, None, 0.8),
 ])
-def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measured_vy, limit_deg):
+def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measured_vy, limit_deg, ay_noise):
     # the compiled kernel and the array implementation draw the same random numbers; a
     # stop at walking pace (no learning, vy pinned to 0), the sideslip bound, a measured
     # lateral velocity and a slip limit that the slip angles pass included
@@ -95,6 +97,8 @@ def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measu
     if measured_vy:
         rows[100:, 5] = d.col("vy_true")[100:]
     rows[40:48, 4] = 0.3  # below min_speed
+    # a vibrating accelerometer: the running noise level sets the likelihood's (ay_noise)
+    rows[:, 1] += ay_noise * np.random.default_rng(5).standard_normal(len(rows))
     ctx = Context(cfg, d.vehicle)
     a_state = b_state = None
     a_rows, b_rows = [], []
@@ -105,6 +109,8 @@ def test_compiled_step_equals_the_numpy_reference(snow20, basis, proposal, measu
         b_rows.append(eb)
     a, b = pd.DataFrame(a_rows), pd.DataFrame(b_rows)
     assert a["resampled"].sum() > 5 and (~a["excited"]).sum() > 5
+    used = step_sigma_ay(ctx, a_state.guard)
+    assert (used > 0.5 * ay_noise) if ay_noise else used == cfg.sigma_ay
     # (atol 1e-8: the per-step axle loads and accelerometer gains carry the rounding
     # differences of fastmath a little further than the paper's static model did)
     pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-7, atol=1e-8)

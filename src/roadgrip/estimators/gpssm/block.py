@@ -125,6 +125,7 @@ class Consts(NamedTuple):
     mf: NDArray
     Lambda0: NDArray
     sigma_ay: float
+    noise_scale: float
     sigma_r: float
     gain_walk: float
     gain_gate: float
@@ -141,6 +142,7 @@ class Consts(NamedTuple):
     narrow: float
     ell: float
     slip_sigma: float
+    slip_scale_sigma: float
     max_sideslip_ratio: float
     diverge_time: float
     slide_slip: float
@@ -292,7 +294,7 @@ def run_steps(p, lin, st, wk, blk, cst, basis, pt, rng, out):  # pragma: no cove
             gk.StepInput(propagate, dt, sc[_STEER], sc[_VX], steer, vx, blk.ay[i], blk.yaw_rate[i], has_vy,
                          vy_meas if has_vy else 0.0, learn),
             veh_k,
-            gk.Params(cst.mf, lam, sc[_NU], cst.Lambda0, cst.sigma_ay, cst.sigma_r, vy_max, sc[_PS],
+            gk.Params(cst.mf, lam, sc[_NU], cst.Lambda0, _sigma_ay(st, cst), cst.sigma_r, vy_max, sc[_PS],
                       0.0 if cst.carry else 1.0 - sc[_C], cst.tol, cst.max_terms, cst.conditional, cst.carry,
                       cst.gain_gate),
             basis,
@@ -379,6 +381,23 @@ def _chisquares(rng, dof, out):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
+def _sigma_ay(st, cst):  # pragma: no cover - compiled
+    """:func:`roadgrip.estimators.gpssm.guard.step_sigma_ay` on the guard's window."""
+    if cst.noise_scale == 0.0:
+        return cst.sigma_ay
+    head, tail = int(st.sc[_HEAD]), int(st.sc[_TAIL])
+    n = tail - head
+    if n < 3:
+        return cst.sigma_ay
+    gay = st.gay
+    s = 0.0
+    for j in range(head + 1, tail - 1):
+        d = gay[j + 1] - 2.0 * gay[j] + gay[j - 1]
+        s += d * d
+    return max(cst.sigma_ay, cst.noise_scale * math.sqrt(s / (6.0 * (n - 2))))
+
+
+@numba.njit(cache=True)
 def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
     """:func:`roadgrip.estimators.gpssm.guard.guard_step` on the row of step ``i``."""
     sc, gt, gay = st.sc, st.gt, st.gay
@@ -405,6 +424,9 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
     moving = vx >= cst.min_speed
     measured = not math.isnan(vy_meas)
     vy_std = math.sqrt(wk.e[_E_VY_STD] ** 2 + (cst.slip_sigma * vx) ** 2)
+    if not measured:
+        # the slip angles' scale is not identified (guard docstring): the rear slip velocity
+        vy_std = math.hypot(vy_std, cst.slip_scale_sigma * (e_vy - cst.veh.lr * e_yr))
     if not moving:
         gap = abs(vy_meas - e_vy) if measured else cst.max_sideslip_ratio * cst.min_speed
         vy_std = max(vy_std, gap / _Z95)

@@ -122,6 +122,18 @@ class GPSSMConfig(EstimatorConfig):
         its measurement (``vy_source='pose'``), over the speed (0.05 m/s at 12 m/s is
         0.24 deg on the simulated snow drive). ``slip_sigma |vx|`` is in the reported
         ``vy_std`` (:mod:`~roadgrip.estimators.gpssm.guard`).
+    slip_scale_sigma : float
+        Relative uncertainty [-] of the scale of the slip angles where the lateral
+        velocity is not measured. From ``a_y`` and the yaw rate a learned curve stretched
+        by ``k`` explains the same forces with slip angles ``k`` times larger (exactly for a
+        neutral-steering car in steady cornering): only the model's transients tell them
+        apart, and on a real car with a late accelerometer, an approximate yaw inertia and
+        aerodynamic load they do not. On the full-size race car (``../shared/data/revs``)
+        the estimated slip angles ran at about twice the INS's (median 4.0 deg against
+        2.0 deg at the front) with a particle spread of 0.1-0.2 m/s. The reported ``vy_std``
+        therefore holds ``slip_scale_sigma |vy - l_r r|`` in quadrature (the rear axle's
+        slip velocity, ``v_x tan(alpha_r)``): 0.5 puts a lateral velocity from half to
+        twice the slip inside the 95 % band. 0 for the particle spread alone.
     curve_sigma_floor : float
         Standard deviation [-] added in quadrature to every particle's function posterior
         in the curve band and the peak band: the error of representing a tire curve with a
@@ -166,6 +178,15 @@ class GPSSMConfig(EstimatorConfig):
         ``'static'``: the paper's static axle loads. ``'dynamic'``: the loads with the
         longitudinal load transfer of the measured ``ax`` (CG height, wheelbase,
         :func:`roadgrip.vehicle.params.axle_loads`) in eq. 7-8, where the drive has ``ax``.
+    ay_noise : {'running', 'fixed'}
+        ``'running'`` (with ``ay_source='imu'``): the likelihood's lateral-acceleration
+        noise is the larger of ``sigma_ay`` and the accelerometer's noise measured from
+        its second differences over the last second of samples
+        (:func:`~roadgrip.estimators.gpssm.guard.step_sigma_ay`); ``'fixed'``: ``sigma_ay``.
+        A car's accelerometer can be far noisier than the default assumes: the full-size
+        race car's (``../shared/data/revs``) carries about 1.0 m/s² of vibration at 100 Hz
+        against 0.15, and with ``sigma_ay`` that small the filter took the vibration for
+        force (lateral velocity RMSE 1.9 m/s against the INS, 1.1 with the noise matched).
     ay_gain_walk : float
         Random-walk std of the gain [1/sqrt(s)] (artificial dynamics of a static
         parameter in a particle filter, so that resampling does not exhaust it). With
@@ -244,10 +265,12 @@ class GPSSMConfig(EstimatorConfig):
     vy_source: str = "none"
     ay_source: str = "imu"
     slip_sigma: float = math.radians(0.25)
+    slip_scale_sigma: float = 0.5
     curve_sigma_floor: float = 0.01
     max_sideslip: float | None = None
     slip_limit: float | None = None
     ay_gain_sigma: float = 0.1
+    ay_noise: str = "running"
     ay_gain_walk: float = 0.01
     ay_gain_gate: float = 1.0
     axle_loads: str = "static"
@@ -287,6 +310,8 @@ class GPSSMConfig(EstimatorConfig):
             v = getattr(self, name)
             if not np.isfinite(v) or v <= 0:
                 raise ValueError(f"{name} must be positive and finite, got {v!r}")
+        if not (np.isfinite(self.slip_scale_sigma) and 0.0 <= self.slip_scale_sigma <= 5.0):
+            raise ValueError(f"slip_scale_sigma must be in [0, 5], got {self.slip_scale_sigma!r}")
         for name in ("ay_gain_sigma", "ay_gain_walk"):
             v = getattr(self, name)
             if not (np.isfinite(v) and 0.0 <= v < 0.5):
@@ -305,6 +330,8 @@ class GPSSMConfig(EstimatorConfig):
             raise ValueError("ay_source='kinematic' needs a measured lateral velocity (vy_source='pose')")
         if self.vx_source not in ("auto", "wheels", "column", "pose"):
             raise ValueError(f"vx_source must be auto, wheels, column or pose, got {self.vx_source!r}")
+        if self.ay_noise not in ("running", "fixed"):
+            raise ValueError(f"ay_noise must be 'running' or 'fixed', got {self.ay_noise!r}")
         if self.axle_loads not in ("static", "dynamic"):
             raise ValueError(f"axle_loads must be 'static' or 'dynamic', got {self.axle_loads!r}")
         if self.proposal not in ("conditional", "prior"):

@@ -35,6 +35,9 @@ Lateral-velocity band
     resampling under-represents the error of ``vy``; with one (``vy_source='pose'``) every
     particle takes the measurement, which has its own error (small for motion capture, 0.1-0.16 m/s
     for the F1/10 localisation, :func:`roadgrip.io.presets.frictionmaps_options`).
+    Without a measured lateral velocity it also includes ``slip_scale_sigma |vy - l_r r|``
+    in quadrature: the rear slip velocity ``v_x tan(alpha_r)`` over a scale of the slip
+    angles that ``a_y`` and the yaw rate do not identify (:class:`GPSSMConfig`).
 Collapsed weights
     A step whose effective sample size is below 1.5 particles resamples copies of one
     particle, whose spread says nothing, and the copies stay nearly equal for some steps
@@ -56,7 +59,7 @@ from roadgrip.constants import GRAVITY, Z95
 from roadgrip.estimators.gpssm.inputs import Sample
 from roadgrip.estimators.gpssm.model import State
 
-__all__ = ["FLOOR_WINDOW", "Guard", "guard_step"]
+__all__ = ["FLOOR_WINDOW", "Guard", "ay_noise", "guard_step", "step_sigma_ay"]
 
 FLOOR_WINDOW = 1.0
 """Window [s] of the sustained lateral acceleration of the physics floor."""
@@ -114,6 +117,38 @@ class Guard:
             self.floor_raw = max(self.floor_raw, abs(sum(self.ay) / len(self.ay)) / GRAVITY)
 
 
+def ay_noise(ay) -> float:
+    """Noise std [m/s²] of evenly sampled values from their second differences.
+
+    For white noise of std ``sigma`` on a signal that changes slowly over three samples,
+    ``y[k+1] - 2 y[k] + y[k-1]`` has variance ``6 sigma²``: the estimate is
+    ``sqrt(mean(d²) / 6)`` over the window (0 with fewer than three values). The signal's
+    own curvature adds to it (``(2 pi f)² A dt²`` for a sine), so it bounds the noise from
+    above.
+
+    >>> round(ay_noise([0.0, 1.0, 0.0, 1.0, 0.0]), 4)  # d = -2, 2, -2: sqrt(4 / 6)
+    0.8165
+    """
+    n = len(ay)
+    if n < 3:
+        return 0.0
+    s = 0.0
+    for j in range(1, n - 1):
+        d = ay[j + 1] - 2.0 * ay[j] + ay[j - 1]
+        s += d * d
+    return math.sqrt(s / (6.0 * (n - 2)))
+
+
+def step_sigma_ay(ctx, guard: Guard) -> float:
+    """The lateral-acceleration noise [m/s²] of a step's likelihood: ``ctx.sigma_ay``, or
+    with ``GPSSMConfig.ay_noise = 'running'`` the larger of it and the accelerometer's
+    noise measured over the last ``FLOOR_WINDOW`` of recorded samples (:func:`ay_noise`,
+    times ``sqrt(substeps)`` as ``ctx.sigma_ay``)."""
+    if ctx.noise_scale == 0.0:
+        return ctx.sigma_ay
+    return max(ctx.sigma_ay, ctx.noise_scale * ay_noise(guard.ay))
+
+
 def guard_step(ctx, state, est, sample: Sample, dt: float):
     """The checks of the module docstring after one step.
 
@@ -146,6 +181,9 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
     moving = vx >= config.min_speed
     measured_vy = not math.isnan(sample.vy)
     vy_std = math.sqrt(est.vy_std**2 + (config.slip_sigma * vx) ** 2)
+    if not measured_vy:
+        # the slip angles' scale is not identified: the rear axle's slip velocity
+        vy_std = math.hypot(vy_std, config.slip_scale_sigma * (est.vy - ctx.veh.lr * est.yaw_rate))
     if not moving:
         # near standstill the filter holds vy at 0: its band is what a measurement says
         # against that, or a sideslip of max_sideslip_ratio at min_speed

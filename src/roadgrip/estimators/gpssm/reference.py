@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from roadgrip.estimators.gpssm import linalg as la
 from roadgrip.estimators.gpssm.config import GPSSMConfig
-from roadgrip.estimators.gpssm.guard import guard_step
+from roadgrip.estimators.gpssm.guard import guard_step, step_sigma_ay
 from roadgrip.estimators.gpssm.inputs import Sample
 from roadgrip.estimators.gpssm.model import (
     Input,
@@ -122,14 +122,15 @@ def step_reference(
         k = np.full(N, float(np.exp(state.logw) @ state.x[:, State.AY_GAIN]))
     c_ay = k[:, None] * np.array(ay_gains(math.cos(sample.steer), veh))[None]
     r_pred = x[:, State.YAW_RATE]
+    sigma_ay = step_sigma_ay(ctx, state.guard)
     if config.proposal == "prior":
         # bootstrap proposal (eq. 22): zeta from the predictive, weight by y_k
         zeta = _student_t(rng, loc, scale, dof)
         mu = mu_prior + _zeta_to_axles(config, zeta)
         ay_pred = np.einsum("nj,nj->n", mu, c_ay)
-        loglik = -0.5 * ((sample.ay - ay_pred) / ctx.sigma_ay) ** 2
+        loglik = -0.5 * ((sample.ay - ay_pred) / sigma_ay) ** 2
     else:
-        zeta, loglik = _conditional_sample(ctx, rng, loc, scale, dof, mu_prior, c_ay, sample.ay)
+        zeta, loglik = _conditional_sample(ctx, rng, loc, scale, dof, mu_prior, c_ay, sample.ay, sigma_ay)
         mu = mu_prior + _zeta_to_axles(config, zeta)
     loglik = loglik - 0.5 * ((sample.yaw_rate - r_pred) / ctx.sigma_yaw_rate) ** 2
 
@@ -203,7 +204,7 @@ def step_reference(
 
 def _conditional_sample(
     ctx: Context, rng: np.random.Generator, loc: NDArray, scale: NDArray, dof: float,
-    mu_prior: NDArray, c_ay: NDArray, ay: float,
+    mu_prior: NDArray, c_ay: NDArray, ay: float, sigma_ay: float,
 ) -> tuple[NDArray, NDArray]:
     """Draw ``zeta`` from its predictive conditioned on the lateral acceleration.
 
@@ -230,7 +231,7 @@ def _conditional_sample(
     c = np.broadcast_to(c_ay, (N, 2))
     v = ay - np.einsum("nj,nj->n", c, mu_prior + m0)
     Sc = np.einsum("nij,nj->ni", S, c)
-    sy = np.einsum("ni,ni->n", c, Sc) + ctx.sigma_ay**2
+    sy = np.einsum("ni,ni->n", c, Sc) + sigma_ay**2
     K = Sc / sy[:, None]
     mean = m0 + K * v[:, None]
     cov = S - K[:, :, None] * Sc[:, None, :]

@@ -42,7 +42,7 @@ class Context:
     substeps : int
     """
 
-    __slots__ = ("config", "gain_sigma", "gain_walk", "kernel", "sigma_ay", "sigma_yaw_rate", "substeps",
+    __slots__ = ("config", "gain_sigma", "gain_walk", "kernel", "noise_scale", "sigma_ay", "sigma_yaw_rate", "substeps",
                  "veh", "vehicle")
 
     def __init__(self, config: GPSSMConfig, vehicle: VehicleParams, substeps: int = 1) -> None:
@@ -61,6 +61,8 @@ class Context:
         imu = config.ay_source == "imu"
         self.gain_sigma = config.ay_gain_sigma if imu else 0.0
         self.gain_walk = config.ay_gain_walk if (imu and config.ay_gain_sigma > 0.0) else 0.0
+        # the accelerometer's running noise level (guard.step_sigma_ay), over the sub-steps
+        self.noise_scale = math.sqrt(self.substeps) if (imu and config.ay_noise == "running") else 0.0
         self.kernel: dict[str, Any] = {}
 
     def step_vehicle(self, sample: Sample) -> VehicleConstants:
