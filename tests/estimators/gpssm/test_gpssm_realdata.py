@@ -148,3 +148,24 @@ def test_frictionmaps_recordings_with_their_preset_are_honest_and_seeds_overlap(
     bands = _honesty(d, cfg, (0, 1, 2, 3, 4), coverage=0.9, raw_floor=True)
     for axle, b in bands.items():
         assert bands_overlap(b), (axle, b)
+
+
+def test_race_car_lateral_velocity_band_holds_the_ins():
+    """The full-size race car (revs, 550 s at 16-61 m/s, no measured lateral velocity):
+    unflagged samples whose vy band misses the INS's by more than 0.1 m/s are at most 5 %
+    (the issue's figure for this car; before the running accelerometer noise and the
+    slip-scale band 78 %, with 5 % flagged), and no peak band or estimate lies below the
+    friction the car demonstrably used (the honesty rule's axle and VSS paths)."""
+    from roadgrip.evaluate.honesty_matrix import DriveSpec, load_drive, run_cell
+
+    root = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "revs"
+    path = root / "race_car_100hz.csv"
+    if not path.exists():
+        pytest.skip(f"revs data not found at {path}")
+    spec = DriveSpec("revs", path=str(path), format="canonical", vehicle=str(root / "race_car.yaml"))
+    drive, vy_ref = load_drive(spec)
+    cell = run_cell("gpssm", drive, vy_ref)
+    print({k: cell[k] for k in ("wrong_axle", "wrong_vss", "wrong_vy", "diverged")})
+    assert cell["wrong_vy"] <= 0.05, cell["wrong_vy"]
+    assert cell["diverged"] <= 0.05, cell["diverged"]
+    assert cell["wrong_axle"] == 0.0 and cell["wrong_vss"] == 0.0 and not cell["summary_wrong"]
