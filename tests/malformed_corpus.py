@@ -6,7 +6,7 @@ Not a test module: ``tests/test_malformed_inputs.py`` (Hypothesis) and
 **Kinds** (:data:`KINDS`): the files a user gives roadgrip. Drives: canonical CSV and
 Parquet, a DART run CSV and a frictionmaps run folder (the first rows of the shared
 recordings, where present), ASAM MDF4 with a channel map, CAN logs (``.asc``,
-``.blf``) with the shipped DBC; and the files beside them: an estimates table given to
+``.blf``) with the shipped DBC, a ROS 1 bag (cut, empty, random bytes only); and the files beside them: an estimates table given to
 ``roadgrip map``, a vehicle YAML, a calibration YAML, a channel map and a signal map,
 a DBC and a friction grid (``.npz``).
 
@@ -54,7 +54,7 @@ FM_RUN = DATA / "frictionmaps" / "DS1"
 TEXT_CELLS = ("n/a", "", "-", "abc", "1,5", "NaN%", "0x1F", "--", "null", "#VALUE!")
 MUTATIONS = ("truncated", "empty", "random_bytes", "text_cells", "nan_inf", "huge", "dup_time",
              "nonmonotonic_time", "missing_column", "wrong_dtype")
-DRIVE_KINDS = ("csv", "parquet", "dart", "frictionmaps", "mdf", "asc", "blf")
+DRIVE_KINDS = ("csv", "parquet", "dart", "frictionmaps", "mdf", "asc", "blf", "rosbag")
 OTHER_KINDS = ("estimates", "vehicle", "calibration", "channel_map", "signal_map", "dbc", "grid")
 KINDS = DRIVE_KINDS + OTHER_KINDS
 REALDATA_KINDS = ("dart", "frictionmaps")
@@ -66,6 +66,7 @@ def mutations_of(kind: str) -> tuple[str, ...]:
     extra = {
         "dbc": ("text_cells", "missing_column"),
         "grid": (),
+        "rosbag": (),
         "asc": ("text_cells", "dup_time", "nonmonotonic_time", "missing_column"),
         "blf": ("dup_time", "nonmonotonic_time", "missing_column"),
         **dict.fromkeys(("vehicle", "calibration", "channel_map", "signal_map"),
@@ -170,6 +171,17 @@ def _can_base(suffix: str, folder: str) -> bytes:
     return p.read_bytes()
 
 
+@functools.cache
+def _bag_base(folder: str) -> bytes:
+    """A ROS 1 bag of a simulated 1:10 car on the F1TENTH topics (tests/test_io_rosbag.py)."""
+    from roadgrip.sim.scenarios import simulate_scenario
+    from test_io_rosbag import _topic_map, write_drive_bag
+
+    p = Path(folder) / "base.bag"
+    write_drive_bag(p, "ros1", simulate_scenario("f1tenth-patches", seed=3, duration=4.0), _topic_map())
+    return p.read_bytes()
+
+
 # -- mutations -------------------------------------------------------------------------------
 
 def _cut(raw: bytes, rng: np.random.Generator) -> bytes:
@@ -261,7 +273,7 @@ def make_case(kind: str, mutation: str, seed: int, folder: Path) -> Case:
     rng = np.random.default_rng(seed)
     folder.mkdir(parents=True, exist_ok=True)
     df = base_frame()
-    suffix = {"csv": ".csv", "parquet": ".parquet", "dart": ".csv", "mdf": ".mf4", "asc": ".asc", "blf": ".blf",
+    suffix = {"rosbag": ".bag", "csv": ".csv", "parquet": ".parquet", "dart": ".csv", "mdf": ".mf4", "asc": ".asc", "blf": ".blf",
               "estimates": ".parquet", "vehicle": ".yaml", "calibration": ".yaml", "channel_map": ".yaml",
               "signal_map": ".yaml", "dbc": ".dbc", "grid": ".npz"}.get(kind, "")
     path = folder / (f"{kind}_{mutation}{suffix}" if kind != "frictionmaps" else "DS1")
@@ -280,6 +292,8 @@ def make_case(kind: str, mutation: str, seed: int, folder: Path) -> Case:
             _write_mdf(tmp, df)
         elif kind in ("asc", "blf"):
             return _can_base(suffix, str(folder))
+        elif kind == "rosbag":
+            return _bag_base(str(folder))
         elif kind == "estimates":
             _write_estimates(tmp, base_estimates())
         elif kind == "vehicle":
@@ -551,7 +565,7 @@ def _drive_args(case: Case) -> list[str]:
     p = str(case.path)
     if case.kind in ("csv", "parquet"):
         return [p, "--vehicle", "sedan"]
-    if case.kind in ("dart", "frictionmaps"):
+    if case.kind in ("dart", "frictionmaps", "rosbag"):
         return [p]
     if case.kind == "mdf":
         cm = case.path.parent / "channels.yaml"

@@ -1,7 +1,7 @@
 """Malformed files through every reader and command: refused by name, never a crash.
 
 The corpus (``tests/malformed_corpus.py``): drives (canonical CSV and Parquet, DART,
-frictionmaps, MDF4, CAN ``.asc`` / ``.blf``) and the files beside them (estimates,
+frictionmaps, MDF4, CAN ``.asc`` / ``.blf``, ROS 1 bag) and the files beside them (estimates,
 vehicle, calibration, channel and signal maps, DBC, friction grid), each cut short,
 empty, random bytes, with text such as ``'n/a'`` in numeric cells, NaN/inf, huge
 values, duplicated or non-monotonic time, a required column missing or a column of

@@ -353,7 +353,8 @@ def read_can_log(
     if p.suffix.lower() not in CAN_LOG_SUFFIXES:
         raise ValueError(f"{p.name}: a CAN log is {', '.join(CAN_LOG_SUFFIXES)}")
     m = load_signal_map(signals if signals is not None else SHIPPED_MAP)
-    veh = map_vehicle(m, vehicle, "read_can_log", "signal map")
+    named = "" if signals is None or isinstance(signals, dict) else f" {Path(signals).name}"
+    veh = map_vehicle(m, vehicle, "read_can_log", f"signal map{named}")
     decoder = FrameDecoder(load_dbc(dbc), m, Path(dbc).name)
     cols = decoder.columns
     ts: dict[str, list[float]] = {c: [] for c in cols}

@@ -184,12 +184,19 @@ def map_vehicle(m: dict[str, Any], vehicle: str | Path | VehicleParams | None, r
     """The vehicle of a reader: the argument, else the map's ``vehicle:`` entry.
 
     ``reader`` and ``kind`` (e.g. ``'read_mdf'``, ``'channel map'``) name them in the
-    error raised when neither gives one.
+    error raised when neither gives one, and ``kind`` in the error about the map's entry.
     """
     spec = vehicle if vehicle is not None else m.get("vehicle")
     if spec is None:
         raise ValueError(f"{reader} needs a vehicle: in the {kind} ('vehicle:') or as argument")
-    return load_vehicle(spec)
+    if vehicle is not None or isinstance(spec, VehicleParams):
+        return load_vehicle(spec)
+    if not isinstance(spec, str | Path):
+        raise ValueError(f"{kind}: 'vehicle:' must be a preset name or a YAML file, got {spec!r}")
+    try:
+        return load_vehicle(spec)
+    except ValueError as exc:
+        raise ValueError(f"{kind}, 'vehicle:' entry: {exc}") from None
 
 
 def read_map(spec: str | Path | dict[str, Any], *, kind: str, file_kind: str, section: str,

@@ -150,7 +150,8 @@ def read_mdf(
     if not p.is_file():
         raise ValueError(f"no such file: {p}")
     m = load_channel_map(channels)
-    veh = map_vehicle(m, vehicle, "read_mdf", "channel map")
+    named = "" if channels is None or isinstance(channels, dict) else f" {Path(channels).name}"
+    veh = map_vehicle(m, vehicle, "read_mdf", f"channel map{named}")
     try:
         mdf = MDF(p)
     except Exception as exc:  # asammdf raises several errors on a foreign file
