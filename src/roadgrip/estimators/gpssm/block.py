@@ -147,6 +147,8 @@ class Consts(NamedTuple):
     diverge_time: float
     slide_slip: float
     slide_mu: float
+    reverse_slip: float
+    reverse_mu: float
     relearn_time: float
     floor_margin: float
     veh: VehicleConstants
@@ -431,6 +433,11 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
         gap = abs(vy_meas - e_vy) if measured else cst.max_sideslip_ratio * cst.min_speed
         vy_std = max(vy_std, gap / _Z95)
     runaway = moving and not measured and abs(e_vy) > cst.max_sideslip_ratio * vx
+    # a learned friction that pushes against its axle's slip (guard._reversed)
+    for ax in range(2):
+        a_x, mu_x = row[6 + ax], row[8 + ax]
+        if moving and not measured and abs(a_x) > cst.reverse_slip and mu_x * math.copysign(1.0, a_x) < -cst.reverse_mu:
+            runaway = True
     yaw_gap = abs(yaw_meas - e_yr) > _YAW_SIGMAS * math.hypot(cst.sigma_r, e_yr_std)
     # slip angles the lateral acceleration contradicts (guard._slide_gap)
     slide_gap = False

@@ -78,6 +78,7 @@ def _consts(ctx: Context) -> tuple[bk.Consts, gk.BasisTables, bk.PeakTables]:
             slip_scale_sigma=float(config.slip_scale_sigma),
             max_sideslip_ratio=float(config.max_sideslip_ratio), diverge_time=float(config.diverge_time),
             slide_slip=float(config.slide_slip), slide_mu=float(config.slide_mu),
+            reverse_slip=float(config.reverse_slip), reverse_mu=float(config.reverse_mu),
             relearn_time=float(config.relearn_time),
             floor_margin=float(config.floor_margin), veh=ctx.veh,
         )
