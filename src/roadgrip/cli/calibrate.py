@@ -244,7 +244,11 @@ def calibrate(
             if drive.n < 2:
                 raise ValueError(f"time window of {arg!r} holds fewer than two samples")
         labelled.append((drive, label))
-    cal = learn(labelled, friction=friction)
+    try:
+        cal = learn(labelled, friction=friction)
+    except ValueError as exc:  # name the drives it was learned from
+        names = ", ".join(sorted({Path(split_window(arg)[0]).name for arg, _ in pairs}))
+        raise ValueError(f"{names}: {exc}") from None
     write_calibration(cal, output)
     console.print(calibration_table(cal, f"calibration of {cal.vehicle or 'the vehicle'} "
                                          f"({len(pairs)} labelled drive{'s' if len(pairs) != 1 else ''})"))

@@ -75,7 +75,10 @@ def map_files(
     grids = []
     for path in inputs:
         table, kind = _estimates_table(path, vehicle, fmt, topics, channels)
-        g = grid_from_estimates(table, cell)
+        try:
+            g = grid_from_estimates(table, cell)
+        except ValueError as exc:  # several inputs: say which
+            raise ValueError(f"{Path(path).name}: {exc}") from None
         grids.append(g)
         if console is not None:
             n = g.cells.n_obs
