@@ -31,14 +31,14 @@ SHORT = _specs("short")
 
 _FIGURE_EIGHT_GPSSM = ("one learned curve per axle cannot follow the figure-eight's friction "
                        "patches (dry 1.0, snow 0.3, gravel 0.6, wet 0.6): its bands outlive the "
-                       "10-s grace after a change; vy band wrong 33-59 %")
+                       "10-s grace after a change (the vy band holds since the slip-scale term)")
 KNOWN_DISHONEST_FULL: dict[tuple[str, str], str] = {
     # measured with benchmarks/honesty_matrix.py --size full (docs/validation-honesty.md):
     # share of samples with a wrong claim on the worst output path
-    ("mb:ford-escort:figure-eight:0", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 23.6 %, vy 33.6 %
-    ("mb:ford-escort:figure-eight:1", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 19.7 %, vy 33.3 %
-    ("mb:vw-vanagon:figure-eight:0", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 22.1 %, vy 50.8 %
-    ("mb:vw-vanagon:figure-eight:1", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 27.0 %, vy 58.8 %
+    ("mb:ford-escort:figure-eight:0", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 23.6 %
+    ("mb:ford-escort:figure-eight:1", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 19.7 %
+    ("mb:vw-vanagon:figure-eight:0", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 22.1 %
+    ("mb:vw-vanagon:figure-eight:1", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 27.0 %
     # the kinematic a_y (r vx + dvy/dt, the DART preset) is the GP-SSM's floor, the rule's
     # is the accelerometer's: an upper band below the accelerometer's floor on 0.8 % / 1.7 %
     ("dart:0909-141245", "gpssm"): "axle band below the accelerometer's demonstrated floor on 0.8 %",
