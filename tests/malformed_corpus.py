@@ -165,21 +165,27 @@ def _write_can(path: Path, drive) -> None:
 
 
 @functools.cache
-def _can_base(suffix: str, folder: str) -> bytes:
-    p = Path(folder) / f"base{suffix}"
-    _write_can(p, base_drive())
-    return p.read_bytes()
+def _can_base(suffix: str) -> bytes:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        p = Path(tmp) / f"base{suffix}"
+        _write_can(p, base_drive())
+        return p.read_bytes()
 
 
 @functools.cache
-def _bag_base(folder: str) -> bytes:
+def _bag_base() -> bytes:
     """A ROS 1 bag of a simulated 1:10 car on the F1TENTH topics (tests/test_io_rosbag.py)."""
+    import tempfile
+
     from roadgrip.sim.scenarios import simulate_scenario
     from test_io_rosbag import _topic_map, write_drive_bag
 
-    p = Path(folder) / "base.bag"
-    write_drive_bag(p, "ros1", simulate_scenario("f1tenth-patches", seed=3, duration=4.0), _topic_map())
-    return p.read_bytes()
+    with tempfile.TemporaryDirectory() as tmp:
+        p = Path(tmp) / "base.bag"
+        write_drive_bag(p, "ros1", simulate_scenario("f1tenth-patches", seed=3, duration=4.0), _topic_map())
+        return p.read_bytes()
 
 
 # -- mutations -------------------------------------------------------------------------------
@@ -291,9 +297,9 @@ def make_case(kind: str, mutation: str, seed: int, folder: Path) -> Case:
         elif kind == "mdf":
             _write_mdf(tmp, df)
         elif kind in ("asc", "blf"):
-            return _can_base(suffix, str(folder))
+            return _can_base(suffix)
         elif kind == "rosbag":
-            return _bag_base(str(folder))
+            return _bag_base()
         elif kind == "estimates":
             _write_estimates(tmp, base_estimates())
         elif kind == "vehicle":
@@ -326,7 +332,7 @@ def make_case(kind: str, mutation: str, seed: int, folder: Path) -> Case:
     elif kind in ("signal_map", "dbc"):
         case.drive = folder / "drive.asc"
         if not case.drive.exists():
-            case.drive.write_bytes(_can_base(".asc", str(folder)))
+            case.drive.write_bytes(_can_base(".asc"))
     if kind == "frictionmaps":
         return _frictionmaps_case(case, rng)
     if mutation in _BINARY_ONLY:
@@ -512,7 +518,7 @@ def _blf_case(case: Case, rng: np.random.Generator) -> Case:
     folder = case.path.parent
     src = folder / "good_blf_source.blf"
     if not src.exists():
-        src.write_bytes(_can_base(".blf", str(folder)))
+        src.write_bytes(_can_base(".blf"))
     msgs = list(can.BLFReader(str(src)))
     m = case.mutation
     if m == "dup_time":

@@ -25,7 +25,10 @@ from hypothesis import strategies as st
 import malformed_corpus as M
 
 _SCALE = int(os.environ.get("ROADGRIP_FUZZ_EXAMPLES", "0"))
-_QUICK_KINDS = tuple(k for k in M.KINDS if k not in M.REALDATA_KINDS)
+# the quick property leaves out the recordings (realdata) and the calibration file (its
+# valid base is learned from a simulated two-minute drive, 4 s): the regression test
+# keeps one calibration case, the slow property and the benchmark all of them
+_QUICK_KINDS = tuple(k for k in M.KINDS if k not in (*M.REALDATA_KINDS, "calibration"))
 
 
 @st.composite
@@ -46,7 +49,7 @@ def _check(kind: str, mutation: str, seed: int, entries: tuple[str, ...]) -> Non
             event(f"{kind} {entry}: {out.status}")
 
 
-@settings(max_examples=max(25, int(_SCALE * 0.01)) if _SCALE else 25, derandomize=True, deadline=None,
+@settings(max_examples=max(20, int(_SCALE * 0.01)) if _SCALE else 20, derandomize=True, deadline=None,
           database=None, suppress_health_check=[HealthCheck.too_slow])
 @given(cases(_QUICK_KINDS, all_entries=False))
 def test_malformed_input_is_refused_never_a_crash(case):
