@@ -33,6 +33,11 @@ sensor's latency minus the gyro's (the speed's: the undriven wheels', or the ``v
 an all-wheel drive, which is what :func:`roadgrip.signals.wheel_speed_vx` reads; the
 accelerometer's: ``a_y``'s); the steering offset is the road-wheel angle at a zero reading,
 ``-offset/(1 + ratio_error)``. An undetermined value fails its criterion.
+
+``--gpssm`` prints the GP-SSM on ``snow-slalom`` seed 0 (200 particles, filter seed 0, as the
+multi-body acceptance runs it) with the fitted vehicle and calibration: per axle the final
+curve's MAE and band coverage (:func:`roadgrip.estimators.gpssm.accuracy.honesty_figures`;
+pass: MAE <= 0.02 and coverage >= 0.9 on both axles) and whether the run is honest.
 """
 
 from __future__ import annotations
@@ -97,14 +102,14 @@ def _cascade_cells(name: str, fit=None) -> str:
     d = simulate_scenario("figure-eight", seed=0, engine="multibody", vehicle=name)
     run_on = d if fit is None else _fitted_drive(d, fit)
     res = run_estimator("cascade", run_on, {})
-    score = score_map(d, grid_from_estimates(res.table, cell=5.0))
+    score = score_map(run_on, grid_from_estimates(res.table, cell=5.0))
     c = score.cells[(score.cells["n_obs"] >= 10) & score.cells["mu_true"].notna()]
     err = (c["mu_mean"] - c["mu_true"]).abs()
     mae = float(err.mean()) if len(c) else float("nan")
     cover = float(np.mean(err <= Z95 * c["mu_std"])) if len(c) else float("nan")
     ok = len(c) > 0 and mae <= 0.05 and cover >= 0.9 and score.confidently_wrong == 0
     return (f" {len(c):>5d} {mae:>5.2f} {cover:>5.2f} {score.confidently_wrong:>5d} {'yes' if ok else 'no':>4}"
-            f" {'yes' if score_result(res, d).honest else 'no':>6}")
+            f" {'yes' if score_result(res, run_on).honest else 'no':>6}")
 
 
 FIT_DRIVE = ("dry-gravel-dry", 10, 0.6)
@@ -182,6 +187,38 @@ def fit_table(names: list[str]) -> None:
     print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
 
 
+def _gpssm_cells(name: str, fit=None) -> str:
+    """The GP-SSM's final curves on the snow slalom and its honesty (``--gpssm``)."""
+    from roadgrip.estimators.base import EstimateResult
+    from roadgrip.estimators.gpssm import GPSSMConfig, run_filter
+    from roadgrip.estimators.gpssm.accuracy import honesty_figures
+    from roadgrip.estimators.gpssm.estimator import summary
+    from roadgrip.evaluate.honesty import score_result
+
+    d = simulate_scenario("snow-slalom", seed=0, engine="multibody", vehicle=name)
+    run_on = d if fit is None else _fitted_drive(d, fit)
+    cfg = GPSSMConfig(particles=200)
+    table, cv = run_filter(run_on, cfg, seed=0, curve_times=(1e9,),
+                           curve_alpha=np.radians(np.linspace(-20, 20, 161)))
+    h = honesty_figures(run_on, table, next(iter(cv.values())))
+    res = EstimateResult("gpssm", table, {"config": cfg.to_meta(), "summary": summary(table)}, None)
+    ok = all(h[a]["mae"] <= 0.02 and h[a]["coverage"] >= 0.9 for a in ("front", "rear"))
+    return (f" {h['front']['mae']:>6.3f} {h['front']['coverage']:>5.2f} {h['rear']['mae']:>6.3f}"
+            f" {h['rear']['coverage']:>5.2f} {'yes' if ok else 'no':>4}"
+            f" {'yes' if score_result(res, run_on).honest else 'no':>6}")
+
+
+def gpssm_table(names: list[str]) -> None:
+    """Print the GP-SSM's snow-slalom criteria with the fitted car (module docstring)."""
+    print(f"{'vehicle':<11} {'drive':<5} {'mae f':>6} {'cov f':>5} {'mae r':>6} {'cov r':>5} {'pass':>4} "
+          f"{'honest':>6}")
+    t_start = time.perf_counter()
+    for name in names:
+        fit = fit_family_vehicle(name)
+        print(f"{name:<11} {fit.vehicle.drive:<5}{_gpssm_cells(name, fit)}", flush=True)
+    print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
+
+
 def estimator_table(names: list[str]) -> None:
     """Print the issue's family criteria, one row a vehicle (module docstring)."""
     cls = " ".join(f"{m + ' [s]':>7} {'fs':>3} {'pass':>4} {'honest':>6}" for m in ("bRLS", "map"))
@@ -202,8 +239,13 @@ def main() -> None:
                     help="the classifiers' and the cascade's family criteria instead of the parameters")
     ap.add_argument("--fit", action="store_true",
                     help="vehicle fit against the truth and the cascade with the fitted car")
+    ap.add_argument("--gpssm", action="store_true",
+                    help="the GP-SSM on the snow slalom with the fitted car")
     args = ap.parse_args()
     names = ["ford-escort", "vw-vanagon", *(f"random:{s}" for s in _seeds(args.seeds))]
+    if args.gpssm:
+        gpssm_table(names[2:])
+        return
     if args.fit:
         fit_table(names[2:])
         return
