@@ -86,9 +86,9 @@ class CascadeConfig(EstimatorConfig):
     slip_error_prior : float
         Slip-angle error [rad] assumed before the consistency check has seen the data
         (module docstring of :mod:`roadgrip.estimators.cascade`): the running mean square of
-        each axle's consistency residual starts from its square, weighted as two seconds of
+        each axle's consistency residual starts from its square, weighted as one second of
         samples in the check's band, and moves to the residuals' own mean square as such
-        samples come (the prior's weight fading with the evidence's). Uncalibrated production sensors (accelerometer and gyro scales of
+        samples come. Uncalibrated production sensors (accelerometer and gyro scales of
         +-2 %, a rolling radius of +-2 %, biases of 0.15 m/s²) put the slip angles of a
         car in steady cornering 0.02-0.04 rad off; 0 assumes the slip angles exact until
         shown otherwise.

@@ -44,10 +44,9 @@ __all__ = ["ESTIMATOR", "CascadeState", "init", "lookahead", "prepare", "run", "
 
 CONSISTENCY_TIME = 5.0
 """Time constant [s] of the running mean square of the slip-angle consistency residuals."""
-CONSISTENCY_PRIOR_TIME = 2.0
-"""Weight of ``CascadeConfig.slip_error_prior`` in that mean square before any evidence, as the
-time [s] of samples in the consistency band that would carry as much; it fades as the band's
-evidence grows (:func:`~roadgrip.estimators.cascade.kernel.consistency_mean_square`)."""
+CONSISTENCY_PRIOR_TIME = 1.0
+"""Weight of ``CascadeConfig.slip_error_prior`` in that mean square, as the time [s] of samples
+in the consistency band that would carry as much evidence."""
 
 _CHUNK = 20_000
 """Samples per kernel call when ``run`` reports progress."""

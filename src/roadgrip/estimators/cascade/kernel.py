@@ -256,9 +256,9 @@ def _slip_and_loads(f, u, k, dt, p):  # pragma: no cover - compiled
     share = p.traction_front if (fx > 0.0 and p.traction_front == p.traction_front) else fzf / max(fzf + fzr, 1e-9)
     fxf = share * fx
     fxr = fx - fxf
-    # slip-angle consistency: rear slip against the linear tire at moderate ay (1 to 3 ay_straight)
+    # slip-angle consistency: rear slip against the linear tire at moderate ay
     ayb = abs(u.ay[k] - xe[Vs.BIAS_AY])
-    if (dt > 0.0 and abs(vx) >= p.v_min and p.ay_straight <= ayb <= 3.0 * p.ay_straight
+    if (dt > 0.0 and abs(vx) >= p.v_min and p.ay_straight <= ayb <= 2.0 * p.ay_straight
             and fzr > 0.5 * m * GRAVITY * lf / (lf + lr)):
         e_lin = alpha_r - xu[Fs.FYR] / (p.kr * max(fzr, 1e-9))
         lam = min(dt / p.consist_tau, 1.0)
@@ -276,16 +276,15 @@ def consistency_mean_square(ms, weight, prior, prior_weight, scale):  # pragma: 
     """Mean square of an axle's slip-angle consistency residual [rad²], with the prior.
 
     ``ms`` is the running mean square started from 0 and ``weight`` its evidence,
-    ``1 - exp(-T / tau)`` after a time ``T`` in the consistency band; with the prior's
-    weight fading as the evidence grows, ``w0 = prior_weight (1 - weight)²``, the result is
-    ``(scale² ms + w0 prior) / (weight + w0)``: the prior ``prior`` [rad²] before any
-    evidence, the residuals' own mean square once ``weight`` nears 1, scaled by ``scale >= 1`` (the lateral acceleration over the band's
+    ``1 - exp(-T / tau)`` after a time ``T`` in the consistency band; the result is
+    ``(scale² ms + prior_weight prior) / (weight + prior_weight)``: the prior ``prior``
+    [rad²] before any evidence, the residuals' own mean square once ``weight >>
+    prior_weight``, scaled by ``scale >= 1`` (the lateral acceleration over the band's
     at which the residual was measured, at most 2: a slip-angle error from the
     accelerometer's, gyro's or speed's scale grows with it; on the random vehicle family's
     figure-eight it doubles from the band to 4-6 m/s²).
     """
-    w0 = prior_weight * (1.0 - weight) ** 2
-    return (scale * scale * ms + w0 * prior) / (weight + w0)
+    return (scale * scale * ms + prior_weight * prior) / (weight + prior_weight)
 
 
 @njit(cache=True)
@@ -362,9 +361,9 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
         bias_f = sbf * slip_sensitivity(alpha_f, fzf, lateral_capacity(xm[Ms.MU_F], fxf, fzf, mu_min), kf)
         bias_r = sb * slip_sensitivity(alpha_r, fzr, lateral_capacity(xm[Ms.MU_R], fxr, fzr, mu_min), kr)
         # slip angles measurably worse than assumed: test the whole inversion at that error
-        # the residual is measured at moderate ay (the band's middle, 2 ay_straight); kinematic
+        # the residual is measured at moderate ay (the band's middle, 1.5 ay_straight); kinematic
         # errors (accelerometer, gyro and speed scales, roll) grow with ay: scaled, up to twice
-        ay_scale = min(max(abs(xu[Fs.FYF] + xu[Fs.FYR]) / p.mass / (2.0 * p.ay_straight), 1.0), 2.0) \
+        ay_scale = min(max(abs(xu[Fs.FYF] + xu[Fs.FYR]) / p.mass / (1.5 * p.ay_straight), 1.0), 2.0) \
             if p.ay_straight > 0.0 else 1.0
         cons_r = consistency_mean_square(aux[Aux.CONSIST_R], aux[Aux.CONSIST_W_R], p.consist_prior,
                                          p.consist_prior_w, ay_scale)
