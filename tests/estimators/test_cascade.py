@@ -173,16 +173,14 @@ def test_slip_error_prior_until_the_consistency_check_has_evidence(drive06):
     from roadgrip.estimators.cascade.kernel import consistency_mean_square
 
     # before any evidence the prior; with much evidence the residuals' own mean square
-    assert consistency_mean_square(0.0, 0.0, 0.03**2, 0.2, 3.0) == pytest.approx(0.03**2)
-    assert consistency_mean_square(0.99 * 0.01**2, 0.99, 0.03**2, 0.0, 1.0) == pytest.approx(0.01**2)
-    # measured at the band's lateral acceleration, it grows in proportion above it
-    assert consistency_mean_square(0.99 * 0.01**2, 0.99, 0.03**2, 0.0, 2.0) == pytest.approx(0.02**2)
+    assert consistency_mean_square(0.0, 0.0, 0.03**2, 0.2) == pytest.approx(0.03**2)
+    assert consistency_mean_square(0.99 * 0.01**2, 0.99, 0.03**2, 0.0) == pytest.approx(0.01**2)
     # a steering sensor 0.04 rad off: every front slip angle is biased from the first sample
     df = drive06.data.copy()
     df["steer"] = df["steer"] + 0.04
     biased = Drive(df, drive06.meta)
     assumed_exact = C.run(biased, C.CascadeConfig(slip_error_prior=0.0)).table
-    assert _confidently_wrong_obs(assumed_exact, "front", 0.6) > 5  # 11 measured
+    assert _confidently_wrong_obs(assumed_exact, "front", 0.6) > 20
     tab = C.run(biased, C.CascadeConfig()).table
     assert _confidently_wrong_obs(tab, "front", 0.6) == 0
     assert _confidently_wrong_obs(tab, "rear", 0.6) == 0

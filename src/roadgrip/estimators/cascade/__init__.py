@@ -125,12 +125,7 @@ so ``alpha_r - Fyr / C_r`` measures the slip-angle error; when its
 root-mean-square over the last 5 s (exponential window) exceeds the assumed
 bias, the test is repeated with the exact brush inversion at that larger
 error (:func:`~roadgrip.estimators.cascade.model.slip_bias_effect`), which also
-catches a bias that would move the tire between adhesion and sliding. Until
-the band has been visited the check cannot know the error: its mean square starts
-from ``slip_error_prior²`` (weighted as one second of samples in the band) and moves to
-the residuals' own as they come; above the band it is scaled by the lateral
-acceleration over the band's (at most twice), since the errors of the accelerometer's,
-gyro's and speed's scales grow with it. The front axle's residual
+catches a bias that would move the tire between adhesion and sliding. The front axle's residual
 ``alpha_f - Fyf / C_f`` is tracked the same way.
 
 The last test concerns the slip angle's *random* error: the exact inversion is

@@ -272,19 +272,15 @@ def _slip_and_loads(f, u, k, dt, p):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def consistency_mean_square(ms, weight, prior, prior_weight, scale):  # pragma: no cover - compiled
+def consistency_mean_square(ms, weight, prior, prior_weight):  # pragma: no cover - compiled
     """Mean square of an axle's slip-angle consistency residual [rad²], with the prior.
 
     ``ms`` is the running mean square started from 0 and ``weight`` its evidence,
     ``1 - exp(-T / tau)`` after a time ``T`` in the consistency band; the result is
-    ``(scale² ms + prior_weight prior) / (weight + prior_weight)``: the prior ``prior``
-    [rad²] before any evidence, the residuals' own mean square once ``weight >>
-    prior_weight``, scaled by ``scale >= 1`` (the lateral acceleration over the band's
-    at which the residual was measured, at most 2: a slip-angle error from the
-    accelerometer's, gyro's or speed's scale grows with it; on the random vehicle family's
-    figure-eight it doubles from the band to 4-6 m/s²).
+    ``(ms + prior_weight prior) / (weight + prior_weight)``: the prior ``prior`` [rad²]
+    before any evidence, the residuals' own mean square once ``weight >> prior_weight``.
     """
-    return (scale * scale * ms + prior_weight * prior) / (weight + prior_weight)
+    return (ms + prior_weight * prior) / (weight + prior_weight)
 
 
 @njit(cache=True)
@@ -361,14 +357,10 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
         bias_f = sbf * slip_sensitivity(alpha_f, fzf, lateral_capacity(xm[Ms.MU_F], fxf, fzf, mu_min), kf)
         bias_r = sb * slip_sensitivity(alpha_r, fzr, lateral_capacity(xm[Ms.MU_R], fxr, fzr, mu_min), kr)
         # slip angles measurably worse than assumed: test the whole inversion at that error
-        # the residual is measured at moderate ay (the band's middle, 1.5 ay_straight); kinematic
-        # errors (accelerometer, gyro and speed scales, roll) grow with ay: scaled, up to twice
-        ay_scale = min(max(abs(xu[Fs.FYF] + xu[Fs.FYR]) / p.mass / (1.5 * p.ay_straight), 1.0), 2.0) \
-            if p.ay_straight > 0.0 else 1.0
         cons_r = consistency_mean_square(aux[Aux.CONSIST_R], aux[Aux.CONSIST_W_R], p.consist_prior,
-                                         p.consist_prior_w, ay_scale)
+                                         p.consist_prior_w)
         cons_f = consistency_mean_square(aux[Aux.CONSIST_F], aux[Aux.CONSIST_W_F], p.consist_prior,
-                                         p.consist_prior_w, ay_scale)
+                                         p.consist_prior_w)
         sc = np.sqrt(cons_r)
         if sc > sb:
             bias_f = max(bias_f, slip_bias_effect(xu[Fs.FYF], alpha_f, fzf, kf, np.sqrt(sc * sc + sbf * sbf)))
