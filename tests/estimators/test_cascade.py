@@ -162,37 +162,6 @@ def test_variance_grows_without_excitation():
     assert np.all(np.diff(stds) > 0)
 
 
-def _confidently_wrong_obs(tab, axle, mu):
-    """Excited samples whose observation misses ``mu`` by more than 1.96 of its total std."""
-    ex = tab[f"excited_{axle}"].to_numpy(bool)
-    sd = np.hypot(tab[f"mu_{axle}_obs_std"], tab[f"mu_{axle}_obs_sys"]).to_numpy()
-    return int(np.sum(ex & (np.abs(tab[f"mu_{axle}_obs"].to_numpy() - mu) > 1.96 * sd)))
-
-
-def test_slip_error_prior_until_the_consistency_check_has_evidence(drive06):
-    from roadgrip.estimators.cascade.kernel import consistency_mean_square
-
-    # before any evidence the prior; with much evidence the residuals' own mean square
-    assert consistency_mean_square(0.0, 0.0, 0.03**2, 0.2) == pytest.approx(0.03**2)
-    assert consistency_mean_square(0.99 * 0.01**2, 0.99, 0.03**2, 0.0) == pytest.approx(0.01**2)
-    # a steering sensor 0.04 rad off: every front slip angle is biased from the first sample
-    df = drive06.data.copy()
-    df["steer"] = df["steer"] + 0.04
-    biased = Drive(df, drive06.meta)
-    assumed_exact = C.run(biased, C.CascadeConfig(slip_error_prior=0.0)).table
-    assert _confidently_wrong_obs(assumed_exact, "front", 0.6) > 20
-    tab = C.run(biased, C.CascadeConfig()).table
-    assert _confidently_wrong_obs(tab, "front", 0.6) == 0
-    assert _confidently_wrong_obs(tab, "rear", 0.6) == 0
-    # exact slip angles: the prior only delays the first observations, which stay accurate
-    clean = C.run(drive06, C.CascadeConfig()).table
-    for axle in ("front", "rear"):
-        sel = clean[f"excited_{axle}"].to_numpy(bool)
-        assert sel.sum() > 200
-        w = 1 / clean.loc[sel, f"mu_{axle}_obs_std"] ** 2
-        assert abs((w * clean.loc[sel, f"mu_{axle}_obs"]).sum() / w.sum() - 0.6) < 0.03
-
-
 def test_friction_returns_to_the_prior_over_distance():
     """With a correlation length L, an unexcited state decays to the prior as exp(-distance / L)."""
     straight = simulate_brush(mu=0.6, duration=5.0, steer_amp=0.0, seed=2)

@@ -83,15 +83,6 @@ class CascadeConfig(EstimatorConfig):
         Size of a lateral-velocity bias [m/s]; the slip-angle bias used is the
         larger of ``slip_bias_std`` and ``vy_bias_std / |vx|`` (slow driving
         turns a small velocity error into a large slip-angle error).
-    slip_error_prior : float
-        Slip-angle error [rad] assumed before the consistency check has seen the data
-        (module docstring of :mod:`roadgrip.estimators.cascade`): the running mean square of
-        each axle's consistency residual starts from its square, weighted as one second of
-        samples in the check's band, and moves to the residuals' own mean square as such
-        samples come. Uncalibrated production sensors (accelerometer and gyro scales of
-        +-2 %, a rolling radius of +-2 %, biases of 0.15 m/s²) put the slip angles of a
-        car in steady cornering 0.02-0.04 rad off; 0 assumes the slip angles exact until
-        shown otherwise.
     max_slip_bias_effect : float
         A sample counts as excited only if a slip-angle error of ``slip_bias_std``
         would move its ``mu`` observation by at most this much [-]: close to the
@@ -168,7 +159,6 @@ class CascadeConfig(EstimatorConfig):
     excitation_std: float = 0.5
     slip_bias_std: float = 0.01
     vy_bias_std: float = 0.03
-    slip_error_prior: float = 0.03
     max_slip_bias_effect: float = 0.1
     max_slip_ratio: float = 2.0
     peak_model_error: float = 0.05

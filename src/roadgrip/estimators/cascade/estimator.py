@@ -44,9 +44,6 @@ __all__ = ["ESTIMATOR", "CascadeState", "init", "lookahead", "prepare", "run", "
 
 CONSISTENCY_TIME = 5.0
 """Time constant [s] of the running mean square of the slip-angle consistency residuals."""
-CONSISTENCY_PRIOR_TIME = 1.0
-"""Weight of ``CascadeConfig.slip_error_prior`` in that mean square, as the time [s] of samples
-in the consistency band that would carry as much evidence."""
 
 _CHUNK = 20_000
 """Samples per kernel call when ``run`` reports progress."""
@@ -139,8 +136,6 @@ def make_params(vehicle: VehicleParams, config: CascadeConfig, derived: dict[str
         steer_bias=f(config.steer_bias_std),
         vy_bias=f(config.vy_bias_std),
         consist_tau=CONSISTENCY_TIME,
-        consist_prior=f(config.slip_error_prior**2),
-        consist_prior_w=CONSISTENCY_PRIOR_TIME / CONSISTENCY_TIME,
         var_pose=f(derived.get("pose_velocity_std", config.pose_velocity_std) ** 2
                    * derived.get("pose_velocity_corr_time", config.pose_velocity_corr_time)),
         slip_z=f(config.slip_noise_z),

@@ -263,24 +263,10 @@ def _slip_and_loads(f, u, k, dt, p):  # pragma: no cover - compiled
         e_lin = alpha_r - xu[Fs.FYR] / (p.kr * max(fzr, 1e-9))
         lam = min(dt / p.consist_tau, 1.0)
         aux[Aux.CONSIST_R] += lam * (e_lin * e_lin - aux[Aux.CONSIST_R])
-        aux[Aux.CONSIST_W_R] += lam * (1.0 - aux[Aux.CONSIST_W_R])
         if fzf > 0.0:
             e_lin_f = alpha_f - xu[Fs.FYF] / (p.kf * fzf)
             aux[Aux.CONSIST_F] += lam * (e_lin_f * e_lin_f - aux[Aux.CONSIST_F])
-            aux[Aux.CONSIST_W_F] += lam * (1.0 - aux[Aux.CONSIST_W_F])
     return alpha_f, alpha_r, var_af, var_ar, fzf, fzr, fxf, fxr
-
-
-@njit(cache=True)
-def consistency_mean_square(ms, weight, prior, prior_weight):  # pragma: no cover - compiled
-    """Mean square of an axle's slip-angle consistency residual [rad²], with the prior.
-
-    ``ms`` is the running mean square started from 0 and ``weight`` its evidence,
-    ``1 - exp(-T / tau)`` after a time ``T`` in the consistency band; the result is
-    ``(ms + prior_weight prior) / (weight + prior_weight)``: the prior ``prior`` [rad²]
-    before any evidence, the residuals' own mean square once ``weight >> prior_weight``.
-    """
-    return (ms + prior_weight * prior) / (weight + prior_weight)
 
 
 @njit(cache=True)
@@ -357,11 +343,7 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
         bias_f = sbf * slip_sensitivity(alpha_f, fzf, lateral_capacity(xm[Ms.MU_F], fxf, fzf, mu_min), kf)
         bias_r = sb * slip_sensitivity(alpha_r, fzr, lateral_capacity(xm[Ms.MU_R], fxr, fzr, mu_min), kr)
         # slip angles measurably worse than assumed: test the whole inversion at that error
-        cons_r = consistency_mean_square(aux[Aux.CONSIST_R], aux[Aux.CONSIST_W_R], p.consist_prior,
-                                         p.consist_prior_w)
-        cons_f = consistency_mean_square(aux[Aux.CONSIST_F], aux[Aux.CONSIST_W_F], p.consist_prior,
-                                         p.consist_prior_w)
-        sc = np.sqrt(cons_r)
+        sc = np.sqrt(aux[Aux.CONSIST_R])
         if sc > sb:
             bias_f = max(bias_f, slip_bias_effect(xu[Fs.FYF], alpha_f, fzf, kf, np.sqrt(sc * sc + sbf * sbf)))
             bias_r = max(bias_r, slip_bias_effect(xu[Fs.FYR], alpha_r, fzr, kr, sc))
@@ -370,8 +352,8 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
         zs = p.slip_z
         gate_f = 0.0
         gate_r = 0.0
-        slip_f = zs * np.sqrt(var_af + cons_f)
-        slip_r = zs * np.sqrt(var_ar + cons_r)
+        slip_f = zs * np.sqrt(var_af + aux[Aux.CONSIST_F])
+        slip_r = zs * np.sqrt(var_ar + aux[Aux.CONSIST_R])
         if zs > 0.0:
             gate_f = slip_bias_effect(xu[Fs.FYF], alpha_f, fzf, kf, slip_f)
             gate_r = slip_bias_effect(xu[Fs.FYR], alpha_r, fzr, kr, slip_r)
