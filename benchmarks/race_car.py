@@ -6,8 +6,10 @@ The full-size race car (``../shared/data/revs``, 550 s at 16-61 m/s, dry track, 
 speeds, INS lateral velocity as reference) is split at its middle. ``roadgrip vehicle fit``
 (:func:`roadgrip.inference.vehicle_identification.fit_vehicle`) runs on the first half
 with the shipped vehicle file as its base; the fitted vehicle and sensor calibration
-are applied to the second half by reading the drive with the fitted file, as a user
-would, and every estimator runs on it:
+are applied to the second half as the command line applies them (the drive read with
+the fitted file, then :func:`~roadgrip.inference.vehicle_identification.apply_calibration`),
+and every estimator runs on it (the GP-SSM also on the second half read with the shipped
+file, for comparison):
 
 - GP-SSM (the matrix's variant): lateral-velocity RMSE against the INS, the share of the
   unflagged samples whose band holds the INS (within 0.1 m/s), the share flagged, and the
@@ -51,7 +53,11 @@ def main() -> None:
     from roadgrip.estimators.classify import calibrate
     from roadgrip.evaluate.honesty import score_result
     from roadgrip.evaluate.honesty_matrix import reference_vy
-    from roadgrip.inference.vehicle_identification import fit_vehicle, read_calibration
+    from roadgrip.inference.vehicle_identification import (
+        apply_calibration,
+        fit_vehicle,
+        read_calibration,
+    )
     from roadgrip.io import read_drive
     from roadgrip.signals import sustained_grip
 
@@ -73,11 +79,17 @@ def main() -> None:
     for v in fit.values.values():
         val = f"{v.value:.4g} ± {v.std:.2g} {v.unit}" if v.fitted else f"undetermined ({v.note})"
         print(f"  {v.name:22s} {val}")
-    # the fitted file as a user gives it: read with it, its calibration applied
-    second = read_drive(path, format="canonical", vehicle=str(car))
-    second = second.slice_time(mid, np.inf)
+    # the fitted file as the command line uses it: the drive read with it, its sensor
+    # calibration applied (roadgrip.cli._common)
+    fitted = apply_calibration(read_drive(path, format="canonical", vehicle=str(car)), cal)
+    second = fitted.slice_time(mid, np.inf)
     vy_ref = reference_vy(str(path), second.t)
     floor = float(sustained_grip(second.t, second.col("ay"))[-1])
+    shipped_second = drive.slice_time(mid, np.inf)
+    res = run_estimator("gpssm", shipped_second, dict(GPSSM_VARIANT), seed=args.seed)
+    err = res.table["vy"].to_numpy() - reference_vy(str(path), shipped_second.t)
+    print(f"GP-SSM on the second half with the shipped file (no calibration): vy RMSE "
+          f"{np.sqrt(np.mean(err**2)):.2f} m/s")
     print(f"second half: {second.duration:.0f} s, sustained |a_y|/g {floor:.3f}, calibration applied {cal}")
     print()
     rows = []
