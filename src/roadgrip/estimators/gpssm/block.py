@@ -433,12 +433,15 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
         gap = abs(vy_meas - e_vy) if measured else cst.max_sideslip_ratio * cst.min_speed
         vy_std = max(vy_std, gap / _Z95)
     runaway = moving and not measured and abs(e_vy) > cst.max_sideslip_ratio * vx
-    # a learned friction that pushes against its axle's slip (guard._reversed)
+    # learned frictions that push against both axles' slips (guard._reversed)
+    n_rev = 0
     for ax in range(2):
         a_x, mu_x = row[6 + ax], row[8 + ax]
-        if moving and not measured and abs(a_x) > cst.reverse_slip and mu_x * math.copysign(1.0, a_x) < -cst.reverse_mu:
-            runaway = True
+        if abs(a_x) > cst.reverse_slip and mu_x * math.copysign(1.0, a_x) < -cst.reverse_mu:
+            n_rev += 1
     yaw_gap = abs(yaw_meas - e_yr) > _YAW_SIGMAS * math.hypot(cst.sigma_r, e_yr_std)
+    if moving and not measured and n_rev == 2:
+        runaway = True
     # slip angles the lateral acceleration contradicts (guard._slide_gap)
     slide_gap = False
     a_f, a_r = row[6], row[7]

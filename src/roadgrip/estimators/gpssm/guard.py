@@ -8,8 +8,9 @@ Applied after the filter's step by both implementations
 Divergence
     The step is flagged ``diverged`` when the estimated lateral velocity leaves what any
     car not spinning out allows (``|vy| > max_sideslip_ratio vx``, 0.5 vx is about
-    27 deg of body sideslip) or an axle's learned friction pushes against its slip
-    (``reverse_slip``, ``reverse_mu``: no passive tire does), or when no particle explains the yaw rate
+    27 deg of body sideslip) or the learned frictions push against the slips of both
+    axles (``reverse_slip``, ``reverse_mu``: no passive tire does), or when no particle
+    explains the yaw rate
     (``|r_meas - r_est|`` above ``5 sqrt(sigma_r² + yaw_rate_std²)``), or the estimated
     slip angles contradict the measured lateral acceleration (both axles past
     ``slide_slip`` with one sign while the last second's mean ``a_y`` is below
@@ -191,9 +192,10 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
         gap = abs(sample.vy - est.vy) if measured_vy else config.max_sideslip_ratio * config.min_speed
         vy_std = max(vy_std, gap / Z95)
     # divergence
-    runaway = moving and not measured_vy and (abs(est.vy) > config.max_sideslip_ratio * vx
-                                              or _reversed(config, est))
     yaw_gap = abs(sample.yaw_rate - est.yaw_rate) > _YAW_SIGMAS * math.hypot(ctx.sigma_yaw_rate, est.yaw_rate_std)
+    n_rev = _reversed(config, est)
+    runaway = moving and not measured_vy and (abs(est.vy) > config.max_sideslip_ratio * vx
+                                              or n_rev == 2)
     slide_gap = not measured_vy and _slide_gap(config, est.alpha_f, est.alpha_r,
                                                _mean(g.ay) / max(est.ay_gain, 1e-6))
     if moving and (yaw_gap or slide_gap or est.ess < _ESS_COLLAPSED):
@@ -243,13 +245,14 @@ def _mean(values: list[float]) -> float:
     return sum(values) / len(values) if values else 0.0
 
 
-def _reversed(config, est) -> bool:
-    """An axle past ``reverse_slip`` whose learned friction pushes against its slip by
-    more than ``reverse_mu``: no passive tire does that."""
+def _reversed(config, est) -> int:
+    """How many axles are past ``reverse_slip`` with a learned friction that pushes against
+    the slip by more than ``reverse_mu`` (no passive tire does that)."""
+    n = 0
     for alpha, mu in ((est.alpha_f, est.mu_now_front), (est.alpha_r, est.mu_now_rear)):
         if abs(alpha) > config.reverse_slip and mu * math.copysign(1.0, alpha) < -config.reverse_mu:
-            return True
-    return False
+            n += 1
+    return n
 
 
 def _slide_gap(config, alpha_f: float, alpha_r: float, ay_mean: float) -> bool:
