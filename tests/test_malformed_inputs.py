@@ -94,7 +94,8 @@ def test_regressions():
     classifier's config); a map file that is not text (UnicodeDecodeError without the
     file's name); an MDF4 channel whose clock goes backwards; a cut Parquet file given
     to `roadgrip map` (pyarrow's message without the file's name); an estimates table with
-    an observation but not its flag (KeyError); an MDF4 channel of text (numpy's message)."""
+    an observation but not its flag (KeyError); an MDF4 channel of text (numpy's message);
+    text in a calibration's channel flag (TypeError in the bRLS kernel)."""
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         for kind, mutation, seed, entry, expect in (
@@ -105,6 +106,9 @@ def test_regressions():
             ("estimates", "missing_column", 1017, "read", "comes without ['excited_front']"),
             ("estimates", "missing_column", 6017, "read", "comes without ['y_front']"),
             ("mdf", "wrong_dtype", 2, "read", "not numbers"),
+            # text where a bRLS channel's 'enabled' flag belongs reached the compiled kernel
+            # through `roadgrip estimate --calibration` (TypeError in brls_kernel)
+            ("calibration", "text_cells", 309353, "estimate", "setting 'enabled' = '' must be a bool"),
         ):
             case = M.make_case(kind, mutation, seed, d / kind)
             out = M.run_entry(case, entry, d / "out")

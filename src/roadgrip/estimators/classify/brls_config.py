@@ -14,6 +14,7 @@ from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 from roadgrip.constants import GRAVITY
+from roadgrip.estimators.classify.common import check_field_types
 from roadgrip.estimators.classify.grip_model import GripModel
 from roadgrip.inference.kinematic import LATERAL_ACCELERATION_SOURCES
 from roadgrip.tire import SURFACES
@@ -206,9 +207,11 @@ class BRLSConfig:
             extra = set(d[ch]) - set(ChannelCalibration.__dataclass_fields__)
             if extra:
                 raise ValueError(f"unknown key(s) {sorted(extra)} in bRLS channel {ch!r}")
+            check_field_types(ChannelCalibration, d[ch], f"bRLS channel {ch!r}")
             d[ch] = ChannelCalibration(**d[ch])
         if d.get("grip") is not None:
             d["grip"] = GripModel.from_dict(dict(d["grip"]))
+        check_field_types(cls, d, "bRLS settings")
         return cls(**d)
 
 

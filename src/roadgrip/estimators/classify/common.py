@@ -24,6 +24,7 @@ __all__ = [
     "CALIBRATION_SETTLING_S",
     "CLASS_SWITCH_PENALTY",
     "DEFAULT_FRICTION",
+    "check_field_types",
     "class_band",
     "classes",
     "classifier_diagnostics",
@@ -47,6 +48,32 @@ CALIBRATION_SETTLING_S = 10.0
 
 CLASS_SWITCH_PENALTY = 0.01
 """Calibration score penalty per class switch beyond the first (fraction of time)."""
+
+
+def check_field_types(cls: type, d: Mapping[str, Any], where: str) -> None:
+    """Refuse a settings dictionary whose scalar fields have the wrong type, naming the key.
+
+    The dataclass ``cls``'s fields annotated ``bool``, ``int``, ``float`` or ``str`` must
+    hold a value of that type (an ``int`` is a ``float``; a ``bool`` is neither number),
+    so that a calibration file with text where a number belongs is refused when read,
+    not deep inside a compiled kernel. Other fields are left to their own checks.
+
+    Raises
+    ------
+    ValueError
+        Naming ``where``, the key, the value and the type it needs.
+    """
+    import typing
+
+    hints = typing.get_type_hints(cls)
+    accepts = {bool: (bool,), int: (int,), float: (int, float), str: (str,)}
+    for key, value in d.items():
+        need = hints.get(key)
+        if need not in accepts:
+            continue
+        ok = isinstance(value, accepts[need]) and not (need is not bool and isinstance(value, bool))
+        if not ok:
+            raise ValueError(f"{where}: setting {key!r} = {value!r} must be a {need.__name__}")
 
 
 def friction_refs(d: Mapping[str, Any], where: str) -> dict[str, float]:

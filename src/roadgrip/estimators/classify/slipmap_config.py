@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from roadgrip.estimators.classify.common import check_field_types
 from roadgrip.estimators.classify.grip_model import GripModel
 from roadgrip.inference.kinematic import LATERAL_ACCELERATION_SOURCES
 from roadgrip.tire import SURFACES, MagicFormula
@@ -153,6 +154,7 @@ class SlipMapConfig:
             d[k] = MagicFormula(**{c: float(d[k][c]) for c in "BCDE"})
         if d.get("grip") is not None:
             d["grip"] = GripModel.from_dict(dict(d["grip"]))
+        check_field_types(cls, d, "slip-map settings")
         return cls(**d)
 
 
