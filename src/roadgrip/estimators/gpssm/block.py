@@ -64,7 +64,13 @@ from roadgrip.estimators.gpssm.block_ops import (
     _refactored_posterior,
     _resample,
 )
-from roadgrip.estimators.gpssm.guard import _COPIES, _ESS_COLLAPSED, _YAW_SIGMAS, FLOOR_WINDOW
+from roadgrip.estimators.gpssm.guard import (
+    _COPIES,
+    _ESS_COLLAPSED,
+    _YAW_SIGMAS,
+    FLOOR_WINDOW,
+    second_difference_noise,
+)
 from roadgrip.estimators.gpssm.kernel_ops import (
     PeakGrid,
     PeakParams,
@@ -388,15 +394,7 @@ def _sigma_ay(st, cst):  # pragma: no cover - compiled
     if cst.noise_scale == 0.0:
         return cst.sigma_ay
     head, tail = int(st.sc[_HEAD]), int(st.sc[_TAIL])
-    n = tail - head
-    if n < 3:
-        return cst.sigma_ay
-    gay = st.gay
-    s = 0.0
-    for j in range(head + 1, tail - 1):
-        d = gay[j + 1] - 2.0 * gay[j] + gay[j - 1]
-        s += d * d
-    return max(cst.sigma_ay, cst.noise_scale * math.sqrt(s / (6.0 * (n - 2))))
+    return max(cst.sigma_ay, cst.noise_scale * second_difference_noise(st.gay[head:tail]))
 
 
 @numba.njit(cache=True)

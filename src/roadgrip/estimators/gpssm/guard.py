@@ -55,6 +55,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from roadgrip.constants import GRAVITY, Z95
@@ -131,7 +132,14 @@ def ay_noise(ay) -> float:
     >>> round(ay_noise([0.0, 1.0, 0.0, 1.0, 0.0]), 4)  # d = -2, 2, -2: sqrt(4 / 6)
     0.8165
     """
-    n = len(ay)
+    return float(second_difference_noise(np.asarray(ay, dtype=np.float64)))
+
+
+@numba.njit(cache=True)
+def second_difference_noise(ay):  # pragma: no cover - compiled
+    """:func:`ay_noise` of an array, shape (n,) (compiled: the filter's step calls it on
+    its window of recorded samples)."""
+    n = ay.shape[0]
     if n < 3:
         return 0.0
     s = 0.0
