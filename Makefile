@@ -43,13 +43,14 @@ test-fast: $(STAMP)
 	$(BIN)/python tests/compile_kernels.py
 	$(BIN)/python -m pytest -n 2 -m "not slow and not realdata and not matrix" --durations=15
 
-# The generated bad-input corpus at full size (tests/test_fuzz_inputs.py): more than 10,000
-# derandomised cases over readers, validation, vehicle files, the grid and the estimators
-# (`make test` runs the same properties on a few hundred).
+# The generated bad-input corpora at full size: more than 10,000 derandomised cases over
+# readers, validation, vehicle files, the grid and the estimators (tests/test_fuzz_inputs.py),
+# and malformed files through every reader and command (tests/test_malformed_inputs.py, its
+# slow property included). `make test` runs the same properties on a few hundred.
 FUZZ_EXAMPLES ?= 12000
 fuzz: $(STAMP)
-	ROADGRIP_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest tests/test_fuzz_inputs.py -p no:cacheprovider \
-		--hypothesis-show-statistics -q
+	ROADGRIP_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest tests/test_fuzz_inputs.py \
+		tests/test_malformed_inputs.py -m "slow or not slow" -p no:cacheprovider --hypothesis-show-statistics -q
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
