@@ -7,7 +7,7 @@ speeds, INS lateral velocity as reference) is split at its middle. ``roadgrip ve
 (:func:`roadgrip.inference.vehicle_identification.fit_vehicle`) runs on the first half
 with the shipped vehicle file as its base; the fitted vehicle and sensor calibration
 are applied to the second half as the command line applies them (the drive read with
-the fitted file, then :func:`~roadgrip.inference.vehicle_identification.apply_calibration`),
+the fitted file, whose calibration the reader applies),
 and every estimator runs on it (the GP-SSM also on the second half read with the shipped
 file, for comparison):
 
@@ -53,12 +53,9 @@ def main() -> None:
     from roadgrip.estimators.classify import calibrate
     from roadgrip.evaluate.honesty import score_result
     from roadgrip.evaluate.honesty_matrix import reference_vy
-    from roadgrip.inference.vehicle_identification import (
-        apply_calibration,
-        fit_vehicle,
-        read_calibration,
-    )
+    from roadgrip.inference.vehicle_identification import fit_vehicle
     from roadgrip.io import read_drive
+    from roadgrip.io.calibration import read_calibration
     from roadgrip.signals import sustained_grip
 
     path = ROOT / "race_car_100hz.csv"
@@ -79,9 +76,9 @@ def main() -> None:
     for v in fit.values.values():
         val = f"{v.value:.4g} ± {v.std:.2g} {v.unit}" if v.fitted else f"undetermined ({v.note})"
         print(f"  {v.name:22s} {val}")
-    # the fitted file as the command line uses it: the drive read with it, its sensor
-    # calibration applied (roadgrip.cli._common)
-    fitted = apply_calibration(read_drive(path, format="canonical", vehicle=str(car)), cal)
+    # the fitted file as the command line uses it: the drive read with it (its sensor
+    # calibration applied by the reader)
+    fitted = read_drive(path, format="canonical", vehicle=str(car))
     second = fitted.slice_time(mid, np.inf)
     vy_ref = reference_vy(str(path), second.t)
     floor = float(sustained_grip(second.t, second.col("ay"))[-1])

@@ -131,7 +131,7 @@ def _fitted_drive(d, fit):
     from dataclasses import replace
 
     from roadgrip.drive import Drive
-    from roadgrip.inference.vehicle_identification import CALIBRATION, apply_calibration
+    from roadgrip.io.calibration import CALIBRATION, apply_calibration
 
     cal = {k: v.value for k, v in fit.values.items() if k in CALIBRATION and v.fitted}
     out = apply_calibration(d, cal)

@@ -12,8 +12,8 @@ import pandas as pd
 import pytest
 
 from roadgrip.drive import Drive
+from roadgrip.io.calibration import shift_columns
 from roadgrip.sensor_delay import (
-    _shift_columns,
     align_drive,
     estimate_delay,
     lag_correlation,
@@ -33,7 +33,7 @@ def _broadband(t: np.ndarray, seed: int) -> np.ndarray:
 
 def _delay_by(drive: Drive, columns, tau: float) -> Drive:
     """``col_new(t) = col(t - tau)``: the columns arrive ``tau`` [s] late."""
-    return _shift_columns(drive, {c: -tau for c in columns})
+    return shift_columns(drive, {c: -tau for c in columns})
 
 
 def test_lag_correlation_equals_direct_sums():

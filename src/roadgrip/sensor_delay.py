@@ -44,6 +44,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from roadgrip.drive import Drive
+from roadgrip.io.calibration import shift_columns
 from roadgrip.signals import body_velocity_from_pose, wheel_speed_vx
 
 __all__ = [
@@ -406,29 +407,6 @@ def sensor_delays(drive: Drive, *, max_lag: float = 1.0, window: float = 30.0) -
     return out
 
 
-def _shift_columns(drive: Drive, shifts: dict[str, float]) -> Drive:
-    """Columns moved back in time by their shift [s]: ``col_new(t) = col(t + shift)``;
-    samples whose shifted time falls outside the drive or inside a gap are dropped."""
-    t = drive.t
-    df = drive.data.copy()
-    keep = np.ones(len(t), bool)
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-    for col, d in shifts.items():
-        if col not in df.columns or d == 0.0:
-            continue
-        ts = t + d
-        inside = (ts >= t[0]) & (ts <= t[-1])
-        k = np.clip(np.searchsorted(t, ts, side="right"), 1, len(t) - 1)
-        inside &= (t[k] - t[k - 1]) <= 3.0 * dt
-        keep &= inside
-        df[col] = np.interp(ts, t, df[col].to_numpy(float))
-    extra = dict(drive.meta.extra or {})
-    extra["alignment_s"] = {c: float(d) for c, d in shifts.items() if c in df.columns}
-    from dataclasses import replace
-
-    return Drive(df[keep].reset_index(drop=True), replace(drive.meta, extra=extra))
-
-
 def align_drive(drive: Drive, delays: list[SensorDelay] | None = None, *,
                 reliable_only: bool = True) -> tuple[Drive, list[SensorDelay]]:
     """The drive with each sensor's columns moved back by its delay.
@@ -457,4 +435,4 @@ def align_drive(drive: Drive, delays: list[SensorDelay] | None = None, *,
             shifts[col] = d.delay
     if not shifts:
         return drive, []
-    return _shift_columns(drive, shifts), applied
+    return shift_columns(drive, shifts), applied

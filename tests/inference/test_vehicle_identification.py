@@ -194,7 +194,7 @@ def test_calibration_round_trip(tmp_path: Path):
     """The fitted file's calibration undoes the injected offset and delays when a drive is
     read with it (the CLI's loader), and the vehicle fields load unchanged."""
     from roadgrip.cli._common import load_drive
-    from roadgrip.inference.vehicle_identification import read_calibration
+    from roadgrip.io.calibration import read_calibration
 
     res = _fit_injected()
     car = tmp_path / "car.yaml"
@@ -224,7 +224,7 @@ def test_calibration_round_trip(tmp_path: Path):
     ("calibration: {delay_speed: .nan}", "'delay_speed' = nan must be a number"),
 ])
 def test_bad_calibration_is_named(tmp_path: Path, text, message):
-    from roadgrip.inference.vehicle_identification import read_calibration
+    from roadgrip.io.calibration import read_calibration
 
     p = tmp_path / "car.yaml"
     p.write_text(yaml_dump_sedan() + text + "\n")

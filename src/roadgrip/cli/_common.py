@@ -103,16 +103,11 @@ AlignOpt = Annotated[bool, typer.Option(
 
 def load_drive(path: str, fmt: str | None, vehicle: str | None,
                topics: str | None = None, channels: str | None = None, dbc: str | None = None):
-    """Read a drive file or data set (:func:`roadgrip.io.read_drive`), with the sensor
-    calibration of a vehicle file applied (``roadgrip vehicle fit`` writes it)."""
+    """Read a drive file or data set (:func:`roadgrip.io.read_drive`, which applies the
+    sensor calibration of a vehicle file: ``roadgrip vehicle fit`` writes it)."""
     from roadgrip.io import read_drive
 
-    drive = read_drive(path, format=fmt, vehicle=vehicle, topics=topics, channels=channels, dbc=dbc)
-    if vehicle is not None:
-        from roadgrip.inference.vehicle_identification import apply_calibration, read_calibration
-
-        drive = apply_calibration(drive, read_calibration(vehicle))
-    return drive
+    return read_drive(path, format=fmt, vehicle=vehicle, topics=topics, channels=channels, dbc=dbc)
 
 
 @contextmanager

@@ -41,20 +41,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
+from roadgrip.io.calibration import CALIBRATION
 from roadgrip.io.derived import body_velocity_from_pose, savgol_quadratic
-from roadgrip.sensor_delay import _shift_columns, estimate_delay
+from roadgrip.sensor_delay import estimate_delay
 from roadgrip.signals import WHEELS, undriven_wheels, wheel_speed_vx
 from roadgrip.vehicle.params import CALIBRATION_KEY, FIELD_RANGES, VehicleParams
 
-__all__ = ["CALIBRATION", "FittedValue", "VehicleFit", "apply_calibration", "fit_vehicle",
-           "read_calibration"]
+__all__ = ["FittedValue", "VehicleFit", "fit_vehicle"]
 
 V_MIN = 5.0
 """Smallest speed [m/s] of a sample in the single-track fit (``r/v_x`` and the slip
@@ -76,14 +75,6 @@ SMOOTH = 0.15
 """Savitzky-Golay window [s] of the signals and of ``r'`` in the single-track fit."""
 
 
-CALIBRATION: dict[str, tuple[str, float]] = {
-    "delay_accelerometer": ("s", 1.0), "delay_speed": ("s", 1.0), "steer_delay": ("s", 1.0),
-    "steer_scale": ("-", 10.0), "steer_offset": ("rad", 0.5), "ay_bias": ("m/s²", 20.0),
-    "ax_bias": ("m/s²", 20.0),
-}  # fmt: skip
-"""The sensor calibration a vehicle file carries (``calibration:``): name -> (unit, largest
-magnitude). Delays are against the gyro; the road-wheel angle is ``steer_scale steer +
-steer_offset``; the biases are subtracted."""
 
 
 @dataclass(frozen=True)
@@ -508,80 +499,3 @@ def fit_vehicle(drive: Drive, base: VehicleParams | None = None, *, mu: float = 
                                     getattr(base, k)) if k in changes else v)
                   for k, v in values.items()}
     return VehicleFit(values, vehicle, n_lin)
-
-
-def read_calibration(path: str | Path) -> dict[str, float]:
-    """The ``calibration`` mapping of a vehicle file (empty when it has none).
-
-    Raises
-    ------
-    ValueError
-        An unknown key or a value that is not a finite number within its range (named).
-    """
-    import yaml
-
-    p = Path(path)
-    if p.suffix.lower() not in (".yaml", ".yml") or not p.is_file():
-        return {}
-    try:
-        data = yaml.safe_load(p.read_text(encoding="utf-8-sig"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
-        return {}  # load_vehicle names what is wrong with the file
-    cal = data.get(CALIBRATION_KEY) if isinstance(data, dict) else None
-    if cal is None:
-        return {}
-    if not isinstance(cal, dict):
-        raise ValueError(f"vehicle file {p.name}: '{CALIBRATION_KEY}' must be a mapping, got {cal!r}")
-    out = {}
-    for k, v in cal.items():
-        if k not in CALIBRATION:
-            raise ValueError(f"vehicle file {p.name}: unknown calibration {k!r}; known: {sorted(CALIBRATION)}")
-        unit, big = CALIBRATION[k]
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or abs(v) > big:
-            raise ValueError(f"vehicle file {p.name}: calibration {k!r} = {v!r} must be a number "
-                             f"within ±{big:g} {unit}")
-        if k == "steer_scale" and v <= 0:
-            raise ValueError(f"vehicle file {p.name}: calibration 'steer_scale' = {v!r} must be > 0")
-        out[str(k)] = float(v)
-    return out
-
-
-def apply_calibration(drive: Drive, calibration: dict[str, float]) -> Drive:
-    """The drive with its sensors calibrated (:data:`CALIBRATION`).
-
-    Each sensor's columns move back by its delay (the accelerometer's ``ax, ay``, the
-    speed's ``vx`` and wheel speeds, ``steer``; the ends without a partner dropped), then
-    ``steer <- steer_scale steer + steer_offset``, ``ay <- ay - ay_bias``, ``ax <- ax - ax_bias``.
-    ``meta.extra['calibration']`` records what was applied.
-
-    Parameters
-    ----------
-    drive : Drive
-    calibration : dict of str to float
-        As :func:`read_calibration` returns; missing entries are not applied.
-
-    Returns
-    -------
-    Drive
-    """
-    if not calibration:
-        return drive
-    shifts: dict[str, float] = {}
-    groups = {"delay_accelerometer": ("ax", "ay"), "steer_delay": ("steer",),
-              "delay_speed": ("vx", *(f"omega_{w}" for w in WHEELS))}
-    for key, cols in groups.items():
-        for c in cols:
-            if key in calibration and drive.has(c):
-                shifts[c] = calibration[key]
-    out = _shift_columns(drive, shifts) if shifts else drive
-    df = out.data.copy()
-    if drive.has("steer"):
-        df["steer"] = calibration.get("steer_scale", 1.0) * df["steer"] + calibration.get("steer_offset", 0.0)
-    for c in ("ay", "ax"):
-        if drive.has(c) and f"{c}_bias" in calibration:
-            df[c] = df[c] - calibration[f"{c}_bias"]
-    from dataclasses import replace
-
-    extra = dict(out.meta.extra or {})
-    extra["calibration"] = dict(calibration)
-    return Drive(df, replace(out.meta, extra=extra))

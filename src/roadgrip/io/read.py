@@ -95,7 +95,10 @@ def read_drive(
         Overrides the file's vehicle. Required for a plain CSV without roadgrip
         metadata; the data-set readers default to ``'jetracer'`` (dart) and
         ``'f1tenth'`` (frictionmaps); the bag and MDF readers to their map's
-        ``vehicle``.
+        ``vehicle``. A YAML file's ``calibration:`` (``roadgrip vehicle fit``
+        writes it) is applied to the sensor columns
+        (:func:`roadgrip.io.calibration.apply_calibration`; recorded in
+        ``meta.extra['calibration']``).
     topics : YAML path, shipped map name or dict, optional
         ROS bags: the topic map (:mod:`roadgrip.io.rosbag`); default the shipped
         ``'f1tenth'`` map.
@@ -115,7 +118,17 @@ def read_drive(
         With a one-line message: missing or empty file, unknown format, missing
         vehicle, or failed validation (:class:`~roadgrip.drive.DriveValidationError`).
     """
-    p = Path(path)
+    drive = _read(Path(path), format, vehicle, topics, channels, dbc)
+    if isinstance(vehicle, str | Path):
+        from roadgrip.io.calibration import apply_calibration, read_calibration
+
+        drive = apply_calibration(drive, read_calibration(vehicle))
+    return drive
+
+
+def _read(p: Path, format: str | None, vehicle: str | Path | VehicleParams | None,
+          topics: str | Path | dict | None, channels: str | Path | dict | None, dbc: str | Path | None) -> Drive:
+    """:func:`read_drive` without the calibration."""
     if format is not None and format not in FORMATS:
         raise ValueError(f"unknown format {format!r}; expected one of {', '.join(FORMATS)}")
     if not p.exists():

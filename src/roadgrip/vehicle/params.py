@@ -231,7 +231,7 @@ class VehicleParams:
 
         ``name`` defaults to the file's stem. A ``calibration`` mapping (the sensors'
         calibration that ``roadgrip vehicle fit`` writes) is not a vehicle field and is
-        left to :func:`roadgrip.inference.vehicle_identification.read_calibration`.
+        left to :func:`roadgrip.io.calibration.read_calibration`.
         """
         try:
             data = yaml.safe_load(_decode(Path(path).read_bytes(), path))

@@ -1,0 +1,138 @@
+"""The sensor calibration a vehicle file carries, and its application to a drive.
+
+``roadgrip vehicle fit`` writes a ``calibration:`` mapping into the vehicle file it
+produces (:data:`CALIBRATION`: each sensor's delay against the gyro, the steering's scale
+and offset, the accelerometer's biases). :func:`roadgrip.io.read_drive` applies it when it
+is given such a file as ``vehicle``, so that the library and the command line read the same
+data from the same file; :func:`apply_calibration` applies a mapping to a drive in hand.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from roadgrip.drive import WHEEL_COLUMNS, Drive
+from roadgrip.vehicle.params import CALIBRATION_KEY
+
+__all__ = ["CALIBRATION", "apply_calibration", "read_calibration", "shift_columns"]
+
+CALIBRATION: dict[str, tuple[str, float]] = {
+    "delay_accelerometer": ("s", 1.0), "delay_speed": ("s", 1.0), "steer_delay": ("s", 1.0),
+    "steer_scale": ("-", 10.0), "steer_offset": ("rad", 0.5), "ay_bias": ("m/s²", 20.0),
+    "ax_bias": ("m/s²", 20.0),
+}  # fmt: skip
+"""The sensor calibration a vehicle file carries (``calibration:``): name -> (unit, largest
+magnitude). Delays are against the gyro; the road-wheel angle is ``steer_scale steer +
+steer_offset``; the biases are subtracted."""
+
+_DELAYED = {"delay_accelerometer": ("ax", "ay"), "steer_delay": ("steer",),
+            "delay_speed": ("vx", *WHEEL_COLUMNS)}
+
+
+def read_calibration(path: str | Path) -> dict[str, float]:
+    """The ``calibration`` mapping of a vehicle file (empty when it has none, or when
+    ``path`` is not a YAML file: a preset name).
+
+    Raises
+    ------
+    ValueError
+        An unknown key or a value that is not a finite number within its range (named).
+    """
+    import yaml
+
+    p = Path(path)
+    if p.suffix.lower() not in (".yaml", ".yml") or not p.is_file():
+        return {}
+    try:
+        data = yaml.safe_load(p.read_text(encoding="utf-8-sig"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return {}  # load_vehicle names what is wrong with the file
+    cal = data.get(CALIBRATION_KEY) if isinstance(data, dict) else None
+    if cal is None:
+        return {}
+    if not isinstance(cal, dict):
+        raise ValueError(f"vehicle file {p.name}: '{CALIBRATION_KEY}' must be a mapping, got {cal!r}")
+    out = {}
+    for k, v in cal.items():
+        if k not in CALIBRATION:
+            raise ValueError(f"vehicle file {p.name}: unknown calibration {k!r}; known: {sorted(CALIBRATION)}")
+        unit, big = CALIBRATION[k]
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or abs(v) > big:
+            raise ValueError(f"vehicle file {p.name}: calibration {k!r} = {v!r} must be a number "
+                             f"within ±{big:g} {unit}")
+        if k == "steer_scale" and v <= 0:
+            raise ValueError(f"vehicle file {p.name}: calibration 'steer_scale' = {v!r} must be > 0")
+        out[str(k)] = float(v)
+    return out
+
+
+def shift_columns(drive: Drive, shifts: dict[str, float]) -> Drive:
+    """Columns moved back in time by their shift [s]: ``col_new(t) = col(t + shift)``;
+    samples whose shifted time falls outside the drive or inside a gap are dropped.
+    ``meta.extra['alignment_s']`` records the shift of each column."""
+    t = drive.t
+    df = drive.data.copy()
+    keep = np.ones(len(t), bool)
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    for col, d in shifts.items():
+        if col not in df.columns or d == 0.0:
+            continue
+        ts = t + d
+        inside = (ts >= t[0]) & (ts <= t[-1])
+        k = np.clip(np.searchsorted(t, ts, side="right"), 1, len(t) - 1)
+        inside &= (t[k] - t[k - 1]) <= 3.0 * dt
+        keep &= inside
+        df[col] = np.interp(ts, t, df[col].to_numpy(float))
+    extra = dict(drive.meta.extra or {})
+    extra["alignment_s"] = {c: float(d) for c, d in shifts.items() if c in df.columns}
+    return Drive(df[keep].reset_index(drop=True), replace(drive.meta, extra=extra))
+
+
+def apply_calibration(drive: Drive, calibration: dict[str, float]) -> Drive:
+    """The drive with its sensors calibrated (:data:`CALIBRATION`).
+
+    Each sensor's columns move back by its delay (the accelerometer's ``ax, ay``, the
+    speed's ``vx`` and wheel speeds, ``steer``; the ends without a partner dropped), then
+    ``steer <- steer_scale steer + steer_offset``, ``ay <- ay - ay_bias``, ``ax <- ax - ax_bias``.
+    ``meta.extra['calibration']`` records what was applied.
+
+    Parameters
+    ----------
+    drive : Drive
+    calibration : dict of str to float
+        As :func:`read_calibration` returns; missing entries are not applied.
+
+    Returns
+    -------
+    Drive
+
+    Raises
+    ------
+    ValueError
+        The drive already carries a calibration (``meta.extra['calibration']``): applying
+        one twice would shift and scale its columns twice.
+    """
+    if not calibration:
+        return drive
+    if (drive.meta.extra or {}).get("calibration"):
+        raise ValueError("the drive's sensors are already calibrated (read with a vehicle file that "
+                         "carries a calibration); a second calibration is not applied")
+    shifts: dict[str, float] = {}
+    for key, cols in _DELAYED.items():
+        for c in cols:
+            if key in calibration and drive.has(c):
+                shifts[c] = calibration[key]
+    out = shift_columns(drive, shifts) if shifts else drive
+    df = out.data.copy()
+    if drive.has("steer"):
+        df["steer"] = calibration.get("steer_scale", 1.0) * df["steer"] + calibration.get("steer_offset", 0.0)
+    for c in ("ay", "ax"):
+        if drive.has(c) and f"{c}_bias" in calibration:
+            df[c] = df[c] - calibration[f"{c}_bias"]
+    extra = dict(out.meta.extra or {})
+    extra["calibration"] = dict(calibration)
+    return Drive(df, replace(out.meta, extra=extra))
