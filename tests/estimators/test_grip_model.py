@@ -277,3 +277,29 @@ def test_slip_map_votes_with_the_onset_of_a_stop_only_on_the_multibody_van():
     assert not ev.w_x[brake & ~onset].any()
     ev0, brake0, _ = votes[True]
     assert not ev0.w_x[brake0].any()
+
+
+def test_channels_of_one_sample_at_a_time_equal_the_whole_array():
+    """The live path gives :func:`channels` one sample (scalars, ``kappa`` of shape (4,)); a
+    batch gives the drive. Both loop over the same compiled per-sample function, so every
+    sample's regressions and predictions are the same floats, braking and demonstrated
+    channels included."""
+    from roadgrip.estimators.classify.grip_model import channels
+    from roadgrip.inference.kinematic import KinematicOutput
+
+    rng = np.random.default_rng(3)
+    n = 400
+    kin = KinematicOutput(vx=rng.uniform(-1.0, 30.0, n), vy=np.zeros(n), beta=np.zeros(n),
+                          kappa=rng.normal(0.0, 0.05, (n, 4)), alpha_f=rng.normal(0.0, 0.05, n),
+                          alpha_r=rng.normal(0.0, 0.04, n), wheels_valid=rng.random((n, 4)) > 0.1)
+    ax, ay, steer = rng.normal(0.0, 3.0, n), rng.normal(0.0, 4.0, n), rng.normal(0.0, 0.1, n)
+    for model in (default_grip_model(SEDAN, 1.0, 0.4),
+                  replace(default_grip_model(SEDAN, 1.0, 0.4), lateral_evidence="demonstrated",
+                          kappa_offset=0.01, alpha_offset_f=0.02, resistance_2=1e-3)):
+        ch, cp = channels(kin, ax, ay, steer, SEDAN, model)
+        assert np.any(ch.phi_long != 0.0) and np.any(ch.phi_lat != 0.0)
+        for i in range(n):
+            one = KinematicOutput(float(kin.vx[i]), 0.0, 0.0, kin.kappa[i], float(kin.alpha_f[i]),
+                                  float(kin.alpha_r[i]), kin.wheels_valid[i])
+            ch1, cp1 = channels(one, float(ax[i]), float(ay[i]), float(steer[i]), SEDAN, model)
+            assert [a[0] for a in (*ch1, *cp1)] == [a[i] for a in (*ch, *cp)]

@@ -32,14 +32,21 @@ Without a calibration the stiffness comes from the vehicle's parameters
 as the isotropic brush model has it), the gains are 1 and the model error is
 large (:data:`UNCALIBRATED_MODEL_ERROR`), so that only clear saturation or its
 clear absence counts.
+
+Each formula is one compiled per-sample function (``_predict``, ``_class_predictions``,
+``_traction``, ...) that the array functions loop over, so that a whole drive and a
+single live row run the same arithmetic at a row's cost of microseconds; the vehicle's
+and the model's constants reach them as one :class:`GripKernelParams` record.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import asdict, dataclass
 from typing import Any, NamedTuple
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -57,12 +64,15 @@ __all__ = [
     "UNCALIBRATED_MODEL_ERROR",
     "Channels",
     "ClassPredictions",
+    "GripKernelParams",
     "GripModel",
     "axle_slips",
+    "braking_samples",
     "channels",
     "class_predictions",
     "default_grip_model",
     "demonstrated_channel",
+    "grip_kernel_params",
     "predict_accelerations",
     "shape",
     "traction_slips",
@@ -220,9 +230,313 @@ def default_grip_model(params: VehicleParams, mu_high: float, mu_low: float) -> 
     return GripModel(c_long=c, c_lat=c, mu_high=mu_high, mu_low=mu_low)
 
 
+BRAKING_ACCEL = 1.0
+"""Deceleration [m/s²] above which a sample counts as braking for the longitudinal
+channel: every wheel is braked and the axle slips are taken against the coasting speed."""
+
+BRAKING_MIN_SPEED = 5.0
+"""Speed [m/s] below which braking samples carry no class information: the coasting
+speed's error is a growing share of a slowing car's speed, and a stopping car's
+wheels lock or stop whatever the friction."""
+
+LONG_LATERAL_GATE = 0.15
+"""The longitudinal channel counts only while ``|ay| < LONG_LATERAL_GATE g``: in a bend
+the driven tires' combined slip depends on the slip angles, which the kinematic stage
+knows far less well than the wheel slip."""
+
+_DRIVE_CODES = {"fwd": 0, "rwd": 1, "awd": 2}
+
+
+class GripKernelParams(NamedTuple):
+    """The vehicle's and the model's constants as the compiled functions read them
+    (:func:`grip_kernel_params`; the fields of :class:`GripModel` and :class:`VehicleParams`
+    of the same names, units there).
+
+    ``drive`` is 0 front-, 1 rear-, 2 all-wheel drive; ``demonstrated`` is
+    ``lateral_evidence == 'demonstrated'``.
+    """
+
+    lf: float
+    lr: float
+    mass: float
+    cg_height: float
+    drive: int
+    c_long: float
+    c_lat: float
+    shape_c: float
+    mu_high: float
+    mu_low: float
+    gain_x: float
+    gain_y: float
+    accel_noise: float
+    model_error_x: float
+    model_error_y: float
+    slip_noise: float
+    slip_angle_noise: float
+    resistance_0: float
+    resistance_2: float
+    lateral_speed_noise: float
+    speed_noise: float
+    alpha_offset_f: float
+    alpha_offset_r: float
+    kappa_offset: float
+    demonstrated: bool
+
+
+@functools.lru_cache(maxsize=64)
+def grip_kernel_params(params: VehicleParams | None, model: GripModel | None,
+                       kappa_offset: float | None = None) -> GripKernelParams:
+    """The compiled functions' record of ``params`` and ``model`` (``kappa_offset``, when
+    given, in place of the model's). A function that reads only the vehicle's or only the
+    model's constants takes ``None`` for the other: its fields are NaN (drive -1)."""
+    nan = math.nan
+    veh = ((nan, nan, nan, nan, -1) if params is None else
+           (float(params.lf), float(params.lr), float(params.mass), float(params.cg_height),
+            _DRIVE_CODES[params.drive]))
+    if model is None:
+        mdl: tuple[Any, ...] = (nan,) * 18 + (False,)
+    else:
+        mdl = (float(model.c_long), float(model.c_lat), float(model.shape_c), float(model.mu_high),
+               float(model.mu_low), float(model.gain_x), float(model.gain_y), float(model.accel_noise),
+               float(model.model_error_x), float(model.model_error_y), float(model.slip_noise),
+               float(model.slip_angle_noise), float(model.resistance_0), float(model.resistance_2),
+               float(model.lateral_speed_noise), float(model.speed_noise), float(model.alpha_offset_f),
+               float(model.alpha_offset_r), model.lateral_evidence == "demonstrated")
+    offset = (nan if model is None else float(model.kappa_offset)) if kappa_offset is None else float(kappa_offset)
+    return GripKernelParams(*veh, *mdl[:18], offset, mdl[18])
+
+
+# ---------------------------------------------------------------------------------------
+# compiled per-sample functions: the one implementation of each formula, looped over the
+# samples by the array functions below (a batch and a single live row alike)
+
+
+@numba.njit(cache=True)
+def _shape(x, c):  # pragma: no cover - compiled
+    return math.sin(c * math.atan(x / c))
+
+
+@numba.njit(cache=True)
+def _axle_slip(kappa, valid, i, first):  # pragma: no cover - compiled
+    """Mean slip of the measured wheels ``first, first + 1`` of sample ``i`` (0 where none)."""
+    n = 0
+    total = 0.0
+    for j in range(first, first + 2):
+        if valid[i, j]:
+            n += 1
+        total += kappa[i, j] * valid[i, j]
+    return total / max(n, 1) if n > 0 else 0.0
+
+
+@numba.njit(cache=True)
+def _axle_force(k, a, fz, mu, p):  # pragma: no cover - compiled
+    """``(Fx, Fy)`` [N] of an axle at slip ``k``, slip angle ``a`` [rad] and load ``fz`` [N]."""
+    sx = p.c_long * k
+    sy = p.c_lat * math.tan(min(max(a, -1.4), 1.4))
+    s = math.hypot(sx, sy)
+    ratio = mu * _shape(s / mu, p.shape_c) / max(s, 1e-12) if s > 1e-12 else 1.0
+    return fz * ratio * sx, fz * ratio * sy
+
+
+@numba.njit(cache=True)
+def _predict(kf, kr, af, ar, steer, ax_meas, vx, mu, p):  # pragma: no cover - compiled
+    """``(ax, ay)`` of one sample at peak friction ``mu`` (:func:`predict_accelerations`)."""
+    L = p.lf + p.lr
+    m = p.mass
+    h_ax = p.cg_height * ax_meas / p.gain_x
+    fz_f = max(m * (GRAVITY * p.lr - h_ax) / L, 0.05 * m * GRAVITY)
+    fz_r = max(m * (GRAVITY * p.lf + h_ax) / L, 0.05 * m * GRAVITY)
+    fxf, fyf = _axle_force(kf, af, fz_f, mu, p)
+    fxr, fyr = _axle_force(kr, ar, fz_r, mu, p)
+    c, sn = math.cos(steer), math.sin(steer)
+    ax = (fxf * c - fyf * sn + fxr) / m - p.resistance_0 - p.resistance_2 * (vx * vx)
+    ay = (fxf * sn + fyf * c + fyr) / m
+    return p.gain_x * ax, p.gain_y * ay
+
+
+@numba.njit(cache=True)
+def _class_predictions(kf, kr, af, ar, steer, ax_meas, vx, p):  # pragma: no cover - compiled
+    """``(ax_high, ax_low, ay_high, ay_low, sigma_x, sigma_y)`` of one sample."""
+    axh, ayh = _predict(kf, kr, af, ar, steer, ax_meas, vx, p.mu_high, p)
+    axl, ayl = _predict(kf, kr, af, ar, steer, ax_meas, vx, p.mu_low, p)
+    slip_x = p.c_long * GRAVITY * p.slip_noise
+    v = max(abs(vx), 0.1)
+    slip_y = p.c_lat * GRAVITY * (p.slip_angle_noise + p.lateral_speed_noise / v)
+    sx = math.sqrt(p.accel_noise**2 + slip_x**2 + (p.model_error_x * 0.5 * (abs(axh) + abs(axl))) ** 2)
+    sy = math.sqrt(p.accel_noise**2 + slip_y**2 + (p.model_error_y * 0.5 * (abs(ayh) + abs(ayl))) ** 2)
+    return axh, axl, ayh, ayl, sx, sy
+
+
+@numba.njit(cache=True)
+def _rolling_over_speed(k):  # pragma: no cover - compiled
+    """``R omega / vx`` of a wheel from its slip (eq. 2: ``1 / (1 - kappa)`` driving, ``1 + kappa`` braking)."""
+    k = min(max(k, -0.9), 0.9)
+    return 1.0 / (1.0 - k) if k >= 0.0 else 1.0 + k
+
+
+@numba.njit(cache=True)
+def _traction(kappa, valid, i, ax, p):  # pragma: no cover - compiled
+    """``(kappa_f, kappa_r, traction)`` of sample ``i`` (:func:`traction_slips`)."""
+    kf = _axle_slip(kappa, valid, i, 0)
+    kr = _axle_slip(kappa, valid, i, 2)
+    if p.drive == 2:
+        return kf, kr, False
+    front_driven = p.drive == 0
+    k_dr, k_un = (kf, kr) if front_driven else (kr, kf)
+    v_front = valid[i, 0] or valid[i, 1]
+    v_rear = valid[i, 2] or valid[i, 3]
+    v_dr, v_un = (v_front, v_rear) if front_driven else (v_rear, v_front)
+    if v_dr and v_un:
+        k_dr = 1.0 - _rolling_over_speed(k_un) / _rolling_over_speed(k_dr) - p.kappa_offset
+        k_un = 0.0
+    on = v_dr and ax > 0.0 and k_dr >= 0.0
+    return (k_dr, k_un, on) if front_driven else (k_un, k_dr, on)
+
+
+@numba.njit(cache=True)
+def _braking(valid, i, ax, vx):  # pragma: no cover - compiled
+    """Sample ``i`` is a braking sample (:func:`braking_samples`)."""
+    both = (valid[i, 0] or valid[i, 1]) and (valid[i, 2] or valid[i, 3])
+    return ax < -BRAKING_ACCEL and abs(vx) >= BRAKING_MIN_SPEED and both
+
+
+@numba.njit(cache=True)
+def _demonstrated(ay, p):  # pragma: no cover - compiled
+    """``(phi, y)`` of one sample (:func:`demonstrated_channel`)."""
+    a = abs(ay)
+    sigma = p.accel_noise
+    gain = max(p.gain_y, 1.0)
+    a_low = GRIP_CLASS_SPLIT * GRAVITY * gain + DEMONSTRATED_MARGIN * sigma
+    a_high_max = max(p.mu_high * GRAVITY * gain, a_low + sigma)
+    return (min(max(a, a_low), a_high_max) - a_low) / sigma, max(a - a_low, 0.0) / sigma
+
+
+@numba.njit(cache=True)
+def _shape_array(x, c):  # pragma: no cover - compiled
+    out = np.empty(x.shape[0])
+    for i in range(x.shape[0]):
+        out[i] = _shape(x[i], c)
+    return out
+
+
+@numba.njit(cache=True)
+def _axle_slips_array(kappa, valid):  # pragma: no cover - compiled
+    n = kappa.shape[0]
+    kf, kr = np.empty(n), np.empty(n)
+    for i in range(n):
+        kf[i] = _axle_slip(kappa, valid, i, 0)
+        kr[i] = _axle_slip(kappa, valid, i, 2)
+    return kf, kr
+
+
+@numba.njit(cache=True)
+def _predict_array(kf, kr, af, ar, steer, ax_meas, vx, mu, p):  # pragma: no cover - compiled
+    n = kf.shape[0]
+    ax, ay = np.empty(n), np.empty(n)
+    for i in range(n):
+        ax[i], ay[i] = _predict(kf[i], kr[i], af[i], ar[i], steer[i], ax_meas[i], vx[i], mu, p)
+    return ax, ay
+
+
+@numba.njit(cache=True)
+def _class_predictions_array(kf, kr, af, ar, steer, ax_meas, vx, p):  # pragma: no cover - compiled
+    out = np.empty((6, kf.shape[0]))
+    for i in range(kf.shape[0]):
+        out[0, i], out[1, i], out[2, i], out[3, i], out[4, i], out[5, i] = _class_predictions(
+            kf[i], kr[i], af[i], ar[i], steer[i], ax_meas[i], vx[i], p)
+    return out
+
+
+@numba.njit(cache=True)
+def _traction_array(kappa, valid, ax, p):  # pragma: no cover - compiled
+    n = kappa.shape[0]
+    kf, kr, on = np.empty(n), np.empty(n), np.empty(n, np.bool_)
+    for i in range(n):
+        kf[i], kr[i], on[i] = _traction(kappa, valid, i, ax[i], p)
+    return kf, kr, on
+
+
+@numba.njit(cache=True)
+def _braking_array(valid, ax, vx):  # pragma: no cover - compiled
+    out = np.empty(ax.shape[0], np.bool_)
+    for i in range(ax.shape[0]):
+        out[i] = _braking(valid, i, ax[i], vx[i])
+    return out
+
+
+@numba.njit(cache=True)
+def _demonstrated_array(ay, p):  # pragma: no cover - compiled
+    phi, y = np.empty(ay.shape[0]), np.empty(ay.shape[0])
+    for i in range(ay.shape[0]):
+        phi[i], y[i] = _demonstrated(ay[i], p)
+    return phi, y
+
+
+@numba.njit(cache=True)
+def _channels_array(kappa, valid, alpha_f, alpha_r, vx, ax, ay, steer, p, min_speed, braking):  # pragma: no cover
+    """Rows ``phi_long, y_long, phi_lat, y_lat`` and rows ``ax_high, ax_low, ay_high, ay_low,
+    sigma_x, sigma_y`` of :func:`channels`, shapes (4, T) and (6, T)."""
+    n = kappa.shape[0]
+    ch = np.empty((4, n))
+    cp = np.empty((6, n))
+    for i in range(n):
+        kf, kr, on_x = _traction(kappa, valid, i, ax[i], p)
+        brake = braking and _braking(valid, i, ax[i], vx[i])
+        if brake:  # both axles' own slips, not the driven one's against the free wheels
+            kf = _axle_slip(kappa, valid, i, 0)
+            kr = _axle_slip(kappa, valid, i, 2)
+        af = alpha_f[i] - p.alpha_offset_f
+        ar = alpha_r[i] - p.alpha_offset_r
+        _, _, ayh, ayl, _, sy = _class_predictions(kf, kr, af, ar, steer[i], ax[i], vx[i], p)
+        # the longitudinal channel in straight-line traction or braking, without the slip angles
+        axh, axl, _, _, sx, _ = _class_predictions(kf, kr, 0.0, 0.0, steer[i], ax[i], vx[i], p)
+        if brake:
+            sx = math.hypot(sx, p.c_long * GRAVITY * p.speed_noise / max(abs(vx[i]), 0.1))
+        moving = abs(vx[i]) >= min_speed
+        if moving and (on_x or brake) and abs(ay[i]) < LONG_LATERAL_GATE * GRAVITY:
+            ch[0, i] = (axh - axl) / sx
+            ch[1, i] = (ax[i] - axl) / sx
+        else:
+            ch[0, i] = 0.0
+            ch[1, i] = 0.0
+        if not moving:
+            ch[2, i] = 0.0
+            ch[3, i] = 0.0
+        elif p.demonstrated:
+            ch[2, i], ch[3, i] = _demonstrated(ay[i], p)
+        else:
+            ch[2, i] = (ayh - ayl) / sy
+            ch[3, i] = (ay[i] - ayl) / sy
+        cp[0, i], cp[1, i], cp[2, i], cp[3, i], cp[4, i], cp[5, i] = axh, axl, ayh, ayl, sx, sy
+    return ch, cp
+
+
+# ---------------------------------------------------------------------------------------
+# array functions
+
+
+def _column(x: Any, n: int | None = None) -> NDArray[np.float64]:
+    """``x`` as a contiguous float array of shape (T,) (a scalar repeated ``n`` times)."""
+    a = np.ascontiguousarray(x, dtype=float)
+    if a.ndim == 0:
+        return np.full(1 if n is None else n, float(a))
+    return a.reshape(-1)
+
+
+def _wheels(kappa: Any, wheels_valid: Any) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Wheel slips and their validity as contiguous arrays of shape (T, 4)."""
+    k = np.ascontiguousarray(kappa, dtype=float).reshape(-1, 4)
+    v = np.ascontiguousarray(wheels_valid, dtype=np.bool_).reshape(-1, 4)
+    return k, v
+
+
 def shape(x: NDArray, c: float) -> NDArray:
-    """Normalised saturation ``f(x) = sin(c atan(x / c))`` for ``x >= 0`` (slope 1 at 0, peak 1)."""
-    return np.sin(c * np.arctan(np.asarray(x, float) / c))
+    """Normalised saturation ``f(x) = sin(c atan(x / c))`` for ``x >= 0`` (slope 1 at 0, peak 1).
+
+    ``x`` of any shape; the result has its shape.
+    """
+    a = np.asarray(x, float)
+    return _shape_array(np.ascontiguousarray(a.reshape(-1)), float(c)).reshape(a.shape)
 
 
 def axle_slips(kappa: NDArray, wheels_valid: NDArray) -> tuple[NDArray, NDArray]:
@@ -234,13 +548,7 @@ def axle_slips(kappa: NDArray, wheels_valid: NDArray) -> tuple[NDArray, NDArray]
         Wheel slips ``fl, fr, rl, rr`` [-].
     wheels_valid : ndarray of bool, shape (T, 4)
     """
-    k = np.asarray(kappa, float)
-    v = np.asarray(wheels_valid, bool)
-    out = []
-    for sl in (slice(0, 2), slice(2, 4)):
-        n = v[:, sl].sum(-1)
-        out.append(np.where(n > 0, (k[:, sl] * v[:, sl]).sum(-1) / np.maximum(n, 1), 0.0))
-    return out[0], out[1]
+    return _axle_slips_array(*_wheels(kappa, wheels_valid))
 
 
 def predict_accelerations(
@@ -251,25 +559,12 @@ def predict_accelerations(
 
     All inputs have shape (T,): axle slips [-], slip angles and road-wheel angle
     [rad], the measured ``ax`` [m/s²] for the load transfer and the speed ``vx``
-    [m/s] for the road load.
+    [m/s] for the road load (a float: the same at every sample).
     """
-    L = params.lf + params.lr
-    m = params.mass
-    h_ax = params.cg_height * np.asarray(ax_meas, float) / model.gain_x
-    fz = (np.maximum(m * (GRAVITY * params.lr - h_ax) / L, 0.05 * m * GRAVITY),
-          np.maximum(m * (GRAVITY * params.lf + h_ax) / L, 0.05 * m * GRAVITY))
-    forces = []
-    for k, a, z in ((kappa_f, alpha_f, fz[0]), (kappa_r, alpha_r, fz[1])):
-        sx = model.c_long * np.asarray(k, float)
-        sy = model.c_lat * np.tan(np.clip(np.asarray(a, float), -1.4, 1.4))
-        s = np.hypot(sx, sy)
-        ratio = np.where(s > 1e-12, mu * shape(s / mu, model.shape_c) / np.maximum(s, 1e-12), 1.0)
-        forces.append((z * ratio * sx, z * ratio * sy))
-    (fxf, fyf), (fxr, fyr) = forces
-    c, sn = np.cos(steer), np.sin(steer)
-    ax = (fxf * c - fyf * sn + fxr) / m - model.resistance_0 - model.resistance_2 * np.square(vx)
-    ay = (fxf * sn + fyf * c + fyr) / m
-    return model.gain_x * ax, model.gain_y * ay
+    kf = _column(kappa_f)
+    n = kf.shape[0]
+    return _predict_array(kf, _column(kappa_r, n), _column(alpha_f, n), _column(alpha_r, n), _column(steer, n),
+                          _column(ax_meas, n), _column(vx, n), float(mu), grip_kernel_params(params, model))
 
 
 class ClassPredictions(NamedTuple):
@@ -294,33 +589,12 @@ def class_predictions(
     (``slip_noise``, ``slip_angle_noise``) through the linear tire,
     ``c g sigma_slip``.
     """
-    args = (np.atleast_1d(kappa_f), np.atleast_1d(kappa_r), np.atleast_1d(alpha_f),
-            np.atleast_1d(alpha_r), np.atleast_1d(steer), np.atleast_1d(ax_meas), params, model)
-    axh, ayh = predict_accelerations(*args, model.mu_high, vx)
-    axl, ayl = predict_accelerations(*args, model.mu_low, vx)
-    slip_x = model.c_long * GRAVITY * model.slip_noise
-    v = np.maximum(np.abs(np.atleast_1d(np.asarray(vx, float))), 0.1)
-    slip_y = model.c_lat * GRAVITY * (model.slip_angle_noise + model.lateral_speed_noise / v)
-    sx = np.sqrt(model.accel_noise**2 + slip_x**2
-                 + (model.model_error_x * 0.5 * (np.abs(axh) + np.abs(axl))) ** 2)
-    sy = np.sqrt(model.accel_noise**2 + slip_y**2
-                 + (model.model_error_y * 0.5 * (np.abs(ayh) + np.abs(ayl))) ** 2)
-    return ClassPredictions(axh, axl, ayh, ayl, sx, sy)
-
-
-BRAKING_ACCEL = 1.0
-"""Deceleration [m/s²] above which a sample counts as braking for the longitudinal
-channel: every wheel is braked and the axle slips are taken against the coasting speed."""
-
-BRAKING_MIN_SPEED = 5.0
-"""Speed [m/s] below which braking samples carry no class information: the coasting
-speed's error is a growing share of a slowing car's speed, and a stopping car's
-wheels lock or stop whatever the friction."""
-
-LONG_LATERAL_GATE = 0.15
-"""The longitudinal channel counts only while ``|ay| < LONG_LATERAL_GATE g``: in a bend
-the driven tires' combined slip depends on the slip angles, which the kinematic stage
-knows far less well than the wheel slip."""
+    kf = _column(kappa_f)
+    n = kf.shape[0]
+    out = _class_predictions_array(kf, _column(kappa_r, n), _column(alpha_f, n), _column(alpha_r, n),
+                                   _column(steer, n), _column(ax_meas, n), _column(vx, n),
+                                   grip_kernel_params(params, model))
+    return ClassPredictions(*out)
 
 
 class Channels(NamedTuple):
@@ -335,12 +609,6 @@ class Channels(NamedTuple):
     y_long: NDArray[np.float64]
     phi_lat: NDArray[np.float64]
     y_lat: NDArray[np.float64]
-
-
-def _rolling_over_speed(k: NDArray) -> NDArray:
-    """``R omega / vx`` of a wheel from its slip (eq. 2: ``1 / (1 - kappa)`` driving, ``1 + kappa`` braking)."""
-    k = np.clip(k, -0.9, 0.9)
-    return np.where(k >= 0.0, 1.0 / (1.0 - k), 1.0 + k)
 
 
 def traction_slips(
@@ -358,39 +626,38 @@ def traction_slips(
     every wheel slips against a speed that coasts on the accelerometer, is
     :func:`braking_samples`' part.
 
+    Parameters
+    ----------
+    kappa : ndarray, shape (T, 4)
+        Wheel slips ``fl, fr, rl, rr`` [-].
+    wheels_valid : ndarray of bool, shape (T, 4)
+    ax : ndarray, shape (T,)
+        Measured longitudinal acceleration [m/s²].
+    params : VehicleParams
+    offset : float
+        Zero error of the driven axle's slip [-].
+
     Returns
     -------
     kappa_f, kappa_r : ndarray, shape (T,)
     traction : ndarray of bool, shape (T,)
     """
-    kappa = np.atleast_2d(kappa)
-    valid = np.atleast_2d(wheels_valid)
-    kf, kr = axle_slips(kappa, valid)
-    ax = np.atleast_1d(np.asarray(ax, float))
-    if params.drive == "awd":
-        return kf, kr, np.zeros(ax.shape, bool)
-    front_driven = params.drive == "fwd"
-    k_dr, k_un = (kf, kr) if front_driven else (kr, kf)
-    v_dr = valid[:, 0:2].any(-1) if front_driven else valid[:, 2:4].any(-1)
-    v_un = valid[:, 2:4].any(-1) if front_driven else valid[:, 0:2].any(-1)
-    both = v_dr & v_un
-    rel = 1.0 - _rolling_over_speed(k_un) / _rolling_over_speed(k_dr) - offset
-    k_dr = np.where(both, rel, k_dr)
-    k_un = np.where(both, 0.0, k_un)
-    on = v_dr & (ax > 0.0) & (k_dr >= 0.0)
-    return (k_dr, k_un, on) if front_driven else (k_un, k_dr, on)
+    k, v = _wheels(kappa, wheels_valid)
+    p = grip_kernel_params(params, None, float(offset))
+    return _traction_array(k, v, _column(ax, k.shape[0]), p)
 
 
-def braking_samples(kin, ax: NDArray) -> NDArray[np.bool_]:
+def braking_samples(kin: Any, ax: NDArray) -> NDArray[np.bool_]:
     """Samples whose braking slips carry class information, shape (T,).
 
     Decelerating by more than :data:`BRAKING_ACCEL` at :data:`BRAKING_MIN_SPEED`
-    or faster, with a measured wheel on each axle.
+    or faster, with a measured wheel on each axle (``kin`` a
+    :class:`~roadgrip.inference.kinematic.KinematicOutput`: its ``vx`` [m/s] and
+    ``wheels_valid``).
     """
-    ax = np.atleast_1d(np.asarray(ax, float))
-    valid = np.atleast_2d(kin.wheels_valid)
-    both = valid[:, 0:2].any(-1) & valid[:, 2:4].any(-1)
-    return (ax < -BRAKING_ACCEL) & (np.abs(np.atleast_1d(kin.vx)) >= BRAKING_MIN_SPEED) & both
+    v = np.ascontiguousarray(kin.wheels_valid, dtype=np.bool_).reshape(-1, 4)
+    a = _column(ax, v.shape[0])
+    return _braking_array(v, a, _column(kin.vx, a.shape[0]))
 
 
 def demonstrated_channel(ay: NDArray, model: GripModel) -> tuple[NDArray, NDArray]:
@@ -416,18 +683,11 @@ def demonstrated_channel(ay: NDArray, model: GripModel) -> tuple[NDArray, NDArra
         Measured lateral acceleration [m/s²].
     model : GripModel
     """
-    a = np.abs(np.atleast_1d(np.asarray(ay, float)))
-    sigma = model.accel_noise
-    gain = max(model.gain_y, 1.0)
-    a_low = GRIP_CLASS_SPLIT * GRAVITY * gain + DEMONSTRATED_MARGIN * sigma
-    a_high_max = max(model.mu_high * GRAVITY * gain, a_low + sigma)
-    phi = (np.clip(a, a_low, a_high_max) - a_low) / sigma
-    y = np.maximum(a - a_low, 0.0) / sigma
-    return phi, y
+    return _demonstrated_array(_column(ay), grip_kernel_params(None, model))
 
 
 def channels(
-    kin, ax: NDArray, ay: NDArray, steer: NDArray, params: VehicleParams, model: GripModel,
+    kin: Any, ax: NDArray, ay: NDArray, steer: NDArray, params: VehicleParams, model: GripModel,
     min_speed: float = 0.5, braking: bool = True,
 ) -> tuple[Channels, ClassPredictions]:
     """The whitened regressions of both channels from the kinematic stage's output.
@@ -442,32 +702,29 @@ def channels(
     predictions): a consumer that weighs each sample by its class separation, as the
     bRLS does, discounts it, whereas a per-sample vote does not. The longitudinal predictions leave the
     slip angles out (straight-line traction).
+
+    Parameters
+    ----------
+    kin : KinematicOutput
+        One sample (``kappa`` shape (4,)) or T of them (``kappa`` shape (T, 4), the rest (T,)).
+    ax, ay, steer : float or ndarray, shape (T,)
+        Measured accelerations [m/s²] and road-wheel angle [rad].
+    params : VehicleParams
+    model : GripModel
+    min_speed : float
+        [m/s].
+    braking : bool
+        Take braking samples on the longitudinal channel.
+
+    Returns
+    -------
+    Channels, ClassPredictions
+        Arrays of shape (T,).
     """
-    ax = np.atleast_1d(np.asarray(ax, float))
-    ay = np.atleast_1d(np.asarray(ay, float))
-    kf, kr, on_x = traction_slips(kin.kappa, kin.wheels_valid, ax, params, model.kappa_offset)
-    vx = np.atleast_1d(np.asarray(kin.vx, float))
-    brake = braking_samples(kin, ax) if braking else np.zeros(ax.shape, bool)
-    if brake.any():  # both axles' own slips, not the driven one's against the free wheels
-        kf_b, kr_b = axle_slips(np.atleast_2d(kin.kappa), np.atleast_2d(kin.wheels_valid))
-        kf, kr = np.where(brake, kf_b, kf), np.where(brake, kr_b, kr)
-    alpha_f = np.asarray(kin.alpha_f, float) - model.alpha_offset_f
-    alpha_r = np.asarray(kin.alpha_r, float) - model.alpha_offset_r
-    cp = class_predictions(kf, kr, alpha_f, alpha_r, steer, ax, params, model, vx)
-    # the longitudinal channel in straight-line traction or braking, without the slip angles
-    zero = np.zeros_like(np.atleast_1d(kf))
-    cpx = class_predictions(kf, kr, zero, zero, np.atleast_1d(steer), ax, params, model, vx)
-    speed_slip = model.c_long * GRAVITY * model.speed_noise / np.maximum(np.abs(vx), 0.1)
-    sigma_x = np.where(brake, np.hypot(cpx.sigma_x, speed_slip), cpx.sigma_x)
-    cp = cp._replace(ax_high=cpx.ax_high, ax_low=cpx.ax_low, sigma_x=sigma_x)
-    moving = np.abs(np.atleast_1d(kin.vx)) >= min_speed
-    on_x = moving & (on_x | brake) & (np.abs(ay) < LONG_LATERAL_GATE * GRAVITY)
-    phi_x = np.where(on_x, (cp.ax_high - cp.ax_low) / cp.sigma_x, 0.0)
-    y_x = np.where(on_x, (ax - cp.ax_low) / cp.sigma_x, 0.0)
-    if model.lateral_evidence == "demonstrated":
-        phi_d, y_d = demonstrated_channel(ay, model)
-        phi_y, y_y = np.where(moving, phi_d, 0.0), np.where(moving, y_d, 0.0)
-    else:
-        phi_y = np.where(moving, (cp.ay_high - cp.ay_low) / cp.sigma_y, 0.0)
-        y_y = np.where(moving, (ay - cp.ay_low) / cp.sigma_y, 0.0)
-    return Channels(phi_x, y_x, phi_y, y_y), cp
+    k, v = _wheels(kin.kappa, kin.wheels_valid)
+    n = k.shape[0]
+    ch, cp = _channels_array(k, v, _column(kin.alpha_f, n), _column(kin.alpha_r, n), _column(kin.vx, n),
+                             _column(ax, n), _column(ay, n), _column(steer, n),
+                             grip_kernel_params(params, model), float(min_speed), bool(braking))
+    return Channels(*ch), ClassPredictions(*cp)
+
