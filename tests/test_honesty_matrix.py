@@ -43,10 +43,6 @@ KNOWN_DISHONEST_FULL: dict[tuple[str, str], str] = {
     ("mb:ford-escort:figure-eight:1", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 19.7 %
     ("mb:vw-vanagon:figure-eight:0", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 22.1 %
     ("mb:vw-vanagon:figure-eight:1", "gpssm"): _FIGURE_EIGHT_GPSSM,  # axle 27.0 %
-    # the kinematic a_y (r vx + dvy/dt, the DART preset) is the GP-SSM's floor, the rule's
-    # is the accelerometer's: an upper band below the accelerometer's floor on 0.8 % / 1.7 %
-    ("dart:0909-141245", "gpssm"): "axle band below the accelerometer's demonstrated floor on 0.8 %",
-    ("dart:0909-165303", "gpssm"): "axle band below the accelerometer's demonstrated floor on 1.7 %",
     ("revs", "gpssm"): "vy band excludes the INS lateral velocity on 1.4 % (turn-ins; 0 % flagged diverged)",
 }
 """The same for the full corpus (``make verify``), measured with ``benchmarks/honesty_matrix.py``."""

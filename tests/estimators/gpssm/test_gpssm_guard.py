@@ -6,6 +6,7 @@ import pytest
 
 from roadgrip.drive import Drive
 from roadgrip.estimators.gpssm import GPSSM, GPSSMConfig, Sample, drive_inputs, run_filter
+from roadgrip.signals import sustained_grip
 from roadgrip.sim.scenarios import simulate_scenario
 from roadgrip.vehicle import PRESETS
 
@@ -64,6 +65,55 @@ def test_no_upper_bound_below_the_sustained_lateral_acceleration():
         assert (late[f"mu_{axle}_upper"] >= 0.6 - 1e-12).all()
         assert (late[f"mu_{axle}"] >= 0.6 / late["ay_gain"] - 1e-12).all()
     assert (t.loc[t["t"] < 0.9, "floor"] == 0.0).all()
+
+
+def test_the_accelerometer_floors_the_upper_bands_where_the_filter_reads_another_ay():
+    # a steady turn whose filter input a_y (a kinematic one, ay_source='kinematic') says
+    # 0.4 g while the accelerometer reads 0.7 g: both implementations keep the two floors
+    # apart (the 'floor' column, which the peak estimates use, the filter's own 0.4; the
+    # accelerometer's 0.7 for the upper bands) and agree row for row
+    from roadgrip.estimators.gpssm import Context, filter_step, step_reference
+
+    g = 9.80665
+    samples = [Sample(t=0.04 * k, ay=0.4 * g, yaw_rate=0.4 * g / 15.0, steer=0.02, vx=15.0, ay_accel=0.7 * g)
+               for k in range(60)]
+    ctx = Context(_cfg(None, "separable-odd:6", n=24), PRESETS["sedan"])
+    a_state = b_state = None
+    a_rows, b_rows = [], []
+    for s in samples:
+        a_state, ea = step_reference(ctx, a_state, s, seed=1)
+        b_state, eb = filter_step(ctx, b_state, s, seed=1)
+        a_rows.append(ea)
+        b_rows.append(eb)
+    a, b = pd.DataFrame(a_rows), pd.DataFrame(b_rows)
+    pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-7, atol=1e-8)
+    np.testing.assert_allclose(b.loc[b["t"] >= 1.0, "floor"], 0.4, rtol=1e-9)
+    assert a_state.guard.floor_accel == pytest.approx(0.7, rel=1e-12)
+    assert b_state.guard.floor_accel == pytest.approx(0.7, rel=1e-12)
+
+
+def test_an_observed_peak_band_reaches_up_to_what_the_accelerometer_shows():
+    # the snow slalom (peak 0.3) with an accelerometer that reads 0.5 g more than the
+    # filter's a_y: where a front peak is observed, its upper band is lifted to the
+    # accelerometer's floor (about 0.8) instead of ending near 0.3; without that reading
+    # the same rows' upper ends stay below 0.5
+    d = simulate_scenario("snow-slalom", seed=3, duration=30.0)
+    rows = drive_inputs(d)
+    out, floor_accel = {}, {}
+    for label, extra in (("accel", 0.5 * 9.80665), ("none", float("nan"))):
+        f = GPSSM(GPSSMConfig(particles=100), d.vehicle, seed=0)
+        out[label] = pd.DataFrame([f.step(Sample(*r, ay_accel=r[1] + extra)) for r in rows])
+        floor_accel[label] = f.state_.guard.floor_accel
+    obs = out["none"]["peak_observed_front"].to_numpy(bool)
+    assert obs.sum() > 50
+    assert (out["none"]["mu_front_upper"].to_numpy()[obs] < 0.5).all()
+    assert floor_accel["none"] == 0.0
+    # the accelerometer's sustained |a_y| / g (an independent implementation of the floor)
+    floor = sustained_grip(d.t, d.col("ay") + 0.5 * 9.80665)
+    assert floor_accel["accel"] == pytest.approx(floor[-1], rel=1e-9)
+    upper = out["accel"]["mu_front_upper"].to_numpy()
+    assert (upper >= floor - 1e-9).all()
+    assert (upper[obs] < 2.0).all() and (upper[obs] > 0.75).all()
 
 
 def test_collapsed_weights_report_the_yaw_rate_as_well_as_the_gyro_reads_it(snow20):

@@ -22,8 +22,9 @@ State layouts
 (the other is the refactorisation's spare), and the pending rank-1 terms ``pend``,
 ``pgain`` and the carried ``P_B f`` of the peak features ``pkw`` are pairs of which
 ``sc[SC.PAR]`` is the current one (the step writes the other). The guard's window of
-the last second of recorded ``a_y`` is ``gt``, ``gay`` between ``sc[SC.G_HEAD]`` and
-``sc[SC.G_TAIL]``. One row of :class:`OUT` per step, in the order of
+the last second of recorded ``a_y`` is ``gt``, ``gay`` (and the accelerometer's, ``gacc``,
+where ``a_y`` is another source) between ``sc[SC.G_HEAD]`` and ``sc[SC.G_TAIL]``. One row
+of :class:`OUT` per step, in the order of
 :class:`~roadgrip.estimators.gpssm.state.GPSSMEstimate`.
 """
 
@@ -42,6 +43,7 @@ from roadgrip.estimators.gpssm.block_ops import (
     _BAD,
     _C,
     _FLOOR,
+    _FLOOR_ACCEL,
     _HEAD,
     _K,
     _NHIST,
@@ -87,7 +89,7 @@ class SC:
     """Slots of the scalar state ``sc``."""
 
     (K, T, STEER, VX, NU, SIGMA_SCALE, P_SCALE, C, SINCE, NHIST, PK_VALID, PAR, SIG,
-     FLOOR, BAD_SINCE, FLAGGED_UNTIL, RESETS, G_HEAD, G_TAIL, SIZE) = range(20)
+     FLOOR, BAD_SINCE, FLAGGED_UNTIL, RESETS, G_HEAD, G_TAIL, FLOOR_ACCEL, SIZE) = range(21)
 
 
 class OUT:
@@ -116,6 +118,7 @@ class Block(NamedTuple):
     recorded: NDArray
     fz_front: NDArray
     fz_rear: NDArray
+    ay_accel: NDArray
 
 
 class Consts(NamedTuple):
@@ -185,6 +188,7 @@ class Stats(NamedTuple):
     peak_alpha: NDArray
     gt: NDArray
     gay: NDArray
+    gacc: NDArray
 
 
 class PeakTables(NamedTuple):
@@ -409,6 +413,8 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
         dt_hint = t - gt[tail - 1] if tail > head else (dt if dt > 0 else 0.04)
         gt[tail] = t
         gay[tail] = blk.ay[i]
+        accel = blk.ay_accel[i]
+        st.gacc[tail] = accel
         tail += 1
         while tail > head and gt[head] <= t - FLOOR_WINDOW + 1e-9:
             head += 1
@@ -417,9 +423,17 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
             for j in range(head, tail):
                 s += gay[j]
             sc[_FLOOR] = max(sc[_FLOOR], abs(s / (tail - head)) / GRAVITY)
+            if not math.isnan(accel):
+                s = 0.0
+                for j in range(head, tail):
+                    s += st.gacc[j]
+                if not math.isnan(s):
+                    sc[_FLOOR_ACCEL] = max(sc[_FLOOR_ACCEL], abs(s / (tail - head)) / GRAVITY)
         sc[_HEAD] = head
         sc[_TAIL] = tail
     floor_raw = sc[_FLOOR]
+    # the upper bands' floor: what the filter's a_y or the accelerometer shows the car used
+    floor_upper = max(floor_raw, sc[_FLOOR_ACCEL])
     floor_gain = floor_raw / max(e_gain, 1e-6)
     moving = vx >= cst.min_speed
     measured = not math.isnan(vy_meas)
@@ -503,4 +517,4 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
         row[10 + ax] = mu
         row[18 + ax] = 1.0 if obs else 0.0
         row[12 + 2 * ax] = min(lo, mu)
-        row[13 + 2 * ax] = max(max(hi, floor_raw), mu)
+        row[13 + 2 * ax] = max(max(hi, floor_upper), mu)

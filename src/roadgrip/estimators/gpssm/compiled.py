@@ -39,7 +39,7 @@ BOOL_COLUMNS = tuple(ROW_FIELDS[i] for i in _BOOLS)
 
 
 def sample_array(samples: list[Sample]) -> NDArray:
-    """Samples as an array (n, 8) in the field order of :class:`Sample`."""
+    """Samples as an array (n, 9) in the field order of :class:`Sample`."""
     return np.array(samples, dtype=float).reshape(-1, len(Sample._fields))
 
 
@@ -147,7 +147,7 @@ def _check_block(state: GPSSMState | None, data: NDArray) -> None:
 
 
 def advance(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int = 0) -> tuple[GPSSMState, NDArray]:
-    """Run the samples ``data`` (K, 8) (:func:`sample_array`) through the compiled step.
+    """Run the samples ``data`` (K, 9) (:func:`sample_array`) through the compiled step.
 
     ``state=None`` initialises from the first sample with ``seed``. The returned state
     reuses the arrays of ``state``, as :func:`~roadgrip.estimators.gpssm.stepping.step`.
@@ -183,7 +183,8 @@ def advance(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int = 0
     n0 = len(g.times)
     gt = np.zeros(n0 + len(data) + 1)
     gay = np.zeros_like(gt)
-    gt[:n0], gay[:n0] = g.times, g.ay
+    gacc = np.zeros_like(gt)
+    gt[:n0], gay[:n0], gacc[:n0] = g.times, g.ay, g.accel
     sc = np.zeros(bk.SC.SIZE)
     sc[[bk.SC.K, bk.SC.T, bk.SC.STEER, bk.SC.VX, bk.SC.NU]] = (state.k, state.t, *state.u, state.nu)
     sc[[bk.SC.SIGMA_SCALE, bk.SC.P_SCALE, bk.SC.C, bk.SC.SINCE, bk.SC.NHIST]] = (
@@ -191,6 +192,7 @@ def advance(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int = 0
     sc[[bk.SC.PK_VALID, bk.SC.PAR, bk.SC.SIG]] = (lin.pkf is not None, par, si)
     sc[[bk.SC.FLOOR, bk.SC.BAD_SINCE, bk.SC.FLAGGED_UNTIL, bk.SC.RESETS, bk.SC.G_HEAD, bk.SC.G_TAIL]] = (
         g.floor_raw, g.bad_since, g.flagged_until, g.resets, 0, n0)
+    sc[bk.SC.FLOOR_ACCEL] = g.floor_accel
     panc = np.ascontiguousarray(lin.panc, np.int64)
     sanc = np.ascontiguousarray(lin.sanc, np.int64)
     x, mu, logw = (np.ascontiguousarray(a) for a in (state.x, state.mu, state.logw))
@@ -208,10 +210,10 @@ def advance(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int = 0
     bk.run_steps(
         gk.Particles(x, mu, logw, Psi, Phi),
         bk.LinBuffers(sig2, lin.pinv, lin.hist, lin.hcoef, lin.hanc, pend2, pgain2, panc, sanc, pkw2, pkf),
-        bk.Stats(sc, visits, moments, peak_alpha, gt, gay),
+        bk.Stats(sc, visits, moments, peak_alpha, gt, gay, gacc),
         wk,
         bk.Block(data[:, 0], data[:, 1], data[:, 2], data[:, 3], data[:, 4], data[:, 5], data[:, 7] != 0.0,
-                 fzf, fzr),
+                 fzf, fzr, data[:, 8]),
         cst, basis, tables, state.rng, out,
     )
     si, par = int(sc[bk.SC.SIG]), int(sc[bk.SC.PAR])
@@ -222,8 +224,9 @@ def advance(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int = 0
         pkf=pkf if sc[bk.SC.PK_VALID] else None, panc=panc, sanc=sanc,
     )
     head, tail = int(sc[bk.SC.G_HEAD]), int(sc[bk.SC.G_TAIL])
-    g.times, g.ay = gt[head:tail].tolist(), gay[head:tail].tolist()
+    g.times, g.ay, g.accel = gt[head:tail].tolist(), gay[head:tail].tolist(), gacc[head:tail].tolist()
     g.floor_raw, g.bad_since = float(sc[bk.SC.FLOOR]), float(sc[bk.SC.BAD_SINCE])
+    g.floor_accel = float(sc[bk.SC.FLOOR_ACCEL])
     g.flagged_until, g.resets = float(sc[bk.SC.FLAGGED_UNTIL]), int(sc[bk.SC.RESETS])
     new = GPSSMState(
         k=int(sc[bk.SC.K]), t=float(sc[bk.SC.T]), u=sc[[bk.SC.STEER, bk.SC.VX]].copy(), x=x, mu=mu, logw=logw,

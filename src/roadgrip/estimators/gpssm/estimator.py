@@ -21,7 +21,7 @@ from roadgrip.blas_threads import one_blas_thread
 from roadgrip.estimators.base import EstimateResult, ProgressCallback, conform
 from roadgrip.estimators.gpssm.compiled import BOOL_COLUMNS, ROW_FIELDS, advance, sample_array
 from roadgrip.estimators.gpssm.config import GPSSMConfig
-from roadgrip.estimators.gpssm.inputs import Sample, drive_inputs, upsample_inputs
+from roadgrip.estimators.gpssm.inputs import Sample, accelerometer_ay, drive_inputs, upsample_inputs
 from roadgrip.estimators.gpssm.posterior import CurvePosterior, curves_frame, posterior_curves
 from roadgrip.estimators.gpssm.state import Context, GPSSMEstimate, GPSSMState, copy_state
 from roadgrip.estimators.gpssm.stepping import step as filter_step
@@ -47,9 +47,12 @@ class FilterState(NamedTuple):
 
 def config_inputs(drive: Any, config: GPSSMConfig) -> NDArray[np.float64]:
     """:func:`~roadgrip.estimators.gpssm.inputs.drive_inputs` of a drive (or a chunk of one)
-    with ``config``'s sources and its plausibility bound on a measured ``vy``, shape (n, 7)."""
-    return drive_inputs(drive, config.vx_source, config.vy_source, config.ay_source,
+    with ``config``'s sources and its plausibility bound on a measured ``vy``, and the
+    accelerometer's ``ay`` where the filter's is another source
+    (:func:`~roadgrip.estimators.gpssm.inputs.accelerometer_ay`), shape (n, 8)."""
+    data = drive_inputs(drive, config.vx_source, config.vy_source, config.ay_source,
                         max_sideslip_ratio=config.max_sideslip_ratio, min_speed=config.min_speed)
+    return np.column_stack([data, accelerometer_ay(drive, config.ay_source)])
 
 
 def prepare(drive: Any, config: GPSSMConfig) -> Prepared:
@@ -71,7 +74,7 @@ def prepare_rows(drive: Any, config: GPSSMConfig, info: DriveInfo) -> list[Sampl
 
 
 def _samples(data: NDArray[np.float64], keep: NDArray[np.bool_]) -> list[Sample]:
-    return [Sample(*row, recorded=bool(kept)) for row, kept in zip(data, keep, strict=True)]
+    return [Sample(*row[:7], recorded=bool(kept), ay_accel=row[7]) for row, kept in zip(data, keep, strict=True)]
 
 
 def init(info: DriveInfo, config: GPSSMConfig, seed: int = 0) -> FilterState:

@@ -27,7 +27,9 @@ Divergence
 Physics floor
     ``floor`` is the largest ``|mean a_y| / g`` over a full trailing second of recorded
     samples up to the step: the friction the car demonstrably used. No upper bound is reported below it
-    (the accelerometer as read). Over the learned accelerometer gain
+    (the accelerometer as read), nor below the same of the accelerometer where the filter's
+    ``a_y`` is another source (``ay_source='kinematic'``: on the DART recordings the
+    hobby-grade accelerometer's second means run above the kinematic ``a_y``'s). Over the learned accelerometer gain
     (:attr:`GPSSMConfig.ay_gain_sigma`) it is the floor of the peak estimates: an observed
     peak more than ``floor_margin`` below it is reported as not observed (the learned
     curve contradicts the data), and no ``mu_*`` is reported below it.
@@ -81,8 +83,13 @@ class Guard:
     times, ay : list of float
         The last ``FLOOR_WINDOW`` seconds of samples: time [s] and measured ``a_y``
         [m/s²].
+    accel : list of float
+        The accelerometer's ``a_y`` [m/s²] at the same times where the filter's ``a_y`` is
+        another source (:attr:`Sample.ay_accel`; NaN otherwise).
     floor_raw : float
         Running maximum of ``|mean a_y| / g`` over full windows, as read.
+    floor_accel : float
+        The same of the accelerometer's ``a_y`` (0 while the filter's is the accelerometer's).
     bad_since : float
         Time [s] since which the yaw-rate or weight check has failed (NaN: passing).
     flagged_until : float
@@ -91,33 +98,41 @@ class Guard:
         Re-initialisations so far.
     """
 
-    __slots__ = ("ay", "bad_since", "flagged_until", "floor_raw", "resets", "times")
+    __slots__ = ("accel", "ay", "bad_since", "flagged_until", "floor_accel", "floor_raw", "resets", "times")
 
     def __init__(self) -> None:
         self.times: list[float] = []
         self.ay: list[float] = []
+        self.accel: list[float] = []
         self.floor_raw = 0.0
+        self.floor_accel = 0.0
         self.bad_since = math.nan
         self.flagged_until = -math.inf
         self.resets = 0
 
     def copy(self) -> Guard:
         g = Guard()
-        g.times, g.ay = list(self.times), list(self.ay)
-        g.floor_raw, g.bad_since = self.floor_raw, self.bad_since
+        g.times, g.ay, g.accel = list(self.times), list(self.ay), list(self.accel)
+        g.floor_raw, g.bad_since, g.floor_accel = self.floor_raw, self.bad_since, self.floor_accel
         g.flagged_until, g.resets = self.flagged_until, self.resets
         return g
 
-    def add(self, t: float, ay: float, dt_hint: float) -> None:
+    def add(self, t: float, ay: float, dt_hint: float, accel: float = math.nan) -> None:
         """Add a sample and update the floors (a window counts once it spans
-        ``FLOOR_WINDOW`` less one and a half sample intervals)."""
+        ``FLOOR_WINDOW`` less one and a half sample intervals; the accelerometer's once
+        its values in the window are all numbers)."""
         self.times.append(t)
         self.ay.append(ay)
+        self.accel.append(accel)
         while self.times and self.times[0] <= t - FLOOR_WINDOW + 1e-9:
             self.times.pop(0)
             self.ay.pop(0)
+            self.accel.pop(0)
         if self.times and t - self.times[0] >= FLOOR_WINDOW - 1.5 * dt_hint:
             self.floor_raw = max(self.floor_raw, abs(sum(self.ay) / len(self.ay)) / GRAVITY)
+            s = sum(self.accel)
+            if not math.isnan(accel) and not math.isnan(s):
+                self.floor_accel = max(self.floor_accel, abs(s / len(self.accel)) / GRAVITY)
 
 
 def ay_noise(ay) -> float:
@@ -184,7 +199,8 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
     t = float(sample.t)
     if sample.recorded:
         # recorded samples only: the floor of the data, not of the interpolated sub-steps
-        g.add(t, float(sample.ay), t - g.times[-1] if g.times else (dt if dt > 0 else 0.04))
+        g.add(t, float(sample.ay), t - g.times[-1] if g.times else (dt if dt > 0 else 0.04),
+              float(sample.ay_accel))
     # the floor over the accelerometer gain as learned now (a constant of the car)
     floor_gain = g.floor_raw / max(est.ay_gain, 1e-6)
     vx = float(sample.vx)
@@ -245,7 +261,8 @@ def guard_step(ctx, state, est, sample: Sample, dt: float):
         rep[f"mu_{axle}"] = float(mu)
         rep[f"peak_observed_{axle}"] = bool(obs)
         rep[f"mu_{axle}_lower"] = float(min(lo, mu))
-        rep[f"mu_{axle}_upper"] = float(max(hi, g.floor_raw, mu))
+        # the upper band's floor: what the filter's a_y or the accelerometer shows the car used
+        rep[f"mu_{axle}_upper"] = float(max(hi, g.floor_raw, g.floor_accel, mu))
     return est._replace(**rep)
 
 

@@ -17,8 +17,8 @@ from numpy.typing import NDArray
 from roadgrip.inference.kinematic import kinematic_lateral_acceleration
 from roadgrip.signals import WHEELS, pose_velocity, rolling_speed, speed_wheels
 
-__all__ = ["POSE_DIFFERENCE_LOOKAHEAD", "SUBSTEP_INTERVALS", "SUBSTEP_TOLERANCE", "Sample", "drive_inputs", "drive_vx", "drive_vy", "input_lookahead",
-           "substeps", "upsample_inputs"]
+__all__ = ["POSE_DIFFERENCE_LOOKAHEAD", "SUBSTEP_INTERVALS", "SUBSTEP_TOLERANCE", "Sample", "accelerometer_ay",
+           "drive_inputs", "drive_vx", "drive_vy", "input_lookahead", "substeps", "upsample_inputs"]
 
 POSE_DIFFERENCE_LOOKAHEAD = 1.5
 """Look-ahead of a velocity differentiated from the pose by central differences, in
@@ -32,7 +32,10 @@ class Sample(NamedTuple):
     ``ax`` the longitudinal acceleration [m/s²] of the axle loads (NaN: none,
     ``GPSSMConfig.axle_loads``);
     ``recorded`` is False for a sub-step interpolated between recorded samples
-    (:func:`upsample_inputs`), which gives no output row.
+    (:func:`upsample_inputs`), which gives no output row;
+    ``ay_accel`` the accelerometer's lateral acceleration [m/s²] where ``ay`` is another
+    source (``GPSSMConfig.ay_source='kinematic'``; NaN: ``ay`` is the accelerometer's):
+    the guard's physics floor of the upper bands counts what either shows the car used.
     """
 
     t: float
@@ -43,6 +46,7 @@ class Sample(NamedTuple):
     vy: float = math.nan
     ax: float = math.nan
     recorded: bool = True
+    ay_accel: float = math.nan
 
 
 def drive_vx(drive: Any, source: str = "auto") -> NDArray[np.float64]:
@@ -158,6 +162,15 @@ def drive_inputs(
     if max_sideslip_ratio is not None:
         vy = np.where((vx >= min_speed) & (np.abs(vy) > max_sideslip_ratio * np.abs(vx)), np.nan, vy)
     return np.column_stack([drive.col("t"), ay, drive.col("yaw_rate"), drive.col("steer"), vx, vy, ax])
+
+
+def accelerometer_ay(drive: Any, ay_source: str = "imu") -> NDArray[np.float64]:
+    """The :attr:`Sample.ay_accel` column of a drive, shape (n,) [m/s²]: the accelerometer's
+    ``ay`` where the filter's ``ay`` is another source (``ay_source='kinematic'``), else NaN
+    (the filter's ``ay`` is the accelerometer's, or there is none)."""
+    if ay_source == "kinematic" and drive.has("ay"):
+        return drive.col("ay").astype(float)
+    return np.full(drive.n, np.nan)
 
 
 SUBSTEP_INTERVALS = 20

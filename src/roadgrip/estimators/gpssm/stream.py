@@ -161,7 +161,7 @@ def begin(first: Any, config: GPSSMConfig | None = None, seed: int = 0, *,
 
 
 def _chunk_samples(state: StreamState, chunk: Any) -> tuple[NDArray, NDArray]:
-    """The chunk's filter samples (n', 8) (``sample_array`` layout, sub-steps included)
+    """The chunk's filter samples (n', 9) (``sample_array`` layout, sub-steps included)
     and its last input row."""
     config = state.ctx.config
     data = config_inputs(chunk, config)
@@ -177,7 +177,7 @@ def _chunk_samples(state: StreamState, chunk: Any) -> tuple[NDArray, NDArray]:
         # the sub-steps of the interval across the seam interpolate from the last row before it
         rows, keep, _ = upsample_inputs(np.vstack([state.last, data]), config.max_dt, k)
         rows, keep = rows[1:], keep[1:]
-    return np.column_stack([rows, keep.astype(float)]), data[-1].copy()
+    return np.column_stack([rows[:, :7], keep.astype(float), rows[:, 7:]]), data[-1].copy()
 
 
 def run_chunk(state: StreamState, chunk: Any) -> ChunkResult:
@@ -280,7 +280,7 @@ def carried_bytes(obj: Any, _seen: set[int] | None = None) -> int:
     if isinstance(obj, np.ndarray):
         return obj.nbytes if obj.base is None or id(obj.base) not in seen else 0
     if isinstance(obj, Guard):
-        return 8 * (len(obj.times) + len(obj.ay))
+        return 8 * (len(obj.times) + len(obj.ay) + len(obj.accel))
     if isinstance(obj, Context):
         return carried_bytes(obj.kernel, seen)
     if isinstance(obj, dict):
