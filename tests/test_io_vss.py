@@ -166,3 +166,23 @@ def test_rules_on_hand_made_tables():
                       grip_floor=[0.9], grip_now=[0.2])
     r = vss_records(tab, "cascade", (0.0, 2.0))[0]
     assert r[LB] == pytest.approx(100 * (0.3 - Z95 * 0.05 / np.sqrt(2))) and r[UB] == pytest.approx(90.0)
+
+
+@pytest.mark.parametrize(("method", "scenario"), [("cascade", "snow-slalom"), ("slipmap", "dry-gravel-dry")])
+def test_the_vss_columns_are_all_the_rules_read(method, scenario):
+    """The live loop gives :func:`vss_records` only :data:`VSS_COLUMNS`: on a drive where the
+    method claims, the records from those columns equal those from the whole estimate
+    table, also with a NaN ``grip_now`` (the floor of a 'low' claim)."""
+    from roadgrip.io.vss import VSS_COLUMNS
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    drive = simulate_scenario(scenario, seed=0, duration=60.0)
+    result, prior = _run(method, drive)
+    tab = result.table
+    full = vss_records(tab, method, prior)
+    assert sum(len(r) > 1 for r in full) > 100
+    assert vss_records(tab[[c for c in tab.columns if c in VSS_COLUMNS]], method, prior) == full
+    if "grip_now" in tab.columns:
+        gap = tab.assign(grip_now=np.where(np.arange(len(tab)) % 3 == 0, np.nan, tab["grip_now"]))
+        assert vss_records(gap[[c for c in gap.columns if c in VSS_COLUMNS]], method, prior) == vss_records(
+            gap, method, prior)

@@ -49,3 +49,17 @@ def test_the_vss_rules_give_the_same_records_as_on_a_dataframe(method):
 def test_columns_of_different_lengths_are_refused():
     with pytest.raises(ValueError, match="different lengths"):
         ArrayFrame({"t": [0.0, 0.1], "ay": [0.0]})
+
+
+def test_columns_from_records_are_those_of_the_records_given():
+    """A column of :meth:`ArrayFrame.from_records` is built when first read, from the records
+    as they were given: a caller that goes on to change its list changes nothing."""
+    records = [{"t": 0.0, "ay": 0.5}, {"t": 0.01, "ay": 0.6}]
+    frame = ArrayFrame.from_records(records, ["t", "ay"])
+    records.pop(0)
+    records.append({"t": 0.02, "ay": 0.7})
+    assert len(frame) == 2 and tuple(frame.columns) == ("t", "ay")
+    assert frame["ay"].to_numpy(float).tolist() == [0.5, 0.6]
+    with pytest.raises(KeyError):
+        frame["psi"]
+    assert len(ArrayFrame.from_records([], ["t"])["t"]) == 0

@@ -54,17 +54,26 @@ class ArrayFrame:
             raise ValueError(f"columns of different lengths: {sorted(lengths)}")
         self._n = lengths.pop() if lengths else 0
         self.columns: Sequence[str] = tuple(self._cols)
+        self._records: Sequence[Mapping[str, Any]] = ()
 
     @classmethod
     def from_records(cls, records: Sequence[Mapping[str, Any]], columns: Sequence[str]) -> ArrayFrame:
-        """The frame of ``records`` (one mapping per row) over ``columns``."""
-        return cls({c: [r[c] for r in records] for c in columns})
+        """The frame of ``records`` (one mapping per row, each with every one of ``columns``)
+        over ``columns``. A column becomes an array when it is first read: a reader that
+        needs a few of many columns pays for those."""
+        frame = cls({})
+        frame._records = list(records)
+        frame._n = len(frame._records)
+        frame.columns = tuple(str(c) for c in columns)
+        return frame
 
     def __len__(self) -> int:
         return self._n
 
     def __getitem__(self, name: str) -> ArrayColumn:
-        try:
-            return self._cols[name]
-        except KeyError:
-            raise KeyError(name) from None
+        col = self._cols.get(name)
+        if col is None:
+            if name not in self.columns:  # every column of a frame not from records is built
+                raise KeyError(name)
+            col = self._cols[name] = np.asarray([r[name] for r in self._records]).view(ArrayColumn)
+        return col

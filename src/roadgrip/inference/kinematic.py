@@ -65,6 +65,7 @@ the estimates of one run over the whole drive.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -198,8 +199,10 @@ def _aid(cfg: KinematicConfig, have_all_wheels: bool, have_pose: bool) -> str:
     return "pose" if (have_pose and not have_all_wheels) else "wheels"
 
 
+@functools.lru_cache(maxsize=64)
 def kinematic_params(params: VehicleParams, cfg: KinematicConfig, aid: str) -> KinematicParams:
-    """The compiled update's parameters for a vehicle, tuning and resolved velocity aid."""
+    """The compiled update's parameters for a vehicle, tuning and resolved velocity aid
+    (cached: the online step asks at every sample; the record is not to be modified)."""
     return KinematicParams(
         AID_CODES[aid], driven_wheels(params.drive).astype(np.int64), params.wheel_radius,
         params.lf, params.lr, 0.5 * params.track_width, cfg.tau_vx, cfg.tau_pose, cfg.tau_beta,
@@ -247,12 +250,12 @@ def wheel_slips(
     # wheel-centre longitudinal speed in each wheel's frame
     vl, vr = vx - r * h, vx + r * h
     lat_f = vy + params.lf * r
-    v_wheel = np.stack(
-        [vl * np.cos(d) + lat_f * np.sin(d), vr * np.cos(d) + lat_f * np.sin(d), vl, vr], axis=-1
-    )
+    cos_d, sin_d = np.cos(d), np.sin(d)
+    v_wheel = np.stack([vl * cos_d + lat_f * sin_d, vr * cos_d + lat_f * sin_d, vl, vr], axis=-1)
     omega = np.asarray(omega, float)
-    kappa = longitudinal_slip(np.nan_to_num(omega), v_wheel, params.wheel_radius, v_eps=v_eps)
-    kappa = np.where(np.isfinite(omega), kappa, 0.0)
+    measured = np.isfinite(omega)
+    kappa = longitudinal_slip(np.where(measured, omega, 0.0), v_wheel, params.wheel_radius, v_eps=v_eps)
+    kappa = np.where(measured, kappa, 0.0)
     a_f, a_r = slip_angles(vx, vy, r, d, params, v_eps=v_eps)
     return kappa, a_f, a_r
 
@@ -331,9 +334,10 @@ def inputs_from_drive(drive: Drive) -> dict[str, NDArray[np.float64]]:
     n = drive.n
     nan = np.full(n, np.nan)
     omega = np.stack([drive.col(c) if drive.has(c) else nan for c in WHEEL_COLUMNS], axis=-1)
-    pose = {c: (drive.col(c) if drive.has_pose else nan) for c in ("x", "y", "psi")}
-    vxm = drive.col("vx") if drive.has("vx") else nan
-    if not np.isfinite(omega).any() and not drive.has_pose and not drive.has("vx"):
+    has_pose, has_vx = drive.has_pose, drive.has("vx")
+    pose = {c: (drive.col(c) if has_pose else nan) for c in ("x", "y", "psi")}
+    vxm = drive.col("vx") if has_vx else nan
+    if not has_pose and not has_vx and not np.isfinite(omega).any():
         from roadgrip.drive import DriveValidationError
 
         raise DriveValidationError(

@@ -47,7 +47,7 @@ import pandas as pd
 
 from roadgrip.constants import GRIP_CLASS_SPLIT, Z95
 
-__all__ = ["PEAK_FLAGGING_METHODS", "VSS_PREFIX", "vss_records", "write_vss"]
+__all__ = ["PEAK_FLAGGING_METHODS", "VSS_COLUMNS", "VSS_PREFIX", "vss_records", "write_vss"]
 
 VSS_PREFIX = "Vehicle.ADAS.ESC.RoadFriction."
 """VSS branch of the three friction signals (``MostProbable``, ``LowerBound``, ``UpperBound``)."""
@@ -55,7 +55,19 @@ VSS_PREFIX = "Vehicle.ADAS.ESC.RoadFriction."
 PEAK_FLAGGING_METHODS = ("gpssm",)
 """Methods whose ``peak_observed_*`` flags say when ``mu_*`` estimates the peak."""
 
+VSS_COLUMNS = (
+    "t", "mu_front", "mu_rear", "mu_front_std", "mu_rear_std", "mu_front_lower", "mu_rear_lower",
+    "mu_front_upper", "mu_rear_upper", "grip_floor", "grip_now", "excited", "peak_observed_front",
+    "peak_observed_rear", "grip_class", "diverged",
+)
+"""The estimate table's columns :func:`vss_records` reads (a caller may give it only these)."""
+
 _TOL = 1e-9  # a band end within this of the prior's has not moved
+
+
+def _zero_nan(x: np.ndarray) -> np.ndarray:
+    """``x`` with NaN as 0 (an infinite value stays: every rule below treats it as the largest)."""
+    return np.where(np.isnan(x), 0.0, x)
 
 
 def _combined(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -66,8 +78,8 @@ def _combined(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         wr = 1.0 / table["mu_rear_std"].to_numpy(float) ** 2
         mp = (wf * mf + wr * mr) / (wf + wr)
         sd = 1.0 / np.sqrt(wf + wr)
-        floor = np.nan_to_num(table["grip_floor"].to_numpy(float)) if "grip_floor" in table.columns else 0.0
-        now = np.nan_to_num(table["grip_now"].to_numpy(float)) if "grip_now" in table.columns else 0.0
+        floor = _zero_nan(table["grip_floor"].to_numpy(float)) if "grip_floor" in table.columns else 0.0
+        now = _zero_nan(table["grip_now"].to_numpy(float)) if "grip_now" in table.columns else 0.0
         lo = np.maximum(mp - Z95 * sd, now)
         return np.maximum(mp, lo), lo, np.maximum(mp + Z95 * sd, floor)
     lo = np.minimum(table["mu_front_lower"].to_numpy(float), table["mu_rear_lower"].to_numpy(float))
@@ -120,7 +132,7 @@ def vss_records(
         cls = table["grip_class"].astype(str).to_numpy()
         # the floor of a 'low' claim about the present surface: the grip used now
         floor = table["grip_now"].to_numpy(float) if "grip_now" in table.columns else np.zeros(n)
-        floor = np.clip(np.nan_to_num(floor), 0.0, GRIP_CLASS_SPLIT)
+        floor = np.clip(_zero_nan(floor), 0.0, GRIP_CLASS_SPLIT)
         hi, low = cls == "high", cls == "low"
         values["MostProbable"] = np.where(hi, max(p_up, GRIP_CLASS_SPLIT),
                                           np.where(low, np.clip(p_lo, floor, GRIP_CLASS_SPLIT), np.nan))

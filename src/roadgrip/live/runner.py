@@ -31,7 +31,7 @@ from roadgrip.estimators import get
 from roadgrip.estimators.array_frame import ArrayFrame
 from roadgrip.estimators.online import OnlineEstimator
 from roadgrip.estimators.protocol import rows_to_table
-from roadgrip.io.vss import VSS_PREFIX, vss_records
+from roadgrip.io.vss import VSS_COLUMNS, VSS_PREFIX, vss_records
 from roadgrip.live.assembler import Row
 from roadgrip.vehicle.params import VehicleParams
 
@@ -196,17 +196,16 @@ class LiveEstimator:
 
     def _answered(self, rows: list[dict[str, Any]]) -> list[LiveRow]:
         """The estimator's rows as live rows (VSS values, class, axles)."""
-        if self._out_columns is None:
-            self._out_columns = list(rows[0])
-        table = ArrayFrame.from_records(rows, self._out_columns)
-        excited = table["excited"].to_numpy(bool) if "excited" in table.columns else np.zeros(len(rows), bool)
+        if self._out_columns is None:  # only what the VSS rules read
+            self._out_columns = [c for c in VSS_COLUMNS if c in rows[0] and c != "excited"]
+        columns: dict[str, Any] = {c: [r[c] for r in rows] for c in self._out_columns}
+        excited = np.array([bool(r.get("excited", False)) for r in rows], bool)
         if self._informed and len(rows):
-            excited = excited.copy()
             excited[0] = True  # informed by earlier rows
-            table = ArrayFrame({**{c: table[c] for c in table.columns}, "excited": excited})
         if excited.any():
             self._informed = True
-        records = vss_records(table, self.method, self.prior)  # type: ignore[arg-type]
+        columns["excited"] = excited
+        records = vss_records(ArrayFrame(columns), self.method, self.prior)  # type: ignore[arg-type]
         nan = float("nan")
         out = []
         for row, rec in zip(rows, records, strict=True):

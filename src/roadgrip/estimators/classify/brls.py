@@ -99,6 +99,7 @@ from roadgrip.estimators.classify.frontend import (
     front_batch,
     front_init,
     front_step,
+    kinematic_samples,
     prepare_classifier,
 )
 from roadgrip.estimators.classify.grip_model import (
@@ -353,6 +354,12 @@ def prepare(drive: Drive, config: BRLSEstimatorConfig) -> Prepared:
     return prepare_classifier(drive, config.settings.lateral_acceleration)
 
 
+def prepare_rows(drive: Drive, config: Any, info: DriveInfo) -> list[KinematicInput]:
+    """The kinematic samples of a piece of a drive after its start (what the drive's info
+    is, :func:`prepare` derived from its first samples)."""
+    return kinematic_samples(drive)
+
+
 def init(info: DriveInfo, config: BRLSEstimatorConfig, seed: int = 0) -> BRLSRunState:
     """State before the first sample (deterministic: ``seed`` is not used)."""
     cfg = config.settings
@@ -408,6 +415,7 @@ BRLS = Estimator(
     summary="Friction-state classification with two bistable RLS channels and a state machine.",
     Config=BRLSEstimatorConfig,
     prepare=prepare,
+    prepare_rows=prepare_rows,
     init=init,
     step=step,
     run=run,

@@ -217,11 +217,13 @@ class GripModel:
         return cls(**{k: kinds.get(k, float)(v) for k, v in d.items()})
 
 
+@functools.lru_cache(maxsize=64)
 def default_grip_model(params: VehicleParams, mu_high: float, mu_low: float) -> GripModel:
     """The uncalibrated model of a vehicle: stiffness from its parameters, unit gains.
 
     ``c_lat`` is the mean over the axles of the cornering stiffness over the
-    static axle load; ``c_long = c_lat``.
+    static axle load; ``c_long = c_lat``. (Cached: the online step asks for it at every
+    sample.)
     """
     L = params.lf + params.lr
     fz_f = params.mass * GRAVITY * params.lr / L

@@ -82,6 +82,7 @@ from roadgrip.estimators.classify.frontend import (
     front_batch,
     front_init,
     front_step,
+    kinematic_samples,
     prepare_classifier,
 )
 from roadgrip.estimators.classify.slipmap_config import (
@@ -240,6 +241,12 @@ def prepare(drive: Drive, config: SlipMapEstimatorConfig) -> Prepared:
     return prepare_classifier(drive, config.settings.lateral_acceleration)
 
 
+def prepare_rows(drive: Drive, config: Any, info: DriveInfo) -> list[KinematicInput]:
+    """The kinematic samples of a piece of a drive after its start (what the drive's info
+    is, :func:`prepare` derived from its first samples)."""
+    return kinematic_samples(drive)
+
+
 def init(info: DriveInfo, config: SlipMapEstimatorConfig, seed: int = 0) -> SlipMapRunState:
     """State before the first sample (deterministic: ``seed`` is not used)."""
     cfg = config.settings
@@ -291,6 +298,7 @@ SLIPMAP = Estimator(
     summary="Friction-state classification on the slip-acceleration maps (Sec. V).",
     Config=SlipMapEstimatorConfig,
     prepare=prepare,
+    prepare_rows=prepare_rows,
     init=init,
     step=step,
     run=run,
