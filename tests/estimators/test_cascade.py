@@ -206,6 +206,32 @@ def test_online_steps_give_the_stage_estimates_and_state_of_run(drive06):
     np.testing.assert_allclose([r["mu_rear_upper"] for r in rows], tab["mu_rear_upper"], rtol=0, atol=1e-12)
 
 
+def test_stepping_past_the_noise_window_keeps_the_batch_noise_levels_in_bounded_memory(drive06):
+    """One sample at a time over 40 s (twenty noise updates, more than NOISE_WINDOW): the
+    running noise levels in force are those of the batch run, the rows its rows, and the
+    memory holds the window and at most RECENT_BLOCKS unjoined one-sample blocks."""
+    from roadgrip.estimators.cascade.running_noise import NOISE_WINDOW, RECENT_BLOCKS
+
+    cfg = C.CascadeConfig()
+    prep = C.prepare(drive06, cfg)
+    assert prep.info.derived["noise_running"]  # the drive gives no noise: it is estimated
+    st = C.init(prep.info, cfg)
+    rows, spans = [], []
+    for s in prep.samples:
+        st, row = C.step(st, s)
+        rows.append(row)
+        mem = st.noise_memory
+        assert len(mem.recent) < RECENT_BLOCKS
+        spans.append(float(mem.joined()[0][-1] - mem.joined()[0][0]))
+    assert drive06.duration > NOISE_WINDOW + 5.0
+    assert max(spans) < NOISE_WINDOW + RECENT_BLOCKS * 0.011
+    out, end = _filter(drive06, cfg)
+    for name in ("var_acc", "var_gyro", "var_speed"):
+        assert getattr(st.params, name) == getattr(end.params, name)
+    np.testing.assert_allclose([r["mu_front"] for r in rows], out[:, C.Out.MU_F], rtol=0, atol=1e-9)
+    np.testing.assert_allclose([r["vy"] for r in rows], out[:, C.Out.VY], rtol=0, atol=1e-12)
+
+
 def test_upper_bound_never_below_the_sustained_lateral_acceleration(drive06):
     """A car that held |a_y| for a second proves mu >= |a_y| / g: no band may end below it,
     even one that a confident prior would put there."""

@@ -40,7 +40,7 @@ from roadgrip.inference.kalman import merwe_weights
 from roadgrip.signals import current_grip, grip_step, undriven_wheels
 from roadgrip.vehicle.params import VehicleParams
 
-__all__ = ["ESTIMATOR", "CascadeState", "init", "lookahead", "prepare", "run", "run_filter", "step"]
+__all__ = ["ESTIMATOR", "CascadeState", "init", "lookahead", "prepare", "prepare_rows", "run", "run_filter", "step"]
 
 CONSISTENCY_TIME = 5.0
 """Time constant [s] of the running mean square of the slip-angle consistency residuals."""
@@ -209,6 +209,13 @@ def prepare(drive: Drive, config: CascadeConfig) -> Prepared:
         **pose,
     )
     return Prepared(info, CascadeSamples(inputs, drive_pose(drive), candidates))
+
+
+def prepare_rows(drive: Drive, config: CascadeConfig, info: DriveInfo) -> CascadeSamples:
+    """The samples of a piece of a drive after its start (:func:`prepare`'s, without the
+    drive's info, which ``info`` holds from its first samples)."""
+    inputs, _src, _share, _pose, candidates = drive_inputs(drive, config)
+    return CascadeSamples(inputs, drive_pose(drive), candidates)
 
 
 JITTER_MARGIN = 1.1
@@ -385,6 +392,7 @@ ESTIMATOR = Estimator(
     summary="Three-stage Kalman cascade EKF -> UKF -> UKF: velocities, axle forces, axle friction.",
     Config=CascadeConfig,
     prepare=prepare,
+    prepare_rows=prepare_rows,
     init=init,
     step=step,
     run=run,

@@ -48,6 +48,7 @@ from roadgrip.signals import white_noise_std
 __all__ = [
     "BIAS_STD",
     "NOISE_WINDOW",
+    "RECENT_BLOCKS",
     "STANDSTILL_S",
     "UPDATE_PERIOD",
     "NoiseMemory",
@@ -102,7 +103,8 @@ class NoiseMemory(NamedTuple):
     Attributes
     ----------
     t : ndarray, shape (m,)
-        Times [s] of the window's samples.
+        Times [s] of the window's samples (and possibly older ones, which the estimates
+        leave out: the window is cut when blocks are joined).
     x : ndarray, shape (m, 4 + C)
         Their ``ax, ay`` [m/s²], yaw rate [rad/s], speed [m/s] and the error
         ``vx - speed`` [m/s] of each of the ``C`` candidate pose velocities.
@@ -114,6 +116,10 @@ class NoiseMemory(NamedTuple):
         The biases have been switched on by a standstill.
     pose_choice : int
         Index of the candidate pose velocity in use (the last, the longest window, first).
+    recent : tuple of (ndarray, ndarray)
+        The ``(t, x)`` blocks after ``t``, ``x``, not yet joined to them (at most
+        :data:`RECENT_BLOCKS`): a block of one sample, the online step, does not copy the
+        window.
     """
 
     t: NDArray[np.float64]
@@ -122,6 +128,20 @@ class NoiseMemory(NamedTuple):
     still_since: float
     bias_on: bool
     pose_choice: int = -1
+    recent: tuple[tuple[NDArray[np.float64], NDArray[np.float64]], ...] = ()
+
+    def joined(self, t: NDArray[np.float64] | None = None, x: NDArray[np.float64] | None = None,
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Times and samples of the memory followed by ``t``, ``x``, as two arrays."""
+        blocks = [(self.t, self.x), *self.recent] + ([] if t is None or x is None else [(t, x)])
+        if len(blocks) == 1:
+            return blocks[0]
+        return np.concatenate([b[0] for b in blocks]), np.concatenate([b[1] for b in blocks])
+
+
+RECENT_BLOCKS = 64
+"""Blocks held in :attr:`NoiseMemory.recent` before they are joined to the window (and the
+window cut to :data:`NOISE_WINDOW`)."""
 
 
 def memory_init(candidates: int = 0) -> NoiseMemory:
@@ -172,7 +192,8 @@ def _stand_start(t: NDArray, still: NDArray, since: float) -> NDArray[np.float64
     """Start time of the standstill each sample belongs to (NaN when moving)."""
     n = len(t)
     idx = np.arange(n)
-    starts = still & np.r_[True, ~still[:-1]] if n else still
+    starts = still.copy()
+    starts[1:] &= ~still[:-1]
     first = np.maximum.accumulate(np.where(starts, idx, -1)) if n else idx
     out = np.where(still, t[np.maximum(first, 0)], np.nan)
     if n and still[0] and since == since:  # the standstill goes on from the previous block
@@ -217,11 +238,15 @@ def run_adaptive(plan: NoisePlan, memory: NoiseMemory, f: Filter, u: Inputs, t_p
         return np.zeros((0, 0)), memory, params
     t = u.t
     cand = candidates if candidates is not None and len(plan.pose_windows) else None
-    errs = [] if cand is None else [cand[c, 0] - u.speed for c in range(cand.shape[0])]
-    x_new = np.column_stack([u.ax, u.ay, u.yaw_rate, u.speed, *errs])
-    t_all = np.concatenate([memory.t, t])
-    x_all = np.concatenate([memory.x, x_new])
-    m0 = len(memory.t)
+    n_cand = 0 if cand is None else cand.shape[0]
+    x_new = np.empty((n, 4 + n_cand))
+    for c, a in enumerate((u.ax, u.ay, u.yaw_rate, u.speed)):
+        x_new[:, c] = a
+    for c in range(n_cand):
+        x_new[:, 4 + c] = cand[c, 0] - u.speed  # type: ignore[index]
+    t_all: NDArray[np.float64] | None = None  # the memory and the block, joined at an update
+    x_all = t_all
+    m0 = 0
     still = (np.abs(u.speed) < STILL_SPEED) & (np.abs(u.yaw_rate) < STILL_SPEED)
     since = _stand_start(t, still, memory.still_since)
     bias_at = n
@@ -241,6 +266,9 @@ def run_adaptive(plan: NoisePlan, memory: NoiseMemory, f: Filter, u: Inputs, t_p
                 f.Pe[i, i] = BIAS_STD**2
             bias_on = True
         if t[k] >= next_update:
+            if t_all is None:
+                m0 = len(memory.t) + sum(len(b[0]) for b in memory.recent)
+                t_all, x_all = memory.joined(t, x_new)
             lo = int(np.searchsorted(t_all, t[k] - NOISE_WINDOW, side="right"))
             params, choice = _update(plan, params, x_all[lo:m0 + k], choice)
             next_update = float(t[k]) + UPDATE_PERIOD
@@ -256,6 +284,12 @@ def run_adaptive(plan: NoisePlan, memory: NoiseMemory, f: Filter, u: Inputs, t_p
         parts.append(run_kernel(f, block, t_prev, params, w))
         t_prev = float(t[j - 1])
         k = j
-    keep = t_all > float(t[-1]) - NOISE_WINDOW
-    mem = NoiseMemory(t_all[keep], x_all[keep], next_update, float(since[-1]), bias_on, choice)
-    return np.concatenate(parts), mem, params
+    recent = (*memory.recent, (t.copy(), x_new))
+    if t_all is None and len(recent) < RECENT_BLOCKS:
+        mem = NoiseMemory(memory.t, memory.x, next_update, float(since[-1]), bias_on, choice, recent)
+    else:
+        if t_all is None:
+            t_all, x_all = memory.joined(t, x_new)
+        keep = t_all > float(t[-1]) - NOISE_WINDOW
+        mem = NoiseMemory(t_all[keep], x_all[keep], next_update, float(since[-1]), bias_on, choice)  # type: ignore[index]
+    return np.concatenate(parts) if len(parts) > 1 else parts[0], mem, params

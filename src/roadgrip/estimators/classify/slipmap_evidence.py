@@ -7,12 +7,12 @@ their exclusions and the per-sample probabilities of high / low / old friction
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
-from scipy.special import erf
 
 from roadgrip.constants import GRAVITY
 from roadgrip.estimators.classify.brls_config import SATURATION_PHI_HALF
@@ -194,11 +194,16 @@ def _prefilter_kernel(x, t, tau, dt0, state):  # pragma: no cover - compiled
 def _pack(kin: KinematicOutput, ax, ay) -> NDArray[np.float64]:
     """Prefilter inputs as columns ``kappa_fl..rr, alpha_f, alpha_r, ax, ay, ax < 0,
     ax < -BRAKING_ACCEL``, shape (T, PREFILTER_SIZE)."""
-    ax = np.atleast_1d(np.asarray(ax, float))
-    return np.ascontiguousarray(np.column_stack([
-        np.atleast_2d(kin.kappa), np.atleast_1d(kin.alpha_f), np.atleast_1d(kin.alpha_r),
-        ax, np.atleast_1d(ay), (ax < 0.0).astype(float), (ax < -BRAKING_ACCEL).astype(float),
-    ]), dtype=float)
+    ax = np.asarray(ax, float).reshape(-1)
+    x = np.empty((ax.shape[0], PREFILTER_SIZE))
+    x[:, PF_KAPPA] = np.reshape(kin.kappa, (-1, 4))
+    x[:, PF_ALPHA_F] = kin.alpha_f
+    x[:, PF_ALPHA_R] = kin.alpha_r
+    x[:, PF_AX] = ax
+    x[:, PF_AY] = ay
+    x[:, PF_BRAKING] = ax < 0.0
+    x[:, PF_HARD] = ax < -BRAKING_ACCEL
+    return x
 
 
 def _unpack(kin: KinematicOutput, y: NDArray) -> tuple[KinematicOutput, NDArray, NDArray, Braking]:
@@ -245,22 +250,41 @@ def saturation_evidence(
             chb, _ = channels(kin, ax, ay, steer, params, grip, config.min_speed, braking=True)
             ch = ch._replace(phi_long=np.where(onset, chb.phi_long, ch.phi_long),
                              y_long=np.where(onset, chb.y_long, ch.y_long))
-    out = []
-    for phi, y, sigma in ((ch.phi_long, ch.y_long, config.sigma_x), (ch.phi_lat, ch.y_lat, config.sigma_y)):
-        d = (y - 0.5 * phi) * np.sign(phi)
-        w = 1.0 - np.exp(-np.log(2.0) * (phi / SATURATION_PHI_HALF) ** 2)
-        out.append((w, 0.5 * (1.0 + erf(d / (np.sqrt(2.0) * sigma)))))
-    (wx, px), (wy, py) = out
-    if not config.lateral:
-        wy = np.zeros_like(wy)
-    if not config.longitudinal:
-        wx = np.zeros_like(wx)
-    p_high = 0.5 * (wx * px + wy * py)
-    p_low = 0.5 * (wx * (1.0 - px) + wy * (1.0 - py))
-    p_old = 0.5 * ((1.0 - wx) + (1.0 - wy))
-    kf = np.atleast_1d(np.asarray(kin.kappa, float).reshape(-1, 4).mean(-1))
+    wx, wy, p_high, p_low, p_old = _saturation_probabilities(
+        np.ascontiguousarray(ch.phi_long), np.ascontiguousarray(ch.y_long), ch.phi_lat, ch.y_lat,
+        float(config.sigma_x), float(config.sigma_y), bool(config.longitudinal), bool(config.lateral))
+    kf = np.asarray(kin.kappa, float).reshape(-1, 4).sum(-1) / 4.0
     return SlipMapEvidence(0.5 * (cp.ax_high + cp.ax_low), 0.5 * (cp.ay_high + cp.ay_low),
                            wx, wy, p_high, p_low, p_old, kf)
+
+
+@numba.njit(cache=True)
+def _position_evidence(phi, y, sigma):  # pragma: no cover - compiled
+    """Weight ``W`` and soft direction ``Phi(d / sigma)`` of one channel of one sample
+    (:func:`saturation_evidence`)."""
+    d = (y - 0.5 * phi) * np.sign(phi)
+    w = 1.0 - math.exp(-math.log(2.0) * (phi / SATURATION_PHI_HALF) ** 2)
+    return w, 0.5 * (1.0 + math.erf(d / (math.sqrt(2.0) * sigma)))
+
+
+@numba.njit(cache=True)
+def _saturation_probabilities(phi_x, y_x, phi_y, y_y, sigma_x, sigma_y, longitudinal, lateral):  # pragma: no cover
+    """``w_x, w_y, p_high, p_low, p_old`` of :func:`saturation_evidence`, shapes (T,)."""
+    n = phi_x.shape[0]
+    wx, wy = np.empty(n), np.empty(n)
+    p_high, p_low, p_old = np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        w_x, px = _position_evidence(phi_x[i], y_x[i], sigma_x)
+        w_y, py = _position_evidence(phi_y[i], y_y[i], sigma_y)
+        if not lateral:
+            w_y = 0.0
+        if not longitudinal:
+            w_x = 0.0
+        wx[i], wy[i] = w_x, w_y
+        p_high[i] = 0.5 * (w_x * px + w_y * py)
+        p_low[i] = 0.5 * (w_x * (1.0 - px) + w_y * (1.0 - py))
+        p_old[i] = 0.5 * ((1.0 - w_x) + (1.0 - w_y))
+    return wx, wy, p_high, p_low, p_old
 
 
 def grip_of(config: SlipMapConfig, params: VehicleParams, friction: dict[str, float]) -> GripModel:
