@@ -132,10 +132,10 @@ def vss_records(
         cls = table["grip_class"].astype(str).to_numpy()
         # the floor of a 'low' claim about the present surface: the grip used now
         floor = table["grip_now"].to_numpy(float) if "grip_now" in table.columns else np.zeros(n)
-        floor = np.clip(_zero_nan(floor), 0.0, GRIP_CLASS_SPLIT)
+        floor = np.minimum(np.maximum(_zero_nan(floor), 0.0), GRIP_CLASS_SPLIT)
         hi, low = cls == "high", cls == "low"
         values["MostProbable"] = np.where(hi, max(p_up, GRIP_CLASS_SPLIT),
-                                          np.where(low, np.clip(p_lo, floor, GRIP_CLASS_SPLIT), np.nan))
+                                          np.where(low, np.minimum(np.maximum(p_lo, floor), GRIP_CLASS_SPLIT), np.nan))
         values["LowerBound"] = np.where(hi, GRIP_CLASS_SPLIT, np.where(low & (floor > 0.0), floor, np.nan))
         values["UpperBound"] = np.where(low, GRIP_CLASS_SPLIT, np.nan)
     else:
@@ -144,13 +144,14 @@ def vss_records(
         div = table["diverged"].to_numpy(bool)
         for key in values:
             values[key] = np.where(div, np.nan, values[key])
+    keys = [(VSS_PREFIX + key, values[key].tolist()) for key in ("MostProbable", "LowerBound", "UpperBound")]
     records: list[dict[str, float]] = []
-    for i in range(n):
-        rec: dict[str, float] = {"t": float(t[i])}
-        for key in ("MostProbable", "LowerBound", "UpperBound"):
-            pct = 100.0 * float(values[key][i])
+    for i, ti in enumerate(t.tolist()):
+        rec: dict[str, float] = {"t": ti}
+        for name, v in keys:
+            pct = 100.0 * v[i]
             if math.isfinite(pct) and 0.0 <= pct <= 100.0:
-                rec[VSS_PREFIX + key] = pct
+                rec[name] = pct
         records.append(rec)
     return records
 

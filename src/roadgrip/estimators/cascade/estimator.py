@@ -7,6 +7,7 @@ the whole drive, so the two give the same rows to the last bit.
 
 from __future__ import annotations
 
+import math
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -282,10 +283,10 @@ def _check_sample(sample: CascadeSample) -> None:
                 raise ValueError("cascade sample field 'pose_candidates' is infinite (NaN marks a missing value)")
             continue
         if name in ("vx_pose", "vy_pose", "x", "y", "psi"):
-            if np.isinf(v):
+            if math.isinf(v):
                 raise ValueError(f"cascade sample field {name!r} is infinite (NaN marks a missing value)")
             continue
-        if not np.isfinite(v):
+        if not math.isfinite(v):
             raise ValueError(f"cascade sample field {name!r} is not finite: {v!r}")
 
 
