@@ -251,7 +251,12 @@ def wheel_slips(
     vl, vr = vx - r * h, vx + r * h
     lat_f = vy + params.lf * r
     cos_d, sin_d = np.cos(d), np.sin(d)
-    v_wheel = np.stack([vl * cos_d + lat_f * sin_d, vr * cos_d + lat_f * sin_d, vl, vr], axis=-1)
+    front_left = vl * cos_d + lat_f * sin_d
+    v_wheel = np.empty((*np.shape(front_left), 4))
+    v_wheel[..., 0] = front_left
+    v_wheel[..., 1] = vr * cos_d + lat_f * sin_d
+    v_wheel[..., 2] = vl
+    v_wheel[..., 3] = vr
     omega = np.asarray(omega, float)
     measured = np.isfinite(omega)
     kappa = longitudinal_slip(np.where(measured, omega, 0.0), v_wheel, params.wheel_radius, v_eps=v_eps)
@@ -333,7 +338,9 @@ def inputs_from_drive(drive: Drive) -> dict[str, NDArray[np.float64]]:
     drive.require("ax", "ay", "yaw_rate", "steer", why="kinematic state estimation")
     n = drive.n
     nan = np.full(n, np.nan)
-    omega = np.stack([drive.col(c) if drive.has(c) else nan for c in WHEEL_COLUMNS], axis=-1)
+    omega = np.empty((n, len(WHEEL_COLUMNS)))
+    for i, c in enumerate(WHEEL_COLUMNS):
+        omega[:, i] = drive.col(c) if drive.has(c) else nan
     has_pose, has_vx = drive.has_pose, drive.has("vx")
     pose = {c: (drive.col(c) if has_pose else nan) for c in ("x", "y", "psi")}
     vxm = drive.col("vx") if has_vx else nan
@@ -347,7 +354,7 @@ def inputs_from_drive(drive: Drive) -> dict[str, NDArray[np.float64]]:
     return {
         "t": drive.t, "ax": drive.col("ax"), "ay": drive.col("ay"),
         "yaw_rate": drive.col("yaw_rate"), "steer": drive.col("steer"),
-        "omega": np.ascontiguousarray(omega), **pose, "vx_meas": vxm,
+        "omega": omega, **pose, "vx_meas": vxm,
     }
 
 

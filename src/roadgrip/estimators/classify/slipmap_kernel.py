@@ -154,7 +154,7 @@ def slipmap_step(
     known = new.info >= config.info_min and _claimed(new.known, new.high, new.since, config)
     cls = str(classes(np.array(new.high), np.array(known)))
     excited = max(wx, wy) >= config.w_excited
-    return new, SlipMapOutput(cls, float(np.clip(new.f_lp, 0, 1)), bool(excited), wx, wy)
+    return new, SlipMapOutput(cls, min(max(new.f_lp, 0.0), 1.0), bool(excited), wx, wy)
 
 
 def slipmap_batch(
