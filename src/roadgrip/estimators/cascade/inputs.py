@@ -225,7 +225,7 @@ def drive_inputs(drive: Drive, config: CascadeConfig
     cols = {c: drive.col(c) for c in ("t", "ax", "ay", "yaw_rate", "steer")}
     cols["speed"] = np.asarray(speed, dtype=float)
     for k, v in cols.items():
-        if not np.all(np.isfinite(v)):
+        if not np.isfinite(v).all():
             raise DriveValidationError(f"cascade input {k!r} holds NaN/inf")
     cols["ax"], cols["ay"] = level_accelerations(cols["ax"], cols["ay"], drive.vehicle)
     n = len(cols["t"])
