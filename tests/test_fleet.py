@@ -163,3 +163,28 @@ def test_square_cells_of_gnss_drives_in_a_given_frame_equal_the_pose_grid():
     np.testing.assert_allclose(part.map.cell_posterior()[0], ref.map.cell_posterior()[0], rtol=1e-12)
     with pytest.raises(ValueError, match="origin must be"):
         FleetConfig(origin=(91.0, 0.0))
+
+
+def test_a_refused_drive_adds_nothing_and_says_why(tmp_path):
+    """A drive the reader refuses (a file cut short) leaves the others' map as it is and
+    names the reason in its row; a fleet of refused drives only is refused."""
+    pytest.importorskip("distributed")
+    drives = list(_drives())[:2]
+    paths = []
+    for i, d in enumerate(drives):
+        paths.append(tmp_path / f"d{i}.parquet")
+        d.save(paths[-1])
+    bad = tmp_path / "cut.parquet"
+    bad.write_bytes(paths[0].read_bytes()[:200])
+    starts = {0: 0.0, 1: HOUR, 2: 2 * HOUR}
+    good = sequential_fleet_map(paths, FleetConfig(), {0: starts[0], 1: starts[2]})
+    for build in (lambda s: sequential_fleet_map(s, FleetConfig(), starts),
+                  lambda s: fleet_map(s, FleetConfig(), n_workers=2, processes=False, start_times=starts)):
+        part = build([paths[0], bad, paths[1]])
+        _same(part.map, good.map)
+        assert list(part.drives["source"]) == [str(paths[0]), str(bad), str(paths[1])]
+        assert list(part.drives["refused"] == "") == [True, False, True]
+        assert part.drives["refused"].iloc[1] and "\n" not in part.drives["refused"].iloc[1]
+        assert int(part.drives["observations"].iloc[1]) == 0
+    with pytest.raises(ValueError, match="no drive could be mapped: all 2 were refused; the first, .*cut.parquet"):
+        sequential_fleet_map([bad, bad], FleetConfig())

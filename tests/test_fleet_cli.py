@@ -67,12 +67,16 @@ def test_fleet_command_on_simulated_drives(tmp_path):
         from roadgrip.estimators import run_estimator
 
         n_obs += len(M.observations_from_estimates(run_estimator("cascade", d).table, 0.5).mu)
+    # a file cut short among them: refused by name, the others mapped
+    good = (tmp_path / "drive0.parquet").read_bytes()
+    (tmp_path / "drive9.parquet").write_bytes(good[: len(good) // 3])
     out = tmp_path / "fleet.parquet"
     proc = subprocess.run([str(Path(sys.executable).parent / "roadgrip"), "fleet", str(tmp_path / "drive*.parquet"),
                            "-o", str(out), "--html", str(tmp_path / "fleet.html")],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    assert "2 drives" in proc.stdout and "drives/min" in proc.stdout
+    assert "3 drives" in proc.stdout and "drives/min" in proc.stdout
+    assert "1 of 3 drives refused" in proc.stdout and "drive9.parquet:" in proc.stdout
     cells = gpd.read_parquet(out)
     assert cells["n_obs"].sum() == n_obs and cells.crs is None
     assert (tmp_path / "fleet.html").stat().st_size > 100_000

@@ -125,7 +125,13 @@ def fleet_cmd(
     write_fleet_outputs(part, output, html, png)
     d = part.drives
     n_obs = int(d["observations"].sum())
+    refused = d[d["refused"] != ""]
+    kind = d.loc[d["refused"] == "", "cells"].iloc[0]
     console.print(f"{len(d)} drives, {int(d['samples'].sum())} samples, {n_obs} observations in "
-                  f"{part.map.n_cells} cells ({d['cells'].iloc[0]}) in {wall:.1f} s: "
+                  f"{part.map.n_cells} cells ({kind}) in {wall:.1f} s: "
                   f"{60 * len(d) / wall:.1f} drives/min, {n_obs / wall:.0f} observations/s")
+    if len(refused):
+        console.print(f"{len(refused)} of {len(d)} drives refused, not in the map:", markup=False)
+        for src, why in zip(refused["source"], refused["refused"], strict=True):
+            console.print(f"  {src}: {why}", markup=False)
     console.print(f"wrote {output}" + (f", {html}" if html else "") + (f", {png}" if png else ""))

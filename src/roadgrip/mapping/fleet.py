@@ -25,6 +25,12 @@ already Unix time (above 1e8 s), and otherwise the modification time of its file
 Parallelism: a ``dask.distributed`` cluster, a ``LocalCluster`` of processes by default
 (one thread each: the estimators are compiled, single-threaded numerical code) or an
 existing scheduler by address. ``dask`` is imported only when a fleet runs.
+
+A drive the reader or the estimator refuses (a ``ValueError``: a truncated file, a
+missing channel) does not stop the fleet: it adds nothing to the map, and its row in
+:attr:`FleetPart.drives` says why (``refused``; empty for a drive that was mapped). A
+fleet in which every drive is refused is refused, with the first reason. Any other
+exception is a fault of roadgrip and stops the fleet.
 """
 
 from __future__ import annotations
@@ -109,13 +115,15 @@ class FleetPart(NamedTuple):
 
     Attributes
     ----------
-    map : FrictionGrid or HexGrid
+    map : FrictionGrid or HexGrid or None
+        None when every drive of the part was refused.
     drives : DataFrame
         One row per drive: ``source, samples, observations, start_time`` (s), ``seconds``
-        (estimation and fusion time [s]), ``cells`` (square or h3).
+        (estimation and fusion time [s]), ``cells`` (square or h3), ``refused`` (why the
+        drive adds nothing to the map; empty when it was mapped).
     """
 
-    map: FrictionGrid | HexGrid
+    map: FrictionGrid | HexGrid | None
     drives: pd.DataFrame
 
 
@@ -174,8 +182,23 @@ def drive_part(source: Any, config: FleetConfig, start_time: float | None = None
     else:
         m = square_map(table, config, start)
     stats = pd.DataFrame({"source": [name], "samples": [drive.n], "observations": [int(m.cells.n_obs.sum())],
-                          "start_time": [start], "seconds": [time.perf_counter() - t0], "cells": [kind]})
+                          "start_time": [start], "seconds": [time.perf_counter() - t0], "cells": [kind],
+                          "refused": [""]})
     return FleetPart(m, stats)
+
+
+def _part_or_refusal(source: Any, config: FleetConfig, start_time: float | None = None) -> FleetPart:
+    """:func:`drive_part`, or for a drive it refuses (``ValueError``) a part without a map
+    whose row says why (module docstring)."""
+    t0 = time.perf_counter()
+    try:
+        return drive_part(source, config, start_time)
+    except ValueError as exc:
+        name = str(source) if isinstance(source, str | os.PathLike) else str(source.meta.source)
+        why = " ".join(str(exc).split()) or type(exc).__name__
+        stats = pd.DataFrame({"source": [name], "samples": [0], "observations": [0], "start_time": [np.nan],
+                              "seconds": [time.perf_counter() - t0], "cells": [""], "refused": [why]})
+        return FleetPart(None, stats)
 
 
 def square_map(table: pd.DataFrame, config: FleetConfig, start: float = 0.0) -> FrictionGrid:
@@ -188,20 +211,31 @@ def square_map(table: pd.DataFrame, config: FleetConfig, start: float = 0.0) -> 
 
 
 def merge_parts(parts: list[FleetPart] | tuple[FleetPart, ...]) -> FleetPart:
-    """Merge fleet parts (associative, commutative; counts add). Refuses square and H3 maps together."""
+    """Merge fleet parts (associative, commutative; counts add). Refuses square and H3 maps
+    together. Parts without a map (refused drives) add their rows only."""
     parts = [p for p in parts if p is not None]
     if not parts:
         raise ValueError("no drives to merge")
-    kinds = {type(p.map) for p in parts}
+    mapped = [p for p in parts if p.map is not None]
+    kinds = {type(p.map) for p in mapped}
     if len(kinds) > 1:
-        sq = next(p for p in parts if isinstance(p.map, FrictionGrid)).drives["source"].iloc[0]
-        hx = next(p for p in parts if isinstance(p.map, HexGrid)).drives["source"].iloc[0]
+        sq = next(p for p in mapped if isinstance(p.map, FrictionGrid)).drives["source"].iloc[0]
+        hx = next(p for p in mapped if isinstance(p.map, HexGrid)).drives["source"].iloc[0]
         raise ValueError(f"drives with GNSS (H3 cells, e.g. {hx}) and without (square cells, e.g. {sq}) "
                          "cannot share a map: add lat, lon to every drive or map them apart (cells='square')")
-    maps = [p.map for p in parts]
-    merged = merge_hex(*maps) if isinstance(maps[0], HexGrid) else merge(*maps)
+    maps = [p.map for p in mapped]
+    merged = None if not maps else merge_hex(*maps) if isinstance(maps[0], HexGrid) else merge(*maps)
     drives = pd.concat([p.drives for p in parts], ignore_index=True)
     return FleetPart(merged, drives)
+
+
+def _mapped(part: FleetPart) -> FleetPart:
+    """The fleet's result, or its refusal when no drive could be mapped."""
+    if part.map is None:
+        first = part.drives["refused"].iloc[0]
+        raise ValueError(f"no drive could be mapped: all {len(part.drives)} were refused; the first, "
+                         f"{part.drives['source'].iloc[0]}: {first}")
+    return part
 
 
 def sequential_fleet_map(sources: list[Any], config: FleetConfig | None = None,
@@ -209,11 +243,11 @@ def sequential_fleet_map(sources: list[Any], config: FleetConfig | None = None,
     """The fleet map without Dask: each drive in turn, merged in order (the reference of :func:`fleet_map`)."""
     config = config or FleetConfig()
     st = start_times or {}
-    return merge_parts([drive_part(s, config, st.get(i)) for i, s in enumerate(sources)])
+    return _mapped(merge_parts([_part_or_refusal(s, config, st.get(i)) for i, s in enumerate(sources)]))
 
 
 def _part_list(items: list[tuple[int, Any]], config: FleetConfig, start_times: dict[int, float]) -> FleetPart:
-    parts = [drive_part(s, config, start_times.get(i)) for i, s in items]
+    parts = [_part_or_refusal(s, config, start_times.get(i)) for i, s in items]
     return merge_parts([p._replace(drives=p.drives.assign(_i=i)) for p, (i, _) in zip(parts, items, strict=True)])
 
 
@@ -254,7 +288,13 @@ def fleet_map(
     Returns
     -------
     FleetPart
-        The merged map and one row per drive (in the order of ``sources``).
+        The merged map and one row per drive (in the order of ``sources``; a refused
+        drive's row says why, module docstring).
+
+    Raises
+    ------
+    ValueError
+        No drives, or every drive refused (the first reason named).
     """
     config = config or FleetConfig()
     if not sources:
@@ -287,4 +327,4 @@ def fleet_map(
             if cluster is not None:
                 cluster.close()
     drives = part.drives.sort_values("_i", kind="stable").drop(columns="_i").reset_index(drop=True)
-    return FleetPart(part.map, drives)
+    return _mapped(FleetPart(part.map, drives))
