@@ -186,5 +186,5 @@ def test_a_refused_drive_adds_nothing_and_says_why(tmp_path):
         assert list(part.drives["refused"] == "") == [True, False, True]
         assert part.drives["refused"].iloc[1] and "\n" not in part.drives["refused"].iloc[1]
         assert int(part.drives["observations"].iloc[1]) == 0
-    with pytest.raises(ValueError, match="no drive could be mapped: all 2 were refused; the first, .*cut.parquet"):
+    with pytest.raises(ValueError, match=r"no drive could be mapped: all 2 were refused; the first, .*cut\.parquet"):
         sequential_fleet_map([bad, bad], FleetConfig())
