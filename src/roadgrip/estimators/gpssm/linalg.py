@@ -192,15 +192,20 @@ def reserve(st: LinAlgState) -> LinAlgState:
 @numba.njit(cache=True)
 def _folded(sigma, sanc, hist, hanc, hcoef, n, i, g, H, S):  # pragma: no cover - compiled
     """``S = sigma[sanc[i], g] + sum_j hcoef_j h h^T`` in double precision (``h = hist[j,
-    hanc[j, i], g]``; the sum as one matrix product, ``H`` (n, m) scratch)."""
+    hanc[j, i], g]``; the sum as one matrix product, ``H`` (n, m) scratch; one row, as
+    after the fold a step before a refactorisation, without the call of the product)."""
     m = S.shape[0]
-    if n > 0:
-        for j in range(n):
-            c = np.sqrt(hcoef[j])
-            row = hist[j, hanc[j, i], g]
-            for k in range(m):
-                H[j, k] = c * row[k]
+    for j in range(n):
+        c = np.sqrt(hcoef[j])
+        row = hist[j, hanc[j, i], g]
+        for k in range(m):
+            H[j, k] = c * row[k]
+    if n > 1:
         np.dot(H[:n].T, H[:n], S)
+    elif n == 1:
+        for a in range(m):
+            for b in range(m):
+                S[a, b] = H[0, a] * H[0, b]
     else:
         S[:] = 0.0
     slot = sigma[sanc[i], g]
