@@ -35,12 +35,14 @@ criterion on an estimator that has the exact mode's distribution).
 With ``--speed`` the speed table of the compiled step (N = 200; m = 20, the default
 basis and m = 100; exact and fast; the median of ``--reps`` runs), beside the same cases
 of another revision (``--baseline REV``, its ``src`` tree from git) measured alternately
-in the same run; ``--parts`` where the time of a step goes (ms per step); ``--layout`` the
+in the same run; ``--parts`` where the time of a step goes (ms per step); ``--refactor`` the
+refactorisation's share of the latency (CPU per step at the refactorisation, at the folds of
+the buffered rows and elsewhere, and its pieces); ``--layout`` the
 particles-innermost layout against the present one; ``--many``
 ``run_many`` over 10 drives against the same runs one after another (on a quiet machine).
 
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_gpssm.py [--quick | --speed
-[--reps 5] [--baseline REV] | --parts | --layout | --many | --accuracy
+[--reps 5] [--baseline REV] | --parts | --refactor | --layout | --many | --accuracy
 [--seeds 0,1,2,3,4] [--multibody [--streams 0,1000,2000] | --realdata | --fast-vs-truth
 [--control]]]``
 (one core).
@@ -634,6 +636,70 @@ def speed(reps: int, baseline: str | None) -> None:
         print(line, flush=True)
 
 
+def refactor_latency(duration: float = 30.0) -> None:
+    """The refactorisation's share of the latency (issue 30), the defaults (N = 200, 20 odd
+    functions per axle, 'exact', ``refactor_every`` 80) on the dry-gravel-dry drive at 100 Hz
+    stepped one sample per call: the thread CPU time of a step [ms] by its place in the
+    period (the refactorisation's step, the steps that fold ``FOLD_ROWS`` buffered rows or
+    the rows a step before it, the others), and the pieces on a state like the filter's
+    (random rows, scattered ancestors): the fold of ``FOLD_ROWS`` rows, the inversion alone
+    (no buffered row) and a refactorisation that folds a whole period's rows (as before
+    the fold was spread)."""
+    from roadgrip.blas_threads import one_blas_thread
+    from roadgrip.estimators.gpssm.compiled import advance, sample_array
+    from roadgrip.estimators.gpssm.inputs import drive_inputs
+    from roadgrip.estimators.gpssm.state import Context
+
+    cfg = GPSSMConfig()
+    J = cfg.refactor_every
+    drive = simulate_scenario("dry-gravel-dry", seed=0, duration=duration)
+    data = sample_array([(*r, 1.0) for r in drive_inputs(drive)])
+    advance(Context(cfg, drive.vehicle), None, data[:3])  # compiled before timing
+    ctx = Context(cfg, drive.vehicle)
+    state, cpu, since, folded = None, [], [], []
+    with one_blas_thread():
+        for k in range(len(data)):
+            nh = 0 if state is None else state.lin.nhist
+            t0 = time.thread_time_ns()
+            state, _ = advance(ctx, state, data[k:k + 1])
+            cpu.append(1e-6 * (time.thread_time_ns() - t0))
+            since.append(state.lin.since_refactor)
+            folded.append(state.lin.nhist <= nh and state.lin.since_refactor != 0)
+    warm = 100
+    cpu, since, folded = np.array(cpu[warm:]), np.array(since[warm:]), np.array(folded[warm:])
+    ref = since == 0
+    other = ~ref & ~folded
+    print(f"defaults, dry-gravel-dry {duration:g} s at 100 Hz, one sample per call: thread CPU per step [ms]")
+    print(f"  all steps ({len(cpu)}): p50 {np.median(cpu):.3f}  p99 {np.percentile(cpu, 99):.3f}  "
+          f"max {cpu.max():.3f}")
+    for name, sel in (("refactorisation", ref), ("fold", folded), ("other", other)):
+        print(f"  {name:16s} ({sel.sum():5d} = {100 * sel.mean():4.1f} %): median {np.median(cpu[sel]):.3f}  "
+              f"p90 {np.percentile(cpu[sel], 90):.3f}")
+    N, G, m = cfg.particles, cfg.basis.groups, cfg.basis.m
+    rng = np.random.default_rng(0)
+    st = la.init("exact", N, G, m, history=J)
+    st.hist[:] = rng.standard_normal(st.hist.shape) * 0.3
+    st.hcoef[:] = 1.0
+    st.hanc[:] = rng.integers(0, N, (J, N))
+    st.sanc[:] = rng.integers(0, N, N)
+    out, pinv = np.empty_like(st.sigma), np.empty_like(st.sigma)
+
+    def best(f, reps=30):
+        f()
+        ts = []
+        for _ in range(reps):
+            t0 = time.perf_counter()
+            f()
+            ts.append(time.perf_counter() - t0)
+        return 1e3 * float(np.median(ts))
+
+    fold = best(lambda: la._fold(st.sigma, out, st.sanc, st.hist, st.hanc, st.hcoef, la.FOLD_ROWS))
+    inv = best(lambda: la._rebuild(st.sigma, st.sanc, st.hist, st.hanc, st.hcoef, 1, 1.0, 1.01, out, pinv))
+    whole = best(lambda: la._rebuild(st.sigma, st.sanc, st.hist, st.hanc, st.hcoef, J, 1.0, 1.01, out, pinv))
+    print(f"  pieces (median of 30, warm cache) [ms]: fold of {la.FOLD_ROWS} rows {fold:.3f}; refactorisation "
+          f"after the fold (one row) {inv:.3f}; refactorisation folding all {J} rows {whole:.3f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="shorter drives and fewer points")
@@ -644,6 +710,8 @@ def main() -> None:
                     help="with --accuracy: every recording in ../shared/data (seeds 0,1,2 by default)")
     ap.add_argument("--speed", action="store_true", help="the speed table (median of --reps runs)")
     ap.add_argument("--parts", action="store_true", help="where the time of a compiled step goes")
+    ap.add_argument("--refactor", action="store_true",
+                    help="the refactorisation's share of the latency: CPU per step by its place in the period")
     ap.add_argument("--layout", action="store_true", help="particles-innermost layout against the present one")
     ap.add_argument("--many", action="store_true", help="run_many over 10 drives against one after another")
     ap.add_argument("--reps", type=int, default=5, help="runs of --speed")
@@ -670,6 +738,9 @@ def main() -> None:
         return
     if args.parts:
         parts()
+        return
+    if args.refactor:
+        refactor_latency()
         return
     if args.many:
         many()

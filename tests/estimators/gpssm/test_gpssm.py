@@ -184,6 +184,43 @@ def test_linalg_backends_agree_with_direct_inverse(mode, lam, history):
     assert gap > 0.1  # c moved far from 1 (lam^(-7/2) = 1.11): fast's approximation is exercised
 
 
+def test_refactorisations_invert_the_information_and_match_the_reference(snow20):
+    # the compiled step's P_B through refactorisations whose period holds two folds of
+    # FOLD_ROWS buffered rows and the fold a step before the refactorisation, with
+    # resampling in between: against numpy's inverse of B = Sigma + c I (Sigma from the
+    # slots and buffered rows, la.information), and the whole step against the reference
+    d = snow20.slice_time(0.0, 8.0)
+    J = 2 * la.FOLD_ROWS + 5
+    cfg = _cfg(d, "separable-odd:6", n=24, refactor_every=J, diverge_time=1e3)
+    ctx = Context(cfg, d.vehicle)
+    a_state = b_state = None
+    a_rows, b_rows, checked = [], [], set()
+    for k, r in enumerate(drive_inputs(d)):
+        a_state, ea = step_reference(ctx, a_state, Sample(*r), seed=3)
+        b_state, eb = filter_step(ctx, b_state, Sample(*r), seed=3)
+        a_rows.append(ea)
+        b_rows.append(eb)
+        since = b_state.lin.since_refactor
+        if k > J and since in (0, la.FOLD_ROWS + 1, J - 1):
+            lin = copy_state(b_state).lin
+            B = la.information(lin) - (1.0 - lin.c) * np.eye(lin.sigma.shape[-1])
+            P = np.linalg.inv(B)
+            np.testing.assert_allclose(la.inverse(lin), P, rtol=1e-9, atol=1e-12 * np.abs(P).max())
+            checked.add(since)
+    a, b = pd.DataFrame(a_rows), pd.DataFrame(b_rows)
+    assert checked == {0, la.FOLD_ROWS + 1, J - 1}
+    assert len(a) // J >= 3 and a["resampled"].sum() > 5  # three refactorisations at least
+    pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-7, atol=1e-8)
+    np.testing.assert_allclose(la.information(b_state.lin), la.information(a_state.lin), rtol=1e-8)
+
+
+def test_refactorisation_refuses_a_matrix_that_is_not_positive_definite():
+    st = la.init("exact", 3, 2, 5, history=4)
+    st.sigma[1, 0] = -2.0 * np.eye(5)  # Sigma + c0 I indefinite in one slot
+    with pytest.raises(ValueError, match="not positive definite"):
+        la.refactor(st, 1.0)
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_take_rows_equals_fancy_indexing(seed):
     rng = np.random.default_rng(seed)

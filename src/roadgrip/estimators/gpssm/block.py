@@ -80,6 +80,7 @@ from roadgrip.estimators.gpssm.kernel_ops import (
     peak_summary,
     slot_plan,
 )
+from roadgrip.estimators.gpssm.linalg import FOLD_ROWS
 from roadgrip.estimators.gpssm.model import VehicleConstants
 
 __all__ = ["OUT", "SC", "Block", "Consts", "LinBuffers", "PeakTables", "Stats", "Work", "run_steps"]
@@ -255,12 +256,14 @@ def run_steps(p, lin, st, wk, blk, cst, basis, pt, rng, out):  # pragma: no cove
             sc[_SINCE] += 1.0
             if sc[_SINCE] >= cst.refactor_every:
                 _refactor(lin, sc, cst.c0)
+            elif sc[_SINCE] == cst.refactor_every - 1:
+                _flush(lin, sc)  # the refactorisation's fold a step ahead
             sc[_NU] = lam * sc[_NU]
             if cst.carry and sc[_SINCE] == 0.0:
                 _refactored_posterior(wk.M, wk.Lam, lam, lin.pinv, sc[_PS], sc[_C] - c_forgotten)
         learn = vx >= cst.min_speed
-        if learn and sc[_NHIST] >= lin.hist.shape[0]:
-            _flush(lin, sc)
+        if learn and sc[_NHIST] >= min(lin.hist.shape[0], FOLD_ROWS):
+            _flush(lin, sc)  # linalg.reserve
         # 2. random numbers, in the reference's order
         if propagate and cst.gain_walk != 0.0:
             _normals(rng, wk.gwalk)

@@ -25,7 +25,9 @@ from roadgrip.estimators.gpssm.linalg import _fold, _gather_sorted, _rebuild
 
 @numba.njit(cache=True)
 def _refactor(lin, sc, c0):  # pragma: no cover - compiled
-    """:func:`roadgrip.estimators.gpssm.linalg.refactor` on the buffers, ``c = c0``."""
+    """:func:`roadgrip.estimators.gpssm.linalg.refactor` on the buffers, ``c = c0`` (the
+    buffered rows were folded a step ahead, so this folds the last step's row at most and
+    inverts)."""
     si = int(sc[_SIG])
     _rebuild(lin.sigma2[si], lin.sanc, lin.hist, lin.hanc, lin.hcoef, int(sc[_NHIST]), sc[_SS], c0,
              lin.sigma2[1 - si], lin.pinv)
@@ -44,7 +46,8 @@ def _refactor(lin, sc, c0):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def _flush(lin, sc):  # pragma: no cover - compiled
-    """:func:`roadgrip.estimators.gpssm.linalg.flush`: the buffered rank-1 terms into ``Sigma``."""
+    """:func:`roadgrip.estimators.gpssm.linalg.flush`: the buffered rank-1 terms into ``Sigma``
+    (every ``FOLD_ROWS`` data updates and a step before a refactorisation)."""
     nh = int(sc[_NHIST])
     if nh == 0:
         return

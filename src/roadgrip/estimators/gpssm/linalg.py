@@ -31,8 +31,10 @@ Three interchangeable backends (``GPSSMConfig.linalg``):
     Nothing of size ``m²`` is copied or written twice per step:
 
     * ``Sigma`` is not updated per step: the feature vectors are kept in a short history
-      (one row per data update since the last refactorisation, with its scale) and
-      folded in, with one matrix product per particle, at the refactorisation;
+      (one row per data update since the last fold, with its scale) and folded in, with
+      one matrix product per particle, every ``FOLD_ROWS`` data updates and at the step
+      before a refactorisation (:func:`reserve`, :func:`forget`), so that the
+      refactorisation's own step only inverts (its time is the latency's worst case);
     * resampling copies no matrix: each particle keeps the index of its ancestor's
       ``P_B`` (``panc``), ``Sigma`` slot (``sanc``) and history rows (``hanc``);
     * the Sherman-Morrison update is deferred: a particle's own ``P_B`` is written once
@@ -65,6 +67,7 @@ ancestors on resampling ('direct' copies rows).
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numba
@@ -80,6 +83,11 @@ LINALG_MODES = ("exact", "fast", "direct")
 
 EXACT_TOL = 1e-12
 """Relative size of the last Neumann term of the ``'exact'`` mode."""
+
+FOLD_ROWS = 20
+"""Buffered rank-1 terms folded into ``Sigma`` at a time (:func:`reserve`): the fold of a
+refactorisation period is spread over it, a quarter of the default period's rows at a
+time, instead of all at the refactorisation."""
 
 
 class LinAlgState(NamedTuple):
@@ -174,8 +182,9 @@ def flush(st: LinAlgState) -> LinAlgState:
 
 
 def reserve(st: LinAlgState) -> LinAlgState:
-    """Make room for one more buffered rank-1 term."""
-    if st.mode != "direct" and st.nhist >= st.hist.shape[0]:
+    """Make room for one more buffered rank-1 term: fold the buffer into ``Sigma`` when it
+    holds ``FOLD_ROWS`` terms (or is full)."""
+    if st.mode != "direct" and st.nhist >= min(st.hist.shape[0], FOLD_ROWS):
         return flush(st)
     return st
 
@@ -183,15 +192,20 @@ def reserve(st: LinAlgState) -> LinAlgState:
 @numba.njit(cache=True)
 def _folded(sigma, sanc, hist, hanc, hcoef, n, i, g, H, S):  # pragma: no cover - compiled
     """``S = sigma[sanc[i], g] + sum_j hcoef_j h h^T`` in double precision (``h = hist[j,
-    hanc[j, i], g]``; the sum as one matrix product, ``H`` (n, m) scratch)."""
+    hanc[j, i], g]``; the sum as one matrix product, ``H`` (n, m) scratch; one row, as
+    after the fold a step before a refactorisation, without the call of the product)."""
     m = S.shape[0]
-    if n > 0:
-        for j in range(n):
-            c = np.sqrt(hcoef[j])
-            row = hist[j, hanc[j, i], g]
-            for k in range(m):
-                H[j, k] = c * row[k]
+    for j in range(n):
+        c = np.sqrt(hcoef[j])
+        row = hist[j, hanc[j, i], g]
+        for k in range(m):
+            H[j, k] = c * row[k]
+    if n > 1:
         np.dot(H[:n].T, H[:n], S)
+    elif n == 1:
+        for a in range(m):
+            for b in range(m):
+                S[a, b] = H[0, a] * H[0, b]
     else:
         S[:] = 0.0
     slot = sigma[sanc[i], g]
@@ -226,6 +240,8 @@ def forget(st: LinAlgState, lam: float, refactor_every: int) -> LinAlgState:
     )
     if st.since_refactor >= refactor_every:
         st = refactor(st, lam ** (-0.5 * refactor_every))
+    elif st.since_refactor == refactor_every - 1:
+        st = flush(st)  # the refactorisation's fold a step ahead: its step only inverts
     return st
 
 
@@ -251,57 +267,105 @@ def refactor(st: LinAlgState, c0: float = 1.0) -> LinAlgState:
                        pkf=None)
 
 
+_LANES = 16
+"""Matrices inverted side by side by :func:`_spd_inverse` (the innermost axis of its
+scratch, a multiple of the SIMD width)."""
+
+
 @numba.njit(cache=True)
 def _rebuild(sigma, sanc, hist, hanc, hcoef, n, sigma_scale, c0, out, pinv):  # pragma: no cover
     """``out[i] = sigma_scale sym(sigma[sanc[i]] + sum_j hcoef_j h h^T)`` (``h = hist[j,
-    hanc[j, i]]``, :func:`_folded`) and ``pinv[i] = (out[i] + c0 I)^{-1}``."""
+    hanc[j, i]]``, :func:`_folded`) and ``pinv[i] = (out[i] + c0 I)^{-1}``
+    (:func:`_spd_inverse`, ``_LANES`` matrices at a time), with scratch allocated once per
+    call."""
     N, G, m, _ = out.shape
-    A = np.empty((m, m))
-    Li = np.empty((m, m))
-    P = np.empty((m, m))
     H = np.zeros((max(n, 1), m))
     S = np.empty((m, m))
-    for i in range(N):
-        for g in range(G):
+    T = np.empty((m, m, _LANES))
+    W = np.empty((m, m, _LANES))
+    NG = N * G
+    for b0 in range(0, NG, _LANES):
+        nl = min(_LANES, NG - b0)
+        for ln in range(nl):
+            i, g = divmod(b0 + ln, G)
             _folded(sigma, sanc, hist, hanc, hcoef, n, i, g, H, S)
+            Sig = out[i, g]
             for a in range(m):
-                for b in range(a, m):
+                for b in range(a + 1):
                     v = 0.5 * sigma_scale * (S[a, b] + S[b, a])
-                    A[a, b] = v
-                    A[b, a] = v
+                    Sig[a, b] = v
+                    Sig[b, a] = v
+                    T[a, b, ln] = v
+                T[a, a, ln] += c0
+        for ln in range(nl, _LANES):  # unused lanes: the identity
             for a in range(m):
-                for b in range(m):
-                    out[i, g, a, b] = A[a, b]
-                A[a, a] += c0
-            _spd_inverse(A, Li, P)
+                for b in range(a + 1):
+                    T[a, b, ln] = 1.0 if a == b else 0.0
+        _spd_inverse(T, W)
+        for ln in range(nl):
+            i, g = divmod(b0 + ln, G)
+            P = pinv[i, g]
             for a in range(m):
-                for b in range(m):
-                    pinv[i, g, a, b] = P[a, b]
+                for b in range(a + 1):
+                    v = T[a, b, ln]
+                    P[a, b] = v
+                    P[b, a] = v
 
 
 @numba.njit(cache=True, fastmath=True)
-def _spd_inverse(A, Li, P):  # pragma: no cover - compiled
-    """``P = A^{-1}`` for SPD ``A`` (m, m): Cholesky (LAPACK), then ``L^{-1}`` row by row
-    and ``P = L^{-T} L^{-1}`` as a sum of outer products (about ``m³ / 2`` multiply-adds
-    after the factorisation, against ``4 m³ / 3`` for the LU inverse)."""
-    m = A.shape[0]
-    L = np.linalg.cholesky(A)
+def _spd_inverse(T, W):  # pragma: no cover - compiled
+    """Inverses of ``L`` SPD matrices side by side, in place: ``T`` (m, m, L) holds their
+    lower triangles (``T[:, :, l]`` one matrix) and gets their inverses' lower triangles;
+    ``W`` (m, m, L) scratch.
+
+    The Cholesky factor ``C`` (in ``T``), ``W = C^{-1}`` by forward substitution and the
+    inverse ``W^T W`` as a sum of outer products of the rows of ``W``: about ``m³ / 6``
+    multiply-adds each, every one over the ``L`` matrices at once (the innermost loop,
+    which the compiler vectorises: a 20 x 20 matrix is too small for the vector units
+    alone).
+
+    Raises ``ValueError`` when a pivot is not positive (a matrix not positive definite,
+    or not finite).
+    """
+    m, _, L = T.shape
+    bad = False
     for i in range(m):
-        for j in range(m):
-            Li[i, j] = 0.0
-            P[i, j] = 0.0
+        for j in range(i + 1):
+            for k in range(j):
+                for ln in range(L):
+                    T[i, j, ln] -= T[i, k, ln] * T[j, k, ln]
+            if j < i:
+                for ln in range(L):
+                    T[i, j, ln] *= W[j, j, ln]
+            else:
+                for ln in range(L):
+                    s = T[i, i, ln]
+                    bad |= not s > 0.0
+                    r = math.sqrt(max(s, 1e-300))
+                    T[i, i, ln] = r
+                    W[i, i, ln] = 1.0 / r
+    if bad:
+        raise ValueError("information matrix not positive definite at the refactorisation")
     for i in range(m):
-        d = 1.0 / L[i, i]
+        for j in range(i):
+            for ln in range(L):
+                W[i, j, ln] = 0.0
         for k in range(i):
-            c = -L[i, k] * d
             for j in range(k + 1):
-                Li[i, j] += c * Li[k, j]
-        Li[i, i] = d
+                for ln in range(L):
+                    W[i, j, ln] -= T[i, k, ln] * W[k, j, ln]
+        for j in range(i):
+            for ln in range(L):
+                W[i, j, ln] *= W[i, i, ln]
+    for a in range(m):
+        for b in range(a + 1):
+            for ln in range(L):
+                T[a, b, ln] = 0.0
     for k in range(m):
         for a in range(k + 1):
-            w = Li[k, a]
-            for b in range(k + 1):
-                P[a, b] += w * Li[k, b]
+            for b in range(a + 1):
+                for ln in range(L):
+                    T[a, b, ln] += W[k, a, ln] * W[k, b, ln]
 
 
 def settle(st: LinAlgState) -> LinAlgState:
