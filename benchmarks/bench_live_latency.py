@@ -23,6 +23,12 @@ Printed per method:
 
 Targets: p99 <= 2 ms (cascade, classifiers), <= 5 ms (gpssm with its defaults), with no
 backlog. Not a test: nothing fails when a target is missed, the table says so.
+
+On a machine shared with other work the wall latencies are those of the scheduler as much
+as of roadgrip; a live estimator on a vehicle computer runs with real-time priority, and so
+can the benchmark (Linux, as root or with CAP_SYS_NICE):
+``chrt -f 50 .venv/bin/python benchmarks/bench_live_latency.py --duration 600``. The figures
+measured so are in ``docs/validation-live.md``.
 """
 
 from __future__ import annotations
