@@ -76,7 +76,8 @@ def test_fleet_command_on_simulated_drives(tmp_path):
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "3 drives" in proc.stdout and "drives/min" in proc.stdout
-    assert "1 of 3 drives refused" in proc.stdout and "drive9.parquet:" in proc.stdout
+    refusal = next(line for line in proc.stdout.splitlines() if "drive9.parquet" in line)
+    assert "1 of 3 drives refused" in proc.stdout and refusal.strip().startswith(str(tmp_path / "drive9.parquet:"))
     cells = gpd.read_parquet(out)
     assert cells["n_obs"].sum() == n_obs and cells.crs is None
     assert (tmp_path / "fleet.html").stat().st_size > 100_000

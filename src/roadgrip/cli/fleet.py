@@ -131,7 +131,7 @@ def fleet_cmd(
                   f"{part.map.n_cells} cells ({kind}) in {wall:.1f} s: "
                   f"{60 * len(d) / wall:.1f} drives/min, {n_obs / wall:.0f} observations/s")
     if len(refused):
-        console.print(f"{len(refused)} of {len(d)} drives refused, not in the map:", markup=False)
+        console.print(f"{len(refused)} of {len(d)} drives refused, not in the map:", markup=False, soft_wrap=True)
         for src, why in zip(refused["source"], refused["refused"], strict=True):
-            console.print(f"  {src}: {why}", markup=False)
+            console.print(f"  {src}: {why}", markup=False, soft_wrap=True)  # a path whole, to copy
     console.print(f"wrote {output}" + (f", {html}" if html else "") + (f", {png}" if png else ""))
