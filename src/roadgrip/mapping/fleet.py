@@ -146,13 +146,13 @@ def drive_part(source: Any, config: FleetConfig, start_time: float | None = None
     from roadgrip.estimators import run_estimator
 
     t0 = time.perf_counter()
+    name = _source_name(source)
     if isinstance(source, str | os.PathLike):
         from roadgrip.io import read_drive
 
         drive = read_drive(source, vehicle=config.vehicle)
-        name = str(source)
     else:
-        drive, name = source, str(source.meta.source)
+        drive = source
     start = _start_time(drive, source) if start_time is None else float(start_time)
     try:
         table = run_estimator(config.method, drive, dict(config.options), seed=config.seed).table
@@ -187,6 +187,11 @@ def drive_part(source: Any, config: FleetConfig, start_time: float | None = None
     return FleetPart(m, stats)
 
 
+def _source_name(source: Any) -> str:
+    """A drive's name in the fleet's table: its path, or a drive's ``meta.source``."""
+    return str(source) if isinstance(source, str | os.PathLike) else str(source.meta.source)
+
+
 def _part_or_refusal(source: Any, config: FleetConfig, start_time: float | None = None) -> FleetPart:
     """:func:`drive_part`, or for a drive it refuses (``ValueError``) a part without a map
     whose row says why (module docstring)."""
@@ -194,9 +199,8 @@ def _part_or_refusal(source: Any, config: FleetConfig, start_time: float | None 
     try:
         return drive_part(source, config, start_time)
     except ValueError as exc:
-        name = str(source) if isinstance(source, str | os.PathLike) else str(source.meta.source)
         why = " ".join(str(exc).split()) or type(exc).__name__
-        stats = pd.DataFrame({"source": [name], "samples": [0], "observations": [0], "start_time": [np.nan],
+        stats = pd.DataFrame({"source": [_source_name(source)], "samples": [0], "observations": [0], "start_time": [np.nan],
                               "seconds": [time.perf_counter() - t0], "cells": [""], "refused": [why]})
         return FleetPart(None, stats)
 

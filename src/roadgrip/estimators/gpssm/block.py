@@ -405,6 +405,18 @@ def _sigma_ay(st, cst):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
+def _window_mean(a, head, tail):  # pragma: no cover - compiled
+    """Mean of ``a[head:tail]`` summed in order (0 when empty): the guard's window of the
+    last second (guard.Guard's floors and ``_mean``)."""
+    if tail <= head:
+        return 0.0
+    s = 0.0
+    for j in range(head, tail):
+        s += a[j]
+    return s / (tail - head)
+
+
+@numba.njit(cache=True)
 def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
     """:func:`roadgrip.estimators.gpssm.guard.guard_step` on the row of step ``i``."""
     sc, gt, gay = st.sc, st.gt, st.gay
@@ -422,16 +434,11 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
         while tail > head and gt[head] <= t - FLOOR_WINDOW + 1e-9:
             head += 1
         if tail > head and t - gt[head] >= FLOOR_WINDOW - 1.5 * dt_hint:
-            s = 0.0
-            for j in range(head, tail):
-                s += gay[j]
-            sc[_FLOOR] = max(sc[_FLOOR], abs(s / (tail - head)) / GRAVITY)
+            sc[_FLOOR] = max(sc[_FLOOR], abs(_window_mean(gay, head, tail)) / GRAVITY)
             if not math.isnan(accel):
-                s = 0.0
-                for j in range(head, tail):
-                    s += st.gacc[j]
-                if not math.isnan(s):
-                    sc[_FLOOR_ACCEL] = max(sc[_FLOOR_ACCEL], abs(s / (tail - head)) / GRAVITY)
+                m_acc = _window_mean(st.gacc, head, tail)
+                if not math.isnan(m_acc):
+                    sc[_FLOOR_ACCEL] = max(sc[_FLOOR_ACCEL], abs(m_acc) / GRAVITY)
         sc[_HEAD] = head
         sc[_TAIL] = tail
     floor_raw = sc[_FLOOR]
@@ -461,11 +468,7 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
     slide_gap = False
     a_f, a_r = row[6], row[7]
     if not measured and min(abs(a_f), abs(a_r)) > cst.slide_slip and a_f * a_r > 0.0:
-        head, tail = int(sc[_HEAD]), int(sc[_TAIL])
-        s_ay = 0.0
-        for j in range(head, tail):
-            s_ay += gay[j]
-        ay_mean = s_ay / (tail - head) if tail > head else 0.0
+        ay_mean = _window_mean(gay, int(sc[_HEAD]), int(sc[_TAIL]))
         slide_gap = ay_mean / max(e_gain, 1e-6) * math.copysign(1.0, a_f) < cst.slide_mu * GRAVITY
     if moving and (yaw_gap or slide_gap or ess < _ESS_COLLAPSED):
         if math.isnan(sc[_BAD]):
