@@ -195,3 +195,68 @@ def test_running_accelerometer_noise_is_measured_from_second_differences():
     assert ay_noise([1.0, 2.0]) == 0.0
     with pytest.raises(ValueError, match="ay_noise"):
         GPSSMConfig(ay_noise="auto")
+
+
+def _gyro_bursts(amplitude, n=150, dt=0.04):
+    """Straight driving at 15 m/s with the wheel straight, while the gyro reads
+    ``amplitude`` [rad/s] for 0.4 s of every 0.8 s: a yaw rate the model cannot make,
+    and between the bursts the gyro agrees with it again."""
+    t = np.arange(n) * dt
+    df = pd.DataFrame({"t": t, "ay": np.zeros(n), "yaw_rate": amplitude * ((t % 0.8) < 0.4),
+                       "steer": np.zeros(n), "vx": np.full(n, 15.0)})
+    return Drive.from_frame(df, PRESETS["sedan"], source="gyro bursts")
+
+
+def test_a_yaw_rate_unexplained_on_average_over_a_second_is_flagged():
+    # the per-sample test waits diverge_time of consecutive misses, which every return of
+    # the gyro to the model resets; the mean normalised innovation over the last second
+    # catches the bursts (0.3 rad/s against a noise of 0.01: a mean of hundreds), and the
+    # two implementations agree on it. A gyro within a few noise levels flags nothing
+    from roadgrip.estimators.gpssm import Context, filter_step, step_reference
+
+    cfg = _cfg(None, "separable-odd:6", n=24)
+    ctx = Context(cfg, PRESETS["sedan"])
+    flagged = {}
+    for amplitude in (0.3, 0.02):
+        samples = _samples(_gyro_bursts(amplitude))
+        a_state = b_state = None
+        a_rows, b_rows = [], []
+        for s in samples:
+            a_state, ea = step_reference(ctx, a_state, s, seed=2)
+            b_state, eb = filter_step(ctx, b_state, s, seed=2)
+            a_rows.append(ea)
+            b_rows.append(eb)
+        a, b = pd.DataFrame(a_rows), pd.DataFrame(b_rows)
+        pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-7, atol=1e-8)
+        flagged[amplitude] = b
+    burst = flagged[0.3]
+    # no verdict before the window is a full second; a verdict within the second burst
+    assert not burst.loc[burst["t"] < 0.9, "diverged"].any()
+    assert burst.loc[burst["t"] < 2.0, "diverged"].any()
+    first = burst["t"][burst["diverged"]].iloc[0]
+    rows = burst[(burst["t"] > first - 1.0) & (burst["t"] <= first)]
+    nis = (rows["yaw_rate"] - 0.3 * ((rows["t"] % 0.8) < 0.4)) ** 2 / cfg.sigma_yaw_rate**2
+    assert nis.mean() > 100.0  # an independent view of the window's mean (std >= 0)
+    assert not flagged[0.02]["diverged"].any()
+
+
+def test_curves_abstain_while_the_filter_relearns(snow20):
+    # the curves of the statistics learned before a divergence describe the wrong
+    # lateral state: until relearn_time has passed their band is [-peak_max, peak_max];
+    # before the divergence it is the posterior's, narrower
+    d = snow20.slice_time(0.0, 8.0)
+    cfg = _cfg(d, "separable-odd:6", n=24)
+    f = GPSSM(cfg, d.vehicle, seed=0)
+    samples = _samples(d)
+    for s in samples[:100]:
+        f.step(s)
+    alpha = np.radians(np.linspace(-6.0, 6.0, 13))
+    before = f.curves(alpha)
+    assert (before.upper - before.lower).max() < 2 * cfg.peak_max
+    f.state_.x[:, 0] = 30.0
+    assert f.step(samples[100]).diverged
+    for s in samples[101:150]:
+        f.step(s)
+    after = f.curves(alpha)
+    np.testing.assert_array_equal(after.lower, -cfg.peak_max)
+    np.testing.assert_array_equal(after.upper, cfg.peak_max)

@@ -23,7 +23,8 @@ State layouts
 ``pgain`` and the carried ``P_B f`` of the peak features ``pkw`` are pairs of which
 ``sc[SC.PAR]`` is the current one (the step writes the other). The guard's window of
 the last second of recorded ``a_y`` is ``gt``, ``gay`` (and the accelerometer's, ``gacc``,
-where ``a_y`` is another source) between ``sc[SC.G_HEAD]`` and ``sc[SC.G_TAIL]``. One row
+where ``a_y`` is another source, and the normalised yaw-rate innovations, ``gnis``) between
+``sc[SC.G_HEAD]`` and ``sc[SC.G_TAIL]``. One row
 of :class:`OUT` per step, in the order of
 :class:`~roadgrip.estimators.gpssm.state.GPSSMEstimate`.
 """
@@ -69,6 +70,7 @@ from roadgrip.estimators.gpssm.block_ops import (
 from roadgrip.estimators.gpssm.guard import (
     _COPIES,
     _ESS_COLLAPSED,
+    _YAW_NIS_MAX,
     _YAW_SIGMAS,
     FLOOR_WINDOW,
     second_difference_noise,
@@ -190,6 +192,7 @@ class Stats(NamedTuple):
     gt: NDArray
     gay: NDArray
     gacc: NDArray
+    gnis: NDArray
 
 
 class PeakTables(NamedTuple):
@@ -423,6 +426,8 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
     N = p.x.shape[0]
     e_vy, e_yr, e_yr_std, e_gain, ess = row[1], row[3], row[4], row[5], row[21]
     t, vx, vy_meas, yaw_meas = blk.t[i], blk.vx[i], blk.vy[i], blk.yaw_rate[i]
+    nis = (yaw_meas - e_yr) ** 2 / (cst.sigma_r**2 + e_yr_std**2)
+    full = False
     if blk.recorded[i]:
         head, tail = int(sc[_HEAD]), int(sc[_TAIL])
         dt_hint = t - gt[tail - 1] if tail > head else (dt if dt > 0 else 0.04)
@@ -430,10 +435,12 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
         gay[tail] = blk.ay[i]
         accel = blk.ay_accel[i]
         st.gacc[tail] = accel
+        st.gnis[tail] = nis
         tail += 1
         while tail > head and gt[head] <= t - FLOOR_WINDOW + 1e-9:
             head += 1
-        if tail > head and t - gt[head] >= FLOOR_WINDOW - 1.5 * dt_hint:
+        full = tail > head and t - gt[head] >= FLOOR_WINDOW - 1.5 * dt_hint
+        if full:
             sc[_FLOOR] = max(sc[_FLOOR], abs(_window_mean(gay, head, tail)) / GRAVITY)
             if not math.isnan(accel):
                 m_acc = _window_mean(st.gacc, head, tail)
@@ -454,7 +461,9 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
     if not moving:
         gap = abs(vy_meas - e_vy) if measured else cst.max_sideslip_ratio * cst.min_speed
         vy_std = max(vy_std, gap / _Z95)
-    runaway = moving and not measured and abs(e_vy) > cst.max_sideslip_ratio * vx
+    # the yaw rate unexplained on average over the window (guard._YAW_NIS_MAX)
+    unexplained = full and _window_mean(st.gnis, int(sc[_HEAD]), int(sc[_TAIL])) > _YAW_NIS_MAX
+    runaway = moving and not measured and (abs(e_vy) > cst.max_sideslip_ratio * vx or unexplained)
     # learned frictions that push against both axles' slips (guard._reversed)
     n_rev = 0
     for ax in range(2):
@@ -490,6 +499,7 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
         for n in range(N):
             p.x[n, 1] = yaw_meas + cst.sigma_r * z[n]
         p.logw[:] = -math.log(N)
+        st.gnis[int(sc[_HEAD]):int(sc[_TAIL])] = 0.0  # the innovations of the state left behind
         sc[_RESETS] += 1.0
         sc[_BAD] = np.nan
         sc[_UNTIL] = t + cst.diverge_time

@@ -184,7 +184,8 @@ def advance(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int = 0
     gt = np.zeros(n0 + len(data) + 1)
     gay = np.zeros_like(gt)
     gacc = np.zeros_like(gt)
-    gt[:n0], gay[:n0], gacc[:n0] = g.times, g.ay, g.accel
+    gnis = np.zeros_like(gt)
+    gt[:n0], gay[:n0], gacc[:n0], gnis[:n0] = g.times, g.ay, g.accel, g.nis
     sc = np.zeros(bk.SC.SIZE)
     sc[[bk.SC.K, bk.SC.T, bk.SC.STEER, bk.SC.VX, bk.SC.NU]] = (state.k, state.t, *state.u, state.nu)
     sc[[bk.SC.SIGMA_SCALE, bk.SC.P_SCALE, bk.SC.C, bk.SC.SINCE, bk.SC.NHIST]] = (
@@ -210,7 +211,7 @@ def advance(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int = 0
     bk.run_steps(
         gk.Particles(x, mu, logw, Psi, Phi),
         bk.LinBuffers(sig2, lin.pinv, lin.hist, lin.hcoef, lin.hanc, pend2, pgain2, panc, sanc, pkw2, pkf),
-        bk.Stats(sc, visits, moments, peak_alpha, gt, gay, gacc),
+        bk.Stats(sc, visits, moments, peak_alpha, gt, gay, gacc, gnis),
         wk,
         bk.Block(data[:, 0], data[:, 1], data[:, 2], data[:, 3], data[:, 4], data[:, 5], data[:, 7] != 0.0,
                  fzf, fzr, data[:, 8]),
@@ -225,6 +226,7 @@ def advance(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int = 0
     )
     head, tail = int(sc[bk.SC.G_HEAD]), int(sc[bk.SC.G_TAIL])
     g.times, g.ay, g.accel = gt[head:tail].tolist(), gay[head:tail].tolist(), gacc[head:tail].tolist()
+    g.nis = gnis[head:tail].tolist()
     g.floor_raw, g.bad_since = float(sc[bk.SC.FLOOR]), float(sc[bk.SC.BAD_SINCE])
     g.floor_accel = float(sc[bk.SC.FLOOR_ACCEL])
     g.flagged_until, g.resets = float(sc[bk.SC.FLAGGED_UNTIL]), int(sc[bk.SC.RESETS])

@@ -235,6 +235,12 @@ def posterior_curves(
     spread of alpha)² + slip_sigma²`` (``GPSSMConfig.slip_sigma``; after resampling the
     particle cloud under-represents the slip error), and each component's scale includes
     ``GPSSMConfig.curve_sigma_floor`` (basis truncation error).
+
+    While the filter relearns after a re-initialisation (``GPSSMConfig.relearn_time``
+    after a step flagged ``diverged``, :mod:`~roadgrip.estimators.gpssm.guard`) the
+    statistics still hold the curve learned on the wrong lateral state: the band is then
+    ``[-peak_max, peak_max]`` (no claim), as the peak bands are the physics floor and
+    ``peak_max``.
     """
     from scipy.special import ndtr, stdtr
 
@@ -308,6 +314,10 @@ def posterior_curves(
                 left = np.where(below, mid, left)
                 right = np.where(below, right, mid)
             outarr[ax] = 0.5 * (left + right)
+    g = state.guard
+    if state.t < g.flagged_until - config.diverge_time + config.relearn_time:
+        lo[:] = -config.peak_max
+        hi[:] = config.peak_max
     return CurvePosterior(alpha, mean, lo, hi, np.stack([prior, prior]))
 
 

@@ -280,7 +280,7 @@ def carried_bytes(obj: Any, _seen: set[int] | None = None) -> int:
     if isinstance(obj, np.ndarray):
         return obj.nbytes if obj.base is None or id(obj.base) not in seen else 0
     if isinstance(obj, Guard):
-        return 8 * (len(obj.times) + len(obj.ay) + len(obj.accel))
+        return 8 * (len(obj.times) + len(obj.ay) + len(obj.accel) + len(obj.nis))
     if isinstance(obj, Context):
         return carried_bytes(obj.kernel, seen)
     if isinstance(obj, dict):
