@@ -76,8 +76,6 @@ MIN_AY_STD = 0.5
 MAX_REL_STD = 0.25
 """Largest relative standard error of a fitted gain, radius or stiffness (2 sigma: within
 +-50 %); the value and its error are reported either way."""
-POSE_ACCEL_SMOOTH = 1.0
-"""Savitzky-Golay window [s] of the pose's ``d v_x/dt`` (its position differentiated twice)."""
 BRAKING = 0.5
 """Deceleration [m/s²] above which the wheels are taken as braked (slipping)."""
 MAX_STEER_LAG = 0.3
@@ -218,8 +216,8 @@ def _pose_vy(drive: Drive) -> NDArray | None:
 def _speed_delay(drive: Drive, vx: NDArray, src: str, dt: float, pose: FittedValue | None,
                  acc: DelayFit) -> FittedValue | None:
     """Delay of the speed (:func:`wheel_speed_vx`) against the gyro: ``dv_x/dt`` against
-    ``a_x``, plus ``a_x``'s delay, which is ``a_x`` against the pose's ``dv_x/dt`` plus the
-    pose's delay where the pose times it, else ``a_y``'s (one accelerometer, one clock).
+    ``a_x``, plus ``a_x``'s delay: the integral of ``a_x`` against the pose's speed, plus the
+    pose's delay, where the pose times it, else ``a_y``'s (one accelerometer, one clock).
     Wheel speeds (``src``) are used outside braking (``a_x < -BRAKING``, widened by 1 s): a
     braked wheel slips, and its speed falls ahead of the car's. None without ``a_x``."""
     if not drive.has("ax"):
@@ -239,11 +237,12 @@ def _speed_delay(drive: Drive, vx: NDArray, src: str, dt: float, pose: FittedVal
                                          window=0.5)[0]
         ok = np.isfinite(v_pose)
         if ok.mean() > 0.5:
-            ref = _smooth(np.interp(t, t[ok], v_pose[ok]), dt, POSE_ACCEL_SMOOTH, deriv=1)
-            ax_pose = estimate_delay(t, drive.col("ax"), ref, valid=ok, max_lag=1.0)
+            ax = drive.col("ax")  # integrated (a delay commutes with it), not the pose differentiated
+            v_ax = np.concatenate(([0.0], np.cumsum(0.5 * (ax[1:] + ax[:-1]) * np.diff(t))))
+            ax_pose = estimate_delay(t, v_ax, v_pose, valid=ok, max_lag=1.0)
             if ax_pose.reliable:
                 ax_clock = (ax_pose.delay + pose.value, math.hypot(ax_pose.std, pose.std),
-                            "a_x timed by the pose's d v_x/dt")
+                            "a_x timed by the pose (its integral ~ the pose's speed)")
     if ax_clock is None and acc.reliable:
         ax_clock = (acc.delay, acc.std, "a_x on a_y's clock")
     if ax_clock is None:
