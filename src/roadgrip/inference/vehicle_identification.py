@@ -8,7 +8,8 @@ quantity                     evidence
 ===========================  ==========================================================
 accelerometer delay          ``a_y`` against ``v_x r`` (+ ``dv_y/dt`` with a pose), vs the gyro
                              (:func:`roadgrip.sensor_delay.estimate_delay`)
-wheel-speed / vx delay       ``d v_x/dt`` against ``a_x``, plus the accelerometer's delay
+wheel-speed / vx delay       ``d v_x/dt`` against ``a_x`` (outside braking), plus ``a_x``'s
+                             delay: its integral against the pose's speed (else ``a_y``'s)
 pose delay                   ``dpsi/dt`` against the gyro
 steering delay, offset,      the linear single-track identity (below), by least squares
 scale, cornering stiffness   over the linear-range samples, the delay by a profile
@@ -31,10 +32,20 @@ steering is linear in ``[l r/v_x, 1, m a_y/l, r'/l]`` with coefficients ``1/s,
 -delta_0/s, K/s, J/s``. ``K`` and ``J`` give both stiffnesses for a known ``I_z``
 (``1/C_f = (K + l_f J/I_z)/l``, ``1/C_r = (l_r J/I_z - K)/l``); the yaw inertia itself
 would need ``v_y`` and is kept from the base vehicle. Samples: ``v_x >= V_MIN``,
-``|a_y| < 0.4 mu g`` (linear range), ``|a_x| < 0.2 g``.
+``|a_y| < 0.4 mu g`` (linear range), ``|a_x| < 0.2 g``, none within reach of a value the
+logger held (:func:`~roadgrip.inference.least_squares.held_samples`: a hold is the channel
+late by its length). ``a_y`` is the accelerometer's reading over ``1 + g roll_gradient``
+(a body-fixed sensor in a rolled body reads ``g`` times the roll angle besides).
+
+All signals pass one Savitzky-Golay filter (``SMOOTH``), under which the identity still
+holds. The gyro's white noise, differentiated into ``r'``, would dilute ``J`` (and, since
+a steering delay is nearly ``l² r'/v_x`` times itself, move the delay: 40-50 ms on the
+random family at a 0.15 s filter); the regression is corrected for the measured noise of
+the gyro and the accelerometer (:func:`~roadgrip.inference.least_squares.eiv_lstsq`).
 
 Standard errors are least-squares errors inflated for the residuals' correlation
-(``n_eff = n (1 - rho_1)/(1 + rho_1)``), propagated by the delta method.
+(``n_eff = n (1 - rho_1)/(1 + rho_1)``), propagated by the delta method; the stiffnesses'
+include the delay's own error through their slope along the delay.
 """
 
 from __future__ import annotations
@@ -364,7 +375,8 @@ def _wheel_radius(drive: Drive, base: VehicleParams, dt: float) -> FittedValue:
 def _regressor_noise(drive: Drive, L: float, m: float, vx: NDArray, dt: float,
                      acc_delay: float) -> NDArray:
     """Summed noise covariance ``E[dX' dX]``, shape (4, 4), of the single-track regressors
-    ``[l r/v_x, 1, m a_y/l, r'/l]`` over the selected samples (``vx`` [m/s], shape (n,)):
+    ``[l r/v_x, 1, m a_y/l, r'/l]`` over the selected samples (``vx`` [m/s], shape (n,);
+    ``m`` [kg] the factor of the raw ``a_y`` column):
     the gyro's and the accelerometer's white noise (:func:`white_noise_std` of the raw
     columns) through the filters of :func:`_smooth`. A smoothed and a differentiated copy
     of one noise are uncorrelated (a symmetric against an antisymmetric kernel)."""
@@ -407,7 +419,8 @@ def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc
     L, m = base.wheelbase, base.mass
     r = _smooth(drive.col("yaw_rate"), dt)
     rdot = _smooth(drive.col("yaw_rate"), dt, deriv=1)
-    ay = _smooth(_shifted(t, drive.col("ay"), acc_delay), dt)
+    roll = 1.0 + GRAVITY * base.roll_gradient  # a_y's reading over the CG's acceleration
+    ay = _smooth(_shifted(t, drive.col("ay"), acc_delay), dt) / roll
     ax = _smooth(_shifted(t, drive.col("ax"), acc_delay), dt) if drive.has("ax") else np.zeros(drive.n)
     steer = _smooth(drive.col("steer"), dt)
     vxs = _smooth(vx, dt)
@@ -426,7 +439,7 @@ def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc
         out = {k: _undetermined(k, u, why, getattr(base, k, math.nan)) for k, u in names.items()}
         return out, n
     X = np.column_stack([L * r[sel] / vxs[sel], np.ones(n), m * ay[sel] / L, rdot[sel] / L])
-    noise = _regressor_noise(drive, L, m, vxs[sel], dt, acc_delay)
+    noise = _regressor_noise(drive, L, m / roll, vxs[sel], dt, acc_delay)
     lags = np.arange(-edge + 1, edge)
     rss = np.array([eiv_lstsq(X, np.roll(steer, -k)[sel], noise)[3] for k in lags])
     i = int(np.argmin(rss))
