@@ -30,7 +30,9 @@ the overlapping parts (a Pearson coefficient without the overlap's bias towards 
 lag); the correlations of all windows are summed, the peak located to a fraction of a
 sample by a parabola through the three highest lags. The spread of the windows' own
 peaks, weighted by the energy each explains, gives the standard error. Samples in gaps of the time base and outliers of the
-pose derivative (localisation jumps) are left out of the sums.
+pose derivative (localisation jumps) are left out of the sums; samples where only the
+signal departs from the identity (``signal_valid``: a braked wheel's speed) are left out of
+the signal's side alone (:func:`masked_lag_correlation`), the reference kept at every lag.
 
 Positive delay: the signal lags (arrives after) its reference.
 """
