@@ -17,6 +17,7 @@ from roadgrip.sensor_delay import (
     align_drive,
     estimate_delay,
     lag_correlation,
+    masked_lag_correlation,
     sensor_delays,
 )
 
@@ -47,6 +48,34 @@ def test_lag_correlation_equals_direct_sums():
             a, b = sig[:300 + k], ref[-k:]
         assert c[j] == pytest.approx(np.dot(a, b), abs=1e-9)
         assert es[j] == pytest.approx(np.dot(a, a)) and er[j] == pytest.approx(np.dot(b, b))
+
+
+def test_masked_lag_correlation_equals_direct_sums():
+    rng = np.random.default_rng(4)
+    sig, ref = rng.standard_normal(300), rng.standard_normal(300)
+    ok = rng.uniform(size=300) > 0.3
+    c, es, er = masked_lag_correlation(sig, ref, ok, 7)
+    for j, k in enumerate(range(-7, 8)):
+        i = np.array([i for i in range(300) if ok[i] and 0 <= i - k < 300])
+        assert c[j] == pytest.approx(np.dot(sig[i], ref[i - k]), abs=1e-9)
+        assert es[j] == pytest.approx(np.dot(sig[i], sig[i]))
+        assert er[j] == pytest.approx(np.dot(ref[i - k], ref[i - k]))
+    # all samples kept: the plain overlapping sums
+    np.testing.assert_allclose(np.stack(masked_lag_correlation(sig, ref, np.ones(300, bool), 7)),
+                               np.stack(lag_correlation(sig, ref, 7)), atol=1e-9)
+
+
+def test_signal_valid_leaves_out_where_the_signal_departs():
+    # a signal 0.2 s late except in stretches where it runs 0.15 s early (a braked wheel's
+    # speed falling ahead of the car's): left out, they no longer pull the peak
+    t = np.arange(0.0, 240.0, 0.01)
+    ref = _broadband(t, 5)
+    departs = (t % 20.0) < 6.0
+    sig = np.where(departs, _broadband(t + 0.15, 5), _broadband(t - 0.2, 5))
+    biased = estimate_delay(t, sig, ref)
+    assert abs(biased.delay - 0.2) > 0.03
+    fit = estimate_delay(t, sig, ref, signal_valid=~departs)
+    assert abs(fit.delay - 0.2) < 0.005, fit
 
 
 @pytest.mark.parametrize(("rate", "tau"), [(25.0, 0.137), (50.0, -0.29), (100.0, 0.6), (10.0, 0.43)])

@@ -30,7 +30,9 @@ the overlapping parts (a Pearson coefficient without the overlap's bias towards 
 lag); the correlations of all windows are summed, the peak located to a fraction of a
 sample by a parabola through the three highest lags. The spread of the windows' own
 peaks, weighted by the energy each explains, gives the standard error. Samples in gaps of the time base and outliers of the
-pose derivative (localisation jumps) are left out of the sums.
+pose derivative (localisation jumps) are left out of the sums; samples where only the
+signal departs from the identity (``signal_valid``: a braked wheel's speed) are left out of
+the signal's side alone (:func:`masked_lag_correlation`), the reference kept at every lag.
 
 Positive delay: the signal lags (arrives after) its reference.
 """
@@ -56,6 +58,7 @@ __all__ = [
     "align_drive",
     "estimate_delay",
     "lag_correlation",
+    "masked_lag_correlation",
     "sensor_delays",
 ]
 
@@ -171,6 +174,47 @@ def _moving_mean(x: NDArray, n: int) -> NDArray:
     return (c[hi] - c[lo]) / (hi - lo)
 
 
+def _xcorr(a: NDArray, b: NDArray, lags: NDArray) -> NDArray:
+    """``sum_i a[i] b[i - k]`` for each ``k`` of ``lags`` (by FFT)."""
+    n = len(a)
+    nfft = 1 << math.ceil(math.log2(max(n + int(np.abs(lags).max()), 2)))
+    full = np.fft.irfft(np.fft.rfft(a, nfft) * np.conj(np.fft.rfft(b, nfft)), nfft)
+    return full[lags % nfft]
+
+
+def masked_lag_correlation(sig: NDArray, ref: NDArray, sig_ok: NDArray, max_lag: int
+                           ) -> tuple[NDArray, NDArray, NDArray]:
+    """:func:`lag_correlation` over the samples where ``sig_ok``, the reference used at
+    every lag: ``c[k] = sum_i m[i] sig[i] ref[i - k]``, ``e_sig[k] = sum_i m[i] sig[i]²``,
+    ``e_ref[k] = sum_i m[i] ref[i - k]²`` (``m`` the mask, ``i - k`` inside the record).
+    Setting the left-out samples to zero instead would leave both signals at zero over the
+    same stretch and pull the peak towards lag zero.
+
+    Parameters
+    ----------
+    sig, ref : ndarray, shape (n,)
+    sig_ok : ndarray of bool, shape (n,)
+    max_lag : int
+        [samples].
+
+    Returns
+    -------
+    c, e_sig, e_ref : ndarray, shape (2 max_lag + 1,)
+    """
+    n = len(sig)
+    K = min(int(max_lag), n - 1)
+    lags = np.arange(-K, K + 1)
+    m = np.asarray(sig_ok, float)
+    one = np.ones(n)
+    c = _xcorr(m * sig, ref, lags)
+    e_sig = _xcorr(m * sig * sig, one, lags)
+    e_ref = _xcorr(m, ref * ref, lags)
+    if K < max_lag:
+        pad = int(max_lag) - K
+        c, e_sig, e_ref = (np.pad(a, pad) for a in (c, e_sig, e_ref))
+    return c, e_sig, e_ref
+
+
 def lag_correlation(sig: NDArray, ref: NDArray, max_lag: int) -> tuple[NDArray, NDArray, NDArray]:
     """Sums of the lagged products and the energies of the overlapping parts.
 
@@ -228,6 +272,7 @@ def estimate_delay(
     reference: ArrayLike,
     *,
     valid: ArrayLike | None = None,
+    signal_valid: ArrayLike | None = None,
     max_lag: float = 1.0,
     window: float = 30.0,
     smooth: float = 0.2,
@@ -242,6 +287,10 @@ def estimate_delay(
         Two measurements of one quantity (any common unit; gains do not matter).
     valid : array_like of bool, shape (n,), optional
         Samples to use (e.g. no localisation jump); default all finite ones.
+    signal_valid : array_like of bool, shape (n,), optional
+        Samples of ``signal`` alone to use, the reference kept at every lag
+        (:func:`masked_lag_correlation`): where the signal departs from the identity
+        for a while (a braked wheel slipping).
     max_lag : float
         Largest delay searched in both directions [s].
     window : float
@@ -272,6 +321,7 @@ def estimate_delay(
         ok &= np.asarray(valid, bool)
     if ok.sum() < 16 or not math.isfinite(max_lag) or max_lag <= 0:
         return DelayFit(math.nan, math.nan, math.nan, 0, 0, False)
+    sig_ok = None if signal_valid is None else np.asarray(signal_valid, bool)[ok]
     t, sig, ref = t[ok], sig[ok], ref[ok]
     grid, in_gap = _uniform(t, gap=3.0)
     dt = float(grid[1] - grid[0]) if len(grid) > 1 else 1.0
@@ -286,6 +336,7 @@ def estimate_delay(
         r = _moving_mean(r, n_smooth)
     s[in_gap] = 0.0
     r[in_gap] = 0.0
+    m = None if sig_ok is None else (np.interp(grid, t, sig_ok.astype(float)) > 0.999) & ~in_gap
     K = max(math.ceil(max_lag / dt), 1)
     # at least six windows where the drive is long enough for them to hold 8 max_lag each
     W = max(round(min(window, (grid[-1] - grid[0]) / 6.0) / dt), 8 * K)
@@ -297,7 +348,8 @@ def estimate_delay(
         if len(seg_s) < 4 * K:
             continue
         n_win += 1
-        parts = np.stack(lag_correlation(seg_s, seg_r, K))
+        parts = np.stack(lag_correlation(seg_s, seg_r, K) if m is None
+                         else masked_lag_correlation(seg_s, seg_r, m[a:a + W], K))
         tot += parts
         with np.errstate(invalid="ignore", divide="ignore"):
             rho = parts[0] / np.sqrt(parts[1] * parts[2])

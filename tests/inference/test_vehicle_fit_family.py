@@ -3,22 +3,18 @@ to ``random:119`` with realistic sensors, each fitted on its own ``dry-gravel-dr
 (the whole 180 s at ``mu=0.6``, fixed before measuring: the dry minute alone leaves the
 stiffnesses undetermined even with error-free sensors), against the simulator's truth.
 
-Truths: the front cornering stiffness in series with the steering compliance,
-``1/(1/C_f + c)`` (one a steering-angle sensor cannot tell from the other); the rear the
-tire's; each delay its sensor's latency minus the gyro's; the steering offset the road-wheel
-angle at a zero reading, ``-offset/(1 + ratio_error)``.
+Truths (as ``benchmarks/vehicle_family.py --fit`` states them): the front cornering stiffness
+in series with the steering compliance, ``1/(1/C_f + c)``; the rear the tire's; each delay its
+sensor's latency minus the gyro's (the speed's: the undriven wheels', or the ``vx`` column's on
+an all-wheel drive); the steering offset the road-wheel angle at a zero reading,
+``-offset/(1 + ratio_error)``.
 
 The issue's criterion (stiffnesses within 10 %, each delay within 20 ms, the steering offset
-within 0.1 deg, on 18 of 20) is not reached on any vehicle. What holds and is asserted: the
-accelerometer's and the pose's delays within 20 ms on all 20, the steering offset within 0.1 deg
-on at least 15. What does not: the stiffnesses are undetermined on all 20 and the steering
-delay comes out 34-67 ms early (the gyro's noise, 0.005 rad/s, differentiated over 0.15 s into
-the yaw-acceleration regressor; measured on random:102 and 103: with every channel exact the
-steering delay is found within 5 ms and the stiffnesses are determined, front +4 and +7 %, rear
-+18 and +3 %; adding white noise of 0.005 rad/s to the exact yaw rate alone leaves them
-undetermined and the steering delay 40 ms early), and the speed
-delay is off wherever ``a_x`` and ``a_y`` arrive with different latencies (one accelerometer
-delay is fitted).
+within 0.1 deg, on 18 of 20) is reached for every delay (20 of 20) and the offset (19 of 20),
+not for the stiffnesses: both within 10 % on 13 of 20, 12 vehicles passing whole
+(``docs/vehicle-fit.md``). What is asserted: those counts, and that every fitted stiffness
+lies within three of its standard errors of the truth (the errors are honest where the
+values miss).
 """
 
 from __future__ import annotations
@@ -27,29 +23,34 @@ import numpy as np
 import pytest
 
 from roadgrip.inference.vehicle_identification import fit_vehicle
+from roadgrip.signals import undriven_wheels
 from roadgrip.sim.scenarios import simulate_scenario
 from roadgrip.sim.vehicle_family import mb_vehicle
 
 pytestmark = pytest.mark.slow
 
 FAMILY = tuple(f"random:{s}" for s in range(100, 120))
+DELAYS = ("delay_accelerometer", "steer_delay", "delay_speed", "delay_pose")
+STIFFNESS = ("cornering_stiffness_front", "cornering_stiffness_rear")
 
 
-def _errors(name: str) -> dict[str, float]:
-    """Fitted minus true, NaN where undetermined (stiffnesses relative)."""
+def _errors(name: str) -> dict[str, tuple[float, float]]:
+    """Fitted minus true and the standard error, NaN where undetermined (stiffnesses relative)."""
     v = mb_vehicle(name)
     vp, ch, st = v.params, v.sensors.channels, v.sensors.steering
     fit = fit_vehicle(simulate_scenario("dry-gravel-dry", seed=10, engine="multibody", vehicle=name), mu=0.6)
     gyro = ch["yaw_rate"].delay
+    speed = ch["omega_fl"].delay if undriven_wheels(vp.drive).any() else ch["vx"].delay
     truth = {"cornering_stiffness_front": 1.0 / (1.0 / vp.cornering_stiffness_front + st.compliance),
              "cornering_stiffness_rear": vp.cornering_stiffness_rear,
              "delay_accelerometer": ch["ay"].delay - gyro, "steer_delay": ch["steer"].delay - gyro,
-             "delay_pose": ch["psi"].delay - gyro, "steer_offset": -st.offset / (1.0 + st.ratio_error)}
+             "delay_speed": speed - gyro, "delay_pose": ch["psi"].delay - gyro,
+             "steer_offset": -st.offset / (1.0 + st.ratio_error)}
     out = {}
     for k, true in truth.items():
         fv = fit.values[k]
-        val = fv.value if fv.fitted else float("nan")
-        out[k] = val / true - 1.0 if k.startswith("cornering") else val - true
+        val, std = (fv.value, fv.std) if fv.fitted else (float("nan"), float("nan"))
+        out[k] = (val / true - 1.0, std / true) if k in STIFFNESS else (val - true, std)
     return out
 
 
@@ -57,23 +58,35 @@ def _errors(name: str) -> dict[str, float]:
 def family():
     out = {name: _errors(name) for name in FAMILY}
     for name, e in out.items():
-        print(name, {k: round(float(x), 4) for k, x in e.items()})
+        print(name, {k: round(float(x[0]), 4) for k, x in e.items()})
     return out
 
 
-def test_accelerometer_and_pose_delays_within_20_ms_on_all(family):
+def _stiff_ok(e) -> bool:
+    return all(abs(e[k][0]) <= 0.10 for k in STIFFNESS)
+
+
+def test_every_delay_within_20_ms_on_all(family):
     for name, e in family.items():
-        assert abs(e["delay_accelerometer"]) <= 0.020, (name, e)
-        assert abs(e["delay_pose"]) <= 0.020, (name, e)
+        for k in DELAYS:
+            assert abs(e[k][0]) <= 0.020, (name, k, e[k])
 
 
-def test_steering_offset_within_01_deg_on_15(family):
-    ok = [n for n, e in family.items() if abs(e["steer_offset"]) <= np.radians(0.1)]
-    assert len(ok) >= 15, sorted(set(FAMILY) - set(ok))
+def test_steering_offset_within_01_deg_on_19(family):
+    ok = [n for n, e in family.items() if abs(e["steer_offset"][0]) <= np.radians(0.1)]
+    assert len(ok) >= 19, sorted(set(FAMILY) - set(ok))
 
 
-def test_what_is_not_reached_yet(family):
-    # held so that a change is noticed: stiffnesses undetermined, steering delay early
+def test_stiffnesses_within_10_percent_on_13_and_honest_on_all(family):
+    ok = [n for n, e in family.items() if _stiff_ok(e)]
+    assert len(ok) >= 13, sorted(set(FAMILY) - set(ok))
     for name, e in family.items():
-        assert np.isnan(e["cornering_stiffness_front"]) and np.isnan(e["cornering_stiffness_rear"]), name
-        assert -0.080 < e["steer_delay"] < -0.025, (name, e["steer_delay"])
+        for k in STIFFNESS:
+            err, std = e[k]
+            assert np.isfinite(err) and abs(err) <= 3.0 * std, (name, k, err, std)
+
+
+def test_whole_criterion_on_12(family):
+    ok = [n for n, e in family.items() if _stiff_ok(e) and abs(e["steer_offset"][0]) <= np.radians(0.1)
+          and all(abs(e[k][0]) <= 0.020 for k in DELAYS)]
+    assert len(ok) >= 12, sorted(set(FAMILY) - set(ok))

@@ -237,3 +237,87 @@ def yaml_dump_sedan() -> str:
     import yaml
 
     return yaml.safe_dump(PRESETS["sedan"].to_dict(), sort_keys=False)
+
+
+def _fit_relative(df, base=None, **patch):
+    """Steering delay [s] and both stiffnesses relative to the truth of a fit of ``df``;
+    ``patch``: module attributes replaced for the fit (to show what a fix changes)."""
+    import roadgrip.inference.vehicle_identification as vi
+
+    d = _injected()
+    saved = {k: getattr(vi, k) for k in patch}
+    try:
+        for k, v in patch.items():
+            setattr(vi, k, v)
+        v = fit_vehicle(Drive(df, d.meta), base).values
+    finally:
+        for k, old in saved.items():
+            setattr(vi, k, old)
+    cf, cr = _true_stiffness(_sim())
+    return (v["steer_delay"].value, v["cornering_stiffness_front"].value / cf - 1.0,
+            v["cornering_stiffness_rear"].value / cr - 1.0)
+
+
+def test_gyro_noise_neither_dilutes_the_stiffnesses_nor_moves_the_delay():
+    # white noise of 0.02 rad/s on the gyro, differentiated into r': without the
+    # correction the yaw term is diluted (stiffnesses over 20 % high, delay early)
+    df = _injected().data.copy()
+    df["yaw_rate"] += 0.02 * np.random.default_rng(3).standard_normal(len(df))
+    delay, front, rear = _fit_relative(df)
+    assert delay == pytest.approx(STEER_LAG * 0.01, abs=0.01)
+    assert abs(front) < 0.10 and abs(rear) < 0.10
+    _, front_raw, rear_raw = _fit_relative(df, _regressor_noise=lambda *a: np.zeros((4, 4)))
+    assert front_raw > 0.2 and rear_raw > 0.2
+
+
+def test_values_held_by_the_logger_are_left_out():
+    # six holds of 0.25 s in the steering at its fastest changes: the steering late by up to
+    # 0.25 s there, which the delay profile would take for latency
+    df = _injected().data.copy()
+    steer = df["steer"].to_numpy().copy()
+    rate = np.abs(np.gradient(steer))
+    rate[:500] = rate[-500:] = 0.0
+    for _ in range(6):
+        i = int(np.argmax(rate))
+        steer[i:i + 25] = steer[i]
+        rate[max(i - 300, 0):i + 300] = 0.0
+    df["steer"] = steer
+    delay, front, rear = _fit_relative(df)
+    assert delay == pytest.approx(STEER_LAG * 0.01, abs=0.01)
+    assert abs(front) < 0.05 and abs(rear) < 0.05
+    delay_raw, front_raw, _ = _fit_relative(df, _near_holds=lambda drive, *a: np.zeros(drive.n, bool))
+    assert delay_raw - STEER_LAG * 0.01 > 0.015 and front_raw < -0.1
+
+
+def test_accelerometer_roll_reading_is_taken_out():
+    # a body-fixed accelerometer in a body rolled by roll_gradient a_y reads (1 + g rg) a_y:
+    # with that roll gradient in the base vehicle the fit is the one of the unrolled reading
+    rg = 0.01
+    d = _injected()
+    df = d.data.copy()
+    df["ay"] *= 1.0 + 9.80665 * rg
+    rolled = _fit_relative(df, d.vehicle.replace(roll_gradient=rg))
+    plain = _fit_relative(d.data.copy(), d.vehicle.replace(roll_gradient=0.0))
+    np.testing.assert_allclose(rolled, plain, rtol=1e-6, atol=1e-9)
+
+
+def test_speed_delay_with_the_accelerometer_on_its_own_clock():
+    # wheel speeds 60 ms and a_x 100 ms behind the gyro, a_y on time: a_x is timed by the
+    # pose (its integral against the pose's speed), not taken on a_y's clock (which would
+    # give 60 - 100 = -40 ms)
+    from roadgrip.sim.scenarios import simulate_scenario
+
+    d = simulate_scenario("dry-gravel-dry", seed=10)
+    df = d.data.copy()
+    t = d.t
+    for c in ("omega_fl", "omega_fr", "omega_rl", "omega_rr"):
+        df[c] = np.interp(t - 0.06, t, df[c])
+    df["ax"] = np.interp(t - 0.10, t, df["ax"])
+    v = fit_vehicle(Drive(df, d.meta), mu=0.6).values["delay_speed"]
+    assert v.fitted and "timed by the pose" in v.note
+    assert v.value == pytest.approx(0.06, abs=0.01)
+    assert abs(v.value - 0.06) < 4 * v.std + 0.003
+    # without a pose the shared clock is assumed, and said
+    v = fit_vehicle(Drive(df.drop(columns=["x", "y", "psi"]), d.meta), mu=0.6).values["delay_speed"]
+    assert v.fitted and "a_x on a_y's clock" in v.note
+    assert v.value == pytest.approx(0.06 - 0.10, abs=0.03)
