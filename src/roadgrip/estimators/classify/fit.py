@@ -476,7 +476,9 @@ def saturation_calibration(
 def _holds_label(cfg: BRLSConfig, data, name: str) -> bool:
     """Whether the bRLS with channel ``name`` alone, started in the other class, claims
     nothing but the label on each labelled drive's settled samples
-    (:func:`~roadgrip.estimators.classify.common.settled`)."""
+    (:func:`~roadgrip.estimators.classify.common.settled`, its settling counted from the
+    channel's first informed sample: a drive that cruises before its first manoeuvre
+    gives the classifier nothing to leave its start with)."""
     other = "long" if name == "lat" else "lat"
     c = replace(cfg, **{other: replace(getattr(cfg, other), enabled=False),
                         name: replace(getattr(cfg, name), enabled=True)},
@@ -486,7 +488,10 @@ def _holds_label(cfg: BRLSConfig, data, name: str) -> bool:
                                                drive.vehicle, c, drive.t)
         _, o = brls_batch(drive.t, pl, yl, pa, ya,
                           replace(c, initial_state="low" if lab == "high" else "high"))
-        judged = settled(drive.t, np.abs(np.asarray(kin.vx, float)) >= c.min_speed)
+        # the settling counts from the channel's first informed sample: before it the
+        # classifier holds its start (the other class) on no evidence at all
+        judged = settled(drive.t, np.abs(np.asarray(kin.vx, float)) >= c.min_speed,
+                         np.asarray(getattr(o, f"w_{name}")) >= 0.5)
         cls = np.asarray(o.grip_class)[judged]
         if np.any((cls != lab) & (cls != "unknown")):
             return False
