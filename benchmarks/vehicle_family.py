@@ -13,8 +13,10 @@ caches the drives.
 
 ``--estimators`` prints instead the issue's family criteria, one row a vehicle: the
 classifiers calibrated with ``roadgrip calibrate --label high`` on the dry first minute of
-``dry-gravel-dry`` seed 10 and scored on seed 0 (gravel flagged within 1 s of its first
-sample at true utilisation >= 0.6, no false switch; ``-`` where the calibration fails),
+``dry-gravel-dry`` seed 10 (its channels on/off, longitudinal/lateral, and the latency of the
+wheel speeds behind the accelerometer it aligns, ``lat ms``) and scored on seed 0 (gravel
+flagged within 1 s of its first sample at true utilisation >= 0.6, no false switch; ``-``
+where the calibration refuses the car),
 the cascade's 5 m cells on ``figure-eight`` seed 0 (cells with >= 10 observations: how
 many, their mean |error|, the share within mean +- 1.96 std, confidently wrong cells), and
 whether each run is honest (:mod:`roadgrip.evaluate.honesty`).
@@ -78,8 +80,10 @@ def _classifier_cells(name: str) -> str:
     try:
         cal = calibrate([(dry, "high")])
     except ValueError:
-        return f" {'fails':>8}" + f" {'-':>7} {'-':>3} {'-':>4} {'-':>6}" * 2
-    row = f" {cal.diagnostics['long_channel'] + '/' + cal.diagnostics['lat_channel']:>8}"
+        return f" {'fails':>8} {'-':>6}" + f" {'-':>7} {'-':>3} {'-':>4} {'-':>6}" * 2
+    lat = cal.diagnostics["wheel_latency"]
+    row = (f" {cal.diagnostics['long_channel'] + '/' + cal.diagnostics['lat_channel']:>8}"
+           f" {1e3 * lat['latency_s'] if lat['fitted'] else float('nan'):>+6.0f}")
     for method in ("brls", "slipmap"):
         res = run_estimator(method, test, {"calibration": cal})
         sc = surface_change_scores(test, res.table["grip_class"].to_numpy())
@@ -222,7 +226,7 @@ def gpssm_table(names: list[str]) -> None:
 def estimator_table(names: list[str]) -> None:
     """Print the issue's family criteria, one row a vehicle (module docstring)."""
     cls = " ".join(f"{m + ' [s]':>7} {'fs':>3} {'pass':>4} {'honest':>6}" for m in ("bRLS", "map"))
-    print(f"{'vehicle':<11} {'drive':<5} {'x/y':>8} {cls} | {'cells':>5} {'mae':>5} {'cover':>5} "
+    print(f"{'vehicle':<11} {'drive':<5} {'x/y':>8} {'lat ms':>6} {cls} | {'cells':>5} {'mae':>5} {'cover':>5} "
           f"{'wrong':>5} {'pass':>4} {'honest':>6}")
     t_start = time.perf_counter()
     for name in names:

@@ -193,6 +193,20 @@ def test_settled_counts_from_the_first_moving_sample():
     assert common.settled(t, np.zeros(t.size, bool)).all()  # never moves: everything
 
 
+def test_settled_with_information_counts_from_the_first_informed_sample():
+    t = np.arange(0.0, 40.0, 0.125)  # exact in binary
+    moving = t >= 2.0
+    informed = t == 8.25  # one informed sample, none after
+    m = common.settled(t, moving, informed)
+    assert t[m][0] == 8.25 + common.CALIBRATION_SETTLING_S
+    assert m[t >= 18.25].all() and not m[t < 18.25].any()
+    # informed before the car moves: the settling counts from the first moving sample
+    early = common.settled(t, moving, t < 1.0)
+    np.testing.assert_array_equal(early, common.settled(t, moving))
+    # no information: nothing is judged (a classifier claims nothing from no evidence)
+    assert not common.settled(t, moving, np.zeros(t.size, bool)).any()
+
+
 def test_lateral_acceleration_setting_is_validated():
     with pytest.raises(ValueError, match="lateral_acceleration"):
         replace(default_config(), lateral_acceleration="gps")

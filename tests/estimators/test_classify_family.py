@@ -5,12 +5,15 @@ the simulator's truth (:func:`roadgrip.evaluate.classification.surface_change_sc
 
 The issue's criterion: gravel flagged within 1.0 s of the first sample on gravel at true
 utilisation >= 0.6 and no false switch, on at least 18 of the 20. What holds and is
-asserted here: the one-dry-minute calibration holds on 14 of the 20 (it fails on the five
-all-wheel-drive cars, whose dry minute informs only the braking slips against a coasting
-speed, and on ``random:116``); on every car where it holds the slip map meets the
-criterion, and the bRLS on all but one (``random:112``: a 'low' claimed on the dry
-asphalt after the gravel). The honesty rule (:mod:`roadgrip.evaluate.honesty`) is
-reported per run and asserted on the share of runs it holds on so far.
+asserted here: the one-dry-minute calibration holds on the 15 two-wheel-drive cars and
+refuses the five all-wheel-drive ones, saying why (no free-rolling wheel: the traction
+slips have no speed reference, and the braking slips against a speed coasting on the
+accelerometer do not hold the label); on every car where it holds the slip map meets the
+criterion, and the bRLS on all but one (``random:111``: a 'low' claimed late in a 0.5 g
+stop on the dry asphalt after the gravel). The honesty rule (:mod:`roadgrip.evaluate.honesty`)
+holds on all but one calibrated car for each (the bRLS's ``random:111``; the slip map's
+``random:108``, whose 'low' outlives the return to dry asphalt by 0.33 s past the rule's
+10 s, until the first acceleration there).
 """
 
 from __future__ import annotations
@@ -39,10 +42,12 @@ def family():
     """Per vehicle: None where the calibration fails, else per method (scores, honest)."""
     out = {}
     for vehicle in FAMILY:
+        dry = _mb(vehicle, 10).slice_time(0.0, 60.0)
         try:
-            cal = calibrate([(_mb(vehicle, 10).slice_time(0.0, 60.0), "high")])
-        except ValueError:
+            cal = calibrate([(dry, "high")])
+        except ValueError as e:
             out[vehicle] = None
+            assert dry.vehicle.drive == "awd" and "all-wheel driven" in str(e), (vehicle, str(e))
             continue
         test = _mb(vehicle, 0)
         runs = {}
@@ -64,8 +69,9 @@ def _meets(scores) -> bool:
     return scores.delays[0] <= 1.0 and scores.false_switches == 0
 
 
-def test_one_dry_minute_calibrates_most_of_the_family(family):
-    assert sum(r is not None for r in family.values()) >= 14
+def test_one_dry_minute_calibrates_every_two_wheel_drive_car(family):
+    refused = [v for v, r in family.items() if r is None]
+    assert sum(r is not None for r in family.values()) >= 15, refused  # the refusals are all-wheel drives
 
 
 def test_slip_map_detects_gravel_on_every_car_it_is_calibrated_for(family):
@@ -79,7 +85,7 @@ def test_brls_detects_gravel_on_all_calibrated_cars_but_one(family):
     assert len(misses) <= 1, misses
 
 
-def test_classifiers_honest_on_most_calibrated_cars(family):
-    for method in METHODS:
-        honest = [runs[method][1].honest for runs in family.values() if runs is not None]
-        assert sum(honest) >= len(honest) - 3, (method, honest)
+@pytest.mark.parametrize(("method", "dishonest"), [("slipmap", 1), ("brls", 1)])
+def test_classifiers_honest_on_the_calibrated_cars(family, method, dishonest):
+    honest = {v: runs[method][1].honest for v, runs in family.items() if runs is not None}
+    assert sum(honest.values()) >= len(honest) - dishonest, (method, honest)

@@ -20,6 +20,7 @@ from roadgrip.estimators import run_estimator
 from roadgrip.estimators.classify import calibrate
 from roadgrip.estimators.classify.common import mirrored_friction
 from roadgrip.estimators.classify.fit import fit_slip_offset
+from roadgrip.estimators.classify.latency import aligned_drive
 
 
 @pytest.mark.parametrize(("label", "mu"), [("high", 1.0), ("high", 1.45), ("low", 0.3), ("low", 0.69)])
@@ -153,5 +154,10 @@ def test_slip_offset_is_the_driven_wheels_scale_error(planar):
     assert fit0["fitted"] and fit1["fitted"]
     assert b1 - b0 == pytest.approx(1.0 - 1.0 / 1.006, abs=3e-4)
     cal = calibrate([(scaled, "high")])
-    assert cal.brls.grip.kappa_offset == pytest.approx(b1)
-    assert cal.diagnostics["slip_zero"]["offset"] == pytest.approx(b1)
+    # the calibration fits it on the drive aligned by the wheel speeds' latency (ideal sensors:
+    # within a sample step of none), as the classifiers see the drive
+    assert abs(cal.brls.grip.wheel_latency_s) <= 0.011
+    b_cal, _ = offset(aligned_drive(scaled, cal.brls.grip.wheel_latency_s)[0])
+    assert b_cal == pytest.approx(b1, abs=1e-5)
+    assert cal.brls.grip.kappa_offset == pytest.approx(b_cal)
+    assert cal.diagnostics["slip_zero"]["offset"] == pytest.approx(b_cal)

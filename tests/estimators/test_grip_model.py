@@ -258,7 +258,7 @@ def test_slip_map_votes_with_the_onset_of_a_stop_only_on_the_multibody_van():
     for grip in (model, None):
         cfg = slipmap_saturation(grip=grip)
         front = Front.for_drive(drive, cfg.lateral_acceleration)
-        (kin, ay), _ = front_batch(drive, front, front_init())
+        (kin, ay, _ax), _ = front_batch(drive, front, front_init())
         kin_f, ax_f, ay_f, braking, _ = prefilter(kin, drive.col("ax"), ay, drive.t, cfg.prefilter_tau_s,
                                                   0.01, np.zeros(PREFILTER_SIZE))
         ev = evidence_from_kinematics(kin_f, ax_f, ay_f, drive.col("steer"), veh, cfg, braking)

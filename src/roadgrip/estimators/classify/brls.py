@@ -101,6 +101,7 @@ from roadgrip.estimators.classify.frontend import (
     front_step,
     kinematic_samples,
     prepare_classifier,
+    wheel_latency,
 )
 from roadgrip.estimators.classify.grip_model import (
     GripModel,
@@ -292,7 +293,7 @@ def brls_table(
     kinematic stage's ``vx_hat`` [m/s] and ``beta_hat`` [rad]. Also returns
     the kinematic stage's output.
     """
-    front = Front.for_drive(drive, config.lateral_acceleration, kin_cfg)
+    front = Front.for_drive(drive, config.lateral_acceleration, kin_cfg, wheel_latency(config))
     table, kin, _ = brls_block(drive, BRLSRunState(front, config, front_init(), brls_init(config)))
     return table, kin
 
@@ -320,10 +321,10 @@ def brls_block(drive: Drive, state: BRLSRunState) -> tuple[pd.DataFrame, Kinemat
         After the block's last sample.
     """
     config = state.settings
-    (kin, ay), front_state = front_batch(drive, state.front, state.kin)
+    (kin, ay, ax), front_state = front_batch(drive, state.front, state.kin)
     dt0 = first_step(state.kin, drive.t[0])
     (phi_long, y_long, phi_lat, y_lat), filtered = model_regressors(
-        kin, drive.col("ax"), ay, drive.col("steer"), state.front.params, config, drive.t, dt0,
+        kin, ax, ay, drive.col("steer"), state.front.params, config, drive.t, dt0,
         np.asarray(state.filtered, float))
     core, out = brls_batch(drive.t, phi_long, y_long, phi_lat, y_lat, config, state.core, dt0=dt0)
     table = pd.DataFrame({
@@ -363,16 +364,16 @@ def prepare_rows(drive: Drive, config: Any, info: DriveInfo) -> list[KinematicIn
 def init(info: DriveInfo, config: BRLSEstimatorConfig, seed: int = 0) -> BRLSRunState:
     """State before the first sample (deterministic: ``seed`` is not used)."""
     cfg = config.settings
-    front = Front(info.vehicle, KINEMATIC, info.derived["aid"], cfg.lateral_acceleration)
+    front = Front(info.vehicle, KINEMATIC, info.derived["aid"], cfg.lateral_acceleration, wheel_latency(cfg))
     return BRLSRunState(front, cfg, front_init(), brls_init(cfg))
 
 
 def step(state: BRLSRunState, sample: KinematicInput) -> tuple[BRLSRunState, dict[str, Any]]:
     """One sample: kinematic stage, regressors (eq. 4), both bRLS channels and eq. 8."""
     cfg = state.settings
-    fst, kin, dt, ay = front_step(state.kin, sample, state.front)
+    fst, kin, dt, ay, ax = front_step(state.kin, sample, state.front)
     (phi_long, y_long, phi_lat, y_lat), filtered = model_regressors(
-        kin, np.atleast_1d(float(sample.ax)), np.atleast_1d(ay), np.atleast_1d(float(sample.steer)),
+        kin, np.atleast_1d(ax), np.atleast_1d(ay), np.atleast_1d(float(sample.steer)),
         state.front.params, cfg, np.array([float(sample.t)]), dt, np.array(state.filtered))
     phi_long, phi_lat = float(np.ravel(phi_long)[0]), float(np.ravel(phi_lat)[0])
     core, out = brls_step(state.core, dt, phi_long, float(np.ravel(y_long)[0]), phi_lat,

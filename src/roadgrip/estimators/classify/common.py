@@ -200,20 +200,31 @@ def extra_switches(cls: NDArray) -> int:
     return max(int(np.sum(known[1:] != known[:-1])) - 1, 0)
 
 
-def settled(t: NDArray, moving: NDArray) -> NDArray[np.bool_]:
+def settled(t: NDArray, moving: NDArray, informed: NDArray | None = None) -> NDArray[np.bool_]:
     """Moving samples from :data:`CALIBRATION_SETTLING_S` after the vehicle first moves.
 
     The settling period counts from the first moving sample: before it no
     classifier has information, so a drive that starts at a standstill is not
     judged on its first seconds of motion. All samples when it never moves.
+    With ``informed``, it counts from the first moving sample at or after the first
+    informed one instead (a drive that cruises before its first manoeuvre gives a
+    classifier no more information than a standstill), and no sample is judged when
+    none is informed.
 
     Parameters
     ----------
     t : ndarray, shape (T,)
         Sample times [s].
     moving : ndarray of bool, shape (T,)
+    informed : ndarray of bool, shape (T,), optional
+        Samples that carry class information (a channel's weight, for example).
     """
     moving = np.asarray(moving, bool)
+    if informed is not None:
+        seen = np.maximum.accumulate(np.asarray(informed, bool)) if moving.size else moving
+        if not (moving & seen).any():
+            return np.zeros(moving.shape, bool)
+        moving = moving & seen
     if not moving.any():
         return np.ones(moving.shape, bool)
     t0 = t[int(np.argmax(moving))]

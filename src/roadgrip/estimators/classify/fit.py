@@ -4,7 +4,10 @@ A handful of physical parameters, each fitted where the data determine it, so th
 calibration transfers to other drives of the same car (no grid search over classifier
 settings scored on the labelled drives themselves):
 
-0. the zero errors of the kinematic stage's slip angles (steering offset, a yawed pose
+0. the latency of the wheel speeds behind the accelerometer
+   (:func:`roadgrip.estimators.classify.latency.fit_wheel_latency`), with which the drives
+   are aligned before the other steps, as the classifiers' front end aligns them;
+   the zero errors of the kinematic stage's slip angles (steering offset, a yawed pose
    frame), from the intercept of slip angle against lateral acceleration in the linear
    range, pooled over all drives (:func:`fit_slip_angle_offsets`); the later steps see
    the slip angles less these offsets, as the classifiers do;
@@ -56,6 +59,7 @@ from roadgrip.estimators.classify.grip_model import (
     predict_accelerations,
     traction_slips,
 )
+from roadgrip.estimators.classify.latency import aligned_drive, fit_wheel_latency
 from roadgrip.estimators.classify.slipmap_config import SlipMapConfig
 from roadgrip.estimators.classify.slipmap_config import saturation_config as slipmap_saturation
 from roadgrip.estimators.classify.slipmap_evidence import (
@@ -67,9 +71,10 @@ from roadgrip.inference.kinematic import (
     KinematicConfig,
     KinematicOutput,
     drive_lateral_acceleration,
+    estimate_kinematics,
 )
 
-__all__ = ["fit_class_friction", "fit_grip_model", "fit_slip_angle_offsets", "fit_slip_offset",
+__all__ = ["AWD_REFUSAL", "fit_class_friction", "fit_grip_model", "fit_slip_angle_offsets", "fit_slip_offset",
            "saturation_calibration"]
 
 STIFFNESS_PRIOR = 0.2
@@ -291,6 +296,15 @@ def fit_slip_offset(
     return b, {"samples": int(a.size), "fitted": True, "offset": b, "slope_per_mps2": float(s)}
 
 
+AWD_REFUSAL = (
+    "the car is all-wheel driven: no wheel rolls freely to give the traction slips a speed "
+    "reference, and its braking slips, against a speed that coasts on the accelerometer (whose "
+    "bias and latency against the wheel speeds one drive does not determine), do not hold the "
+    "label; the classifiers cannot be calibrated for it from these drives"
+)
+"""The reason :func:`saturation_calibration` gives when it refuses an all-wheel-drive car."""
+
+
 FRICTION_GRID = np.round(np.arange(0.1, 1.51, 0.025), 3)
 """Peak frictions tried when a class's friction is estimated from its drives."""
 
@@ -403,6 +417,11 @@ def saturation_calibration(
         on their labelled sides.
     """
     labels = sorted({lab for _, lab, _ in drives})
+    # the wheel speeds' latency first: every later step sees the drives aligned, as the classifiers do
+    latency, latency_fit = fit_wheel_latency([d for d, _, _ in drives])
+    if latency != 0.0:
+        drives = [(a, lab, estimate_kinematics(a, kinematic))
+                  for a, lab in ((aligned_drive(d, latency)[0], lab) for d, lab, _ in drives)]
     base = saturation_config(lateral=True)
     data = [(d, lab, kin, drive_lateral_acceleration(d, kin, base.lateral_acceleration, kinematic))
             for d, lab, kin in drives]
@@ -418,7 +437,7 @@ def saturation_calibration(
         demonstrated = fit_class_friction(level, model, base.min_speed, base.slip_filter_tau_s)
         friction = _labelled_friction(demonstrated, labels)
         model, fitted = fit_grip_model(level, friction, base.min_speed, base.slip_filter_tau_s, kappa_offset)
-    model = replace(model, alpha_offset_f=off_f, alpha_offset_r=off_r)
+    model = replace(model, alpha_offset_f=off_f, alpha_offset_r=off_r, wheel_latency_s=latency)
     cfg = replace(base, grip=model)
     positions, pooled = _median_positions(cfg, data)
     on = {}
@@ -456,14 +475,16 @@ def saturation_calibration(
         raise ValueError(
             "calibration failed: no channel of the saturation model holds the labels on the labelled "
             f"drives (median class positions {pooled}; with one class, a channel that claims the "
-            "other class on a labelled drive is off); are the drives excited and correctly labelled?"
+            "other class on a labelled drive is off); "
+            + (AWD_REFUSAL if drives[0][0].vehicle.drive == "awd" else
+               "are the drives excited and correctly labelled?")
         )
     cfg = replace(cfg, long=replace(cfg.long, enabled=on["long"]), lat=replace(cfg.lat, enabled=on["lat"]),
                   hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf)
     sm = replace(slipmap_saturation(model, hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf,
                                     lateral=on["lat"]), longitudinal=on["long"])
     diag = {"model": "saturation", "labels": "+".join(labels), "grip_fit": fitted, "slip_angle_zero": zero,
-            "slip_zero": slip_zero,
+            "slip_zero": slip_zero, "wheel_latency": latency_fit,
             "friction": dict(friction), "friction_estimated": bool(estimate_friction),
             "median_positions": positions, "class_median_positions": pooled,
             "long_channel": "on" if on["long"] else "off", "lat_channel": "on" if on["lat"] else "off",
@@ -476,7 +497,9 @@ def saturation_calibration(
 def _holds_label(cfg: BRLSConfig, data, name: str) -> bool:
     """Whether the bRLS with channel ``name`` alone, started in the other class, claims
     nothing but the label on each labelled drive's settled samples
-    (:func:`~roadgrip.estimators.classify.common.settled`)."""
+    (:func:`~roadgrip.estimators.classify.common.settled`, its settling counted from the
+    channel's first informed sample: a drive that cruises before its first manoeuvre
+    gives the classifier nothing to leave its start with)."""
     other = "long" if name == "lat" else "lat"
     c = replace(cfg, **{other: replace(getattr(cfg, other), enabled=False),
                         name: replace(getattr(cfg, name), enabled=True)},
@@ -486,7 +509,10 @@ def _holds_label(cfg: BRLSConfig, data, name: str) -> bool:
                                                drive.vehicle, c, drive.t)
         _, o = brls_batch(drive.t, pl, yl, pa, ya,
                           replace(c, initial_state="low" if lab == "high" else "high"))
-        judged = settled(drive.t, np.abs(np.asarray(kin.vx, float)) >= c.min_speed)
+        # the settling counts from the channel's first informed sample: before it the
+        # classifier holds its start (the other class) on no evidence at all
+        judged = settled(drive.t, np.abs(np.asarray(kin.vx, float)) >= c.min_speed,
+                         np.asarray(getattr(o, f"w_{name}")) >= 0.5)
         cls = np.asarray(o.grip_class)[judged]
         if np.any((cls != lab) & (cls != "unknown")):
             return False

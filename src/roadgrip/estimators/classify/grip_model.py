@@ -66,6 +66,7 @@ from roadgrip.estimators.classify.grip_kernels import (
     _traction_array,
     grip_kernel_params,
 )
+from roadgrip.estimators.classify.latency import LATENCY_MAX_S
 from roadgrip.vehicle.params import VehicleParams
 
 __all__ = [
@@ -158,6 +159,10 @@ class GripModel:
         Whether the longitudinal channel takes braking samples (a calibrated model's;
         off where a one-class calibration finds them contradicting its label, as wheel
         radius and speed errors bias the braking slips).
+    wheel_latency_s : float
+        Latency of the wheel speeds behind the accelerometer [s], which the classifiers'
+        front end aligns (0 without a calibration, and on an all-wheel-drive car;
+        :func:`roadgrip.estimators.classify.latency.fit_wheel_latency`).
     alpha_offset_f, alpha_offset_r : float
         Zero errors of the kinematic stage's front and rear slip angles [rad], which
         :func:`channels` subtracts: a steering-angle offset, a yaw misalignment of the
@@ -188,6 +193,7 @@ class GripModel:
     lateral_evidence: str = "slips"
     braking_evidence: bool = True
     kappa_offset: float = 0.0
+    wheel_latency_s: float = 0.0
 
     def __post_init__(self) -> None:
         if self.lateral_evidence not in LATERAL_EVIDENCE:
@@ -210,6 +216,9 @@ class GripModel:
         if not (math.isfinite(self.kappa_offset) and abs(self.kappa_offset) <= KAPPA_OFFSET_MAX):
             raise ValueError(f"grip model kappa_offset must be finite and within +-{KAPPA_OFFSET_MAX}, "
                              f"got {self.kappa_offset!r}")
+        if not (math.isfinite(self.wheel_latency_s) and abs(self.wheel_latency_s) <= LATENCY_MAX_S):
+            raise ValueError(f"grip model wheel_latency_s must be finite and within +-{LATENCY_MAX_S} s, "
+                             f"got {self.wheel_latency_s!r}")
         for name in ("alpha_offset_f", "alpha_offset_r"):
             v = getattr(self, name)
             if not (math.isfinite(v) and abs(v) <= ALPHA_OFFSET_MAX):

@@ -84,6 +84,7 @@ from roadgrip.estimators.classify.frontend import (
     front_step,
     kinematic_samples,
     prepare_classifier,
+    wheel_latency,
 )
 from roadgrip.estimators.classify.slipmap_config import (
     SlipMapConfig,
@@ -176,7 +177,7 @@ def slipmap_table(drive: Drive, config: SlipMapConfig, kin_cfg: KinematicConfig 
     the kinematic stage's ``alpha_f_hat``, ``alpha_r_hat`` [rad], ``vx_hat``
     [m/s], ``beta_hat`` [rad].
     """
-    front = Front.for_drive(drive, config.lateral_acceleration, kin_cfg)
+    front = Front.for_drive(drive, config.lateral_acceleration, kin_cfg, wheel_latency(config))
     start = SlipMapRunState(front, config, front_init(), (0.0,) * PREFILTER_SIZE, slipmap_init())
     return slipmap_block(drive, start)[0]
 
@@ -203,9 +204,9 @@ def slipmap_block(drive: Drive, state: SlipMapRunState) -> tuple[pd.DataFrame, S
         After the block's last sample.
     """
     config, front = state.settings, state.front
-    (kin, ay), front_state = front_batch(drive, front, state.kin)
+    (kin, ay, ax), front_state = front_batch(drive, front, state.kin)
     dt0 = first_step(state.kin, drive.t[0])
-    kin_f, ax_f, ay_f, braking, filtered = prefilter(kin, drive.col("ax"), ay, drive.t, config.prefilter_tau_s,
+    kin_f, ax_f, ay_f, braking, filtered = prefilter(kin, ax, ay, drive.t, config.prefilter_tau_s,
                                                      dt0, np.asarray(state.filtered, float))
     ev = evidence_from_kinematics(kin_f, ax_f, ay_f, drive.col("steer"), front.params, config, braking)
     core, out = slipmap_batch(drive.t, ev, config, state.core, dt0=dt0)
@@ -250,15 +251,15 @@ def prepare_rows(drive: Drive, config: Any, info: DriveInfo) -> list[KinematicIn
 def init(info: DriveInfo, config: SlipMapEstimatorConfig, seed: int = 0) -> SlipMapRunState:
     """State before the first sample (deterministic: ``seed`` is not used)."""
     cfg = config.settings
-    front = Front(info.vehicle, KINEMATIC, info.derived["aid"], cfg.lateral_acceleration)
+    front = Front(info.vehicle, KINEMATIC, info.derived["aid"], cfg.lateral_acceleration, wheel_latency(cfg))
     return SlipMapRunState(front, cfg, front_init(), (0.0,) * PREFILTER_SIZE, slipmap_init())
 
 
 def step(state: SlipMapRunState, sample: KinematicInput) -> tuple[SlipMapRunState, dict[str, Any]]:
     """One sample: kinematic stage, prefilter, evidence (eq. 9-15), recursion (eq. 16)."""
     cfg, front = state.settings, state.front
-    fst, kin, dt, ay = front_step(state.kin, sample, front)
-    kin_f, ax_f, ay_f, braking, filtered = prefilter(kin, sample.ax, ay, np.array([float(sample.t)]),
+    fst, kin, dt, ay, ax = front_step(state.kin, sample, front)
+    kin_f, ax_f, ay_f, braking, filtered = prefilter(kin, ax, ay, np.array([float(sample.t)]),
                                                      cfg.prefilter_tau_s, dt, np.array(state.filtered))
     ev = evidence_from_kinematics(kin_f, ax_f, ay_f, sample.steer, front.params, cfg, braking)
     core, out = slipmap_step(state.core, dt, ev, cfg)
