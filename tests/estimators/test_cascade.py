@@ -162,6 +162,66 @@ def test_variance_grows_without_excitation():
     assert np.all(np.diff(stds) > 0)
 
 
+def _confidently_wrong_obs(tab, axle, mu):
+    """Excited samples whose observation misses ``mu`` by more than 1.96 of its total std."""
+    ex = tab[f"excited_{axle}"].to_numpy(bool)
+    sd = np.hypot(tab[f"mu_{axle}_obs_std"], tab[f"mu_{axle}_obs_sys"]).to_numpy()
+    return int(np.sum(ex & (np.abs(tab[f"mu_{axle}_obs"].to_numpy() - mu) > 1.96 * sd)))
+
+
+def test_slip_error_prior_until_the_consistency_check_has_evidence(drive06):
+    from roadgrip.estimators.cascade.kernel import consistency_mean_square
+
+    # before any evidence the prior; with much evidence the residuals' own mean square
+    assert consistency_mean_square(0.0, 0.0, 0.03**2, 0.2, 0.0) == pytest.approx(0.03**2)
+    assert consistency_mean_square(0.99 * 0.01**2, 0.99, 0.03**2, 0.0, 0.99) == pytest.approx(0.01**2)
+    # the prior's weight fades with the evidence: after 3 tau in the band it is 2 % above it
+    assert consistency_mean_square(0.95 * 0.01**2, 0.95, 0.03**2, 0.4, 0.95) == pytest.approx(0.01**2, rel=0.03)
+    # the kinematic check's evidence fades it too: no band sample, a full pose check, nothing left
+    assert consistency_mean_square(0.0, 0.0, 0.03**2, 0.4, 1.0) == 0.0
+    # a steering sensor 0.04 rad off: every front slip angle is biased from the first sample
+    # (the pose does not see it: the band's front residual does, the prior until then)
+    df = drive06.data.copy()
+    df["steer"] = df["steer"] + 0.04
+    biased = Drive(df, drive06.meta)
+    assumed_exact = C.run(biased, C.CascadeConfig(slip_error_prior=0.0)).table
+    assert _confidently_wrong_obs(assumed_exact, "front", 0.6) > 5  # 11 measured
+    tab = C.run(biased, C.CascadeConfig(slip_error_prior=0.03)).table
+    assert _confidently_wrong_obs(tab, "front", 0.6) == 0
+    assert _confidently_wrong_obs(tab, "rear", 0.6) == 0
+    # exact slip angles: the prior only delays the first observations, which stay accurate
+    clean = C.run(drive06, C.CascadeConfig(slip_error_prior=0.03)).table
+    for axle in ("front", "rear"):
+        sel = clean[f"excited_{axle}"].to_numpy(bool)
+        assert sel.sum() > 200
+        w = 1 / clean.loc[sel, f"mu_{axle}_obs_std"] ** 2
+        assert abs((w * clean.loc[sel, f"mu_{axle}_obs"]).sum() / w.sum() - 0.6) < 0.03
+
+
+def test_pose_slip_error_is_the_bias_beyond_the_pose_noise():
+    """The kinematic check against the pose, against the formula worked by hand."""
+    from roadgrip.estimators.cascade.kernel import pose_slip_error
+
+    # no pose seen yet: the prior
+    assert pose_slip_error(0.0, 0.0, 10.0, 0.0, 0.03**2, 0.01, 2.0) == pytest.approx(0.03**2)
+    # half the window filled with a mean of 0.2 m/s at 10 m/s, noiseless pose: 0.02 rad
+    assert pose_slip_error(0.1, 0.5, 10.0, 0.0, 0.0, 0.0, 2.0) == pytest.approx(0.02**2)
+    # a full window with pose noise 0.01 m²/s: s² = 0.01 / (2 * 2) / 100 = 2.5e-5 rad² off
+    s2 = 0.01 / 4.0 / 100.0
+    assert pose_slip_error(0.2, 1.0, 10.0, 0.0, 0.0, 0.01, 2.0) == pytest.approx(0.02**2 - s2)
+    # with a prior, the part the noise has not resolved, prior s² / (prior + s²)
+    prior = 0.03**2
+    assert pose_slip_error(0.2, 1.0, 10.0, 0.0, prior, 0.01, 2.0) == pytest.approx(
+        0.02**2 - s2 + prior * s2 / (prior + s2))
+    # a bias within the pose's noise shows nothing; the sign does not matter
+    assert pose_slip_error(0.004, 1.0, 10.0, 0.0, 0.0, 0.01, 2.0) == 0.0
+    assert pose_slip_error(-0.2, 1.0, 10.0, 0.0, 0.0, 0.01, 2.0) == pytest.approx(0.02**2 - s2)
+    # the early window is noisier: s² (2 - w) / w at weight w
+    w = 0.25
+    s2w = 0.01 * (2.0 - w) / (2.0 * 2.0 * w) / 100.0
+    assert pose_slip_error(0.2 * w, w, 10.0, 0.0, 0.0, 0.01, 2.0) == pytest.approx(0.02**2 - s2w)
+
+
 def test_friction_returns_to_the_prior_over_distance():
     """With a correlation length L, an unexcited state decays to the prior as exp(-distance / L)."""
     straight = simulate_brush(mu=0.6, duration=5.0, steer_amp=0.0, seed=2)

@@ -126,7 +126,16 @@ root-mean-square over the last 5 s (exponential window) exceeds the assumed
 bias, the test is repeated with the exact brush inversion at that larger
 error (:func:`~roadgrip.estimators.cascade.model.slip_bias_effect`), which also
 catches a bias that would move the tire between adhesion and sliding. The front axle's residual
-``alpha_f - Fyf / C_f`` is tracked the same way.
+``alpha_f - Fyf / C_f`` is tracked the same way. That check holds at moderate ``a_y``
+only: the slip-angle errors of uncalibrated sensors (accelerometer scale, roll) change
+with the lateral acceleration, by sign too, and above the band the tire is no longer
+linear (on the F1/10 patch track at 2-3 m/s² its residual is the tire's curvature, 0.036 rad rms,
+against a slip-angle error of 0.004 rad). With a pose velocity the slip angles are also checked
+without a tire model, at every ``a_y``: the running mean (2 s) of the stage-2 ``vy`` minus
+the pose's is their lateral-velocity bias, ``/ |vx|`` a slip-angle bias on both axles
+(:func:`~roadgrip.estimators.cascade.kernel.pose_slip_error`, the bias beyond the pose's
+own noise); the larger of the two checks is used. Before either check has evidence,
+``slip_error_prior`` is assumed (0 by default: exact until shown otherwise).
 
 The last test concerns the slip angle's *random* error: the exact inversion is
 repeated at ``alpha ± z sqrt(var(alpha) + e²)`` (``z = slip_noise_z``,

@@ -83,6 +83,17 @@ class CascadeConfig(EstimatorConfig):
         Size of a lateral-velocity bias [m/s]; the slip-angle bias used is the
         larger of ``slip_bias_std`` and ``vy_bias_std / |vx|`` (slow driving
         turns a small velocity error into a large slip-angle error).
+    slip_error_prior : float
+        Slip-angle error [rad] assumed before the data have shown the slip angles' accuracy
+        (module docstring of :mod:`roadgrip.estimators.cascade`). The band's consistency
+        residual starts from its square, weighted as two seconds of samples in the band and
+        fading as the band's or the kinematic check's evidence grows; the kinematic check
+        (the slip angles' ``vy`` against the pose's) keeps the part of it its pose noise has
+        not yet resolved. Uncalibrated production sensors put the slip angles 0.02-0.04 rad
+        off; but 0.03 costs the F1/10 patch track the observations of its first corner, 1-2 s
+        after the start, before its pose (0.06 m/s at 3 m/s) can resolve the bias below
+        0.01 rad (docs/validation-cascade.md). 0, the default: exact until the checks show
+        otherwise.
     max_slip_bias_effect : float
         A sample counts as excited only if a slip-angle error of ``slip_bias_std``
         would move its ``mu`` observation by at most this much [-]: close to the
@@ -159,6 +170,7 @@ class CascadeConfig(EstimatorConfig):
     excitation_std: float = 0.5
     slip_bias_std: float = 0.01
     vy_bias_std: float = 0.03
+    slip_error_prior: float = 0.0
     max_slip_bias_effect: float = 0.1
     max_slip_ratio: float = 2.0
     peak_model_error: float = 0.05

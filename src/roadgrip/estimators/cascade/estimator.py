@@ -45,6 +45,15 @@ __all__ = ["ESTIMATOR", "CascadeState", "init", "lookahead", "prepare", "prepare
 
 CONSISTENCY_TIME = 5.0
 """Time constant [s] of the running mean square of the slip-angle consistency residuals."""
+CONSISTENCY_PRIOR_TIME = 2.0
+"""Weight of ``CascadeConfig.slip_error_prior`` in that mean square before any evidence, as the
+time [s] of samples in the consistency band that would carry as much; it fades as the band's
+evidence grows (:func:`~roadgrip.estimators.cascade.kernel.consistency_mean_square`)."""
+POSE_CHECK_TIME = 2.0
+"""Time constant [s] of the running mean of the lateral velocity against the pose's (the kinematic
+slip-angle check, :func:`~roadgrip.estimators.cascade.kernel.pose_slip_error`): long against the
+pose velocity's correlation time (0.25-1 s), so that its noise averages out and a bias remains,
+short against a corner, so that it measures the bias at the lateral acceleration driven now."""
 
 _CHUNK = 20_000
 """Samples per kernel call when ``run`` reports progress."""
@@ -137,6 +146,9 @@ def make_params(vehicle: VehicleParams, config: CascadeConfig, derived: dict[str
         steer_bias=f(config.steer_bias_std),
         vy_bias=f(config.vy_bias_std),
         consist_tau=CONSISTENCY_TIME,
+        consist_prior=f(config.slip_error_prior**2),
+        consist_prior_w=CONSISTENCY_PRIOR_TIME / CONSISTENCY_TIME,
+        pose_check_tau=POSE_CHECK_TIME,
         var_pose=f(derived.get("pose_velocity_std", config.pose_velocity_std) ** 2
                    * derived.get("pose_velocity_corr_time", config.pose_velocity_corr_time)),
         slip_z=f(config.slip_noise_z),

@@ -256,17 +256,67 @@ def _slip_and_loads(f, u, k, dt, p):  # pragma: no cover - compiled
     share = p.traction_front if (fx > 0.0 and p.traction_front == p.traction_front) else fzf / max(fzf + fzr, 1e-9)
     fxf = share * fx
     fxr = fx - fxf
-    # slip-angle consistency: rear slip against the linear tire at moderate ay
+    # slip-angle consistency: rear slip against the linear tire at moderate ay (1 to 2 ay_straight)
     ayb = abs(u.ay[k] - xe[Vs.BIAS_AY])
     if (dt > 0.0 and abs(vx) >= p.v_min and p.ay_straight <= ayb <= 2.0 * p.ay_straight
             and fzr > 0.5 * m * GRAVITY * lf / (lf + lr)):
         e_lin = alpha_r - xu[Fs.FYR] / (p.kr * max(fzr, 1e-9))
         lam = min(dt / p.consist_tau, 1.0)
         aux[Aux.CONSIST_R] += lam * (e_lin * e_lin - aux[Aux.CONSIST_R])
+        aux[Aux.CONSIST_W_R] += lam * (1.0 - aux[Aux.CONSIST_W_R])
         if fzf > 0.0:
             e_lin_f = alpha_f - xu[Fs.FYF] / (p.kf * fzf)
             aux[Aux.CONSIST_F] += lam * (e_lin_f * e_lin_f - aux[Aux.CONSIST_F])
+            aux[Aux.CONSIST_W_F] += lam * (1.0 - aux[Aux.CONSIST_W_F])
+    # kinematic check: the lateral velocity of the slip angles against the pose's, at every
+    # lateral acceleration (no tire model: its running mean is the vy bias the slip angles carry)
+    vyp = u.vy_pose[k]
+    if dt > 0.0 and abs(vx) >= p.v_min and vyp == vyp:
+        lam_p = min(dt / p.pose_check_tau, 1.0)
+        aux[Aux.POSE_VY_BIAS] += lam_p * (vy - vyp - aux[Aux.POSE_VY_BIAS])
+        aux[Aux.POSE_W] += lam_p * (1.0 - aux[Aux.POSE_W])
     return alpha_f, alpha_r, var_af, var_ar, fzf, fzr, fxf, fxr
+
+
+@njit(cache=True)
+def consistency_mean_square(ms, weight, prior, prior_weight, evidence):  # pragma: no cover - compiled
+    """Mean square of an axle's slip-angle consistency residual [rad²], with the prior.
+
+    ``ms`` is the running mean square started from 0 and ``weight`` its evidence,
+    ``1 - exp(-T / tau)`` after a time ``T`` in the consistency band. The prior ``prior``
+    [rad²] is weighted ``w0 = prior_weight (1 - evidence)²``, fading as the evidence about
+    the slip angles' accuracy grows (``evidence >= weight``: this band's or the kinematic
+    check's, :func:`pose_slip_error`); the result is ``(ms + w0 prior) / (weight + w0)``: the
+    prior before any evidence, the residuals' own mean square once there is (0 when the
+    evidence is the kinematic check's alone).
+    """
+    w0 = prior_weight * (1.0 - evidence) ** 2
+    den = weight + w0
+    return (ms + w0 * prior) / den if den > 0.0 else 0.0
+
+
+@njit(cache=True)
+def pose_slip_error(bias_sum, weight, vx, v_eps, prior, var_pose, tau):  # pragma: no cover - compiled
+    """Mean square slip-angle bias [rad²] the kinematic check finds against the pose.
+
+    ``bias_sum`` [m/s] is the running mean (time constant ``tau`` [s]) of ``vy - vy_pose``
+    started from 0 and ``weight`` its evidence, ``1 - exp(-T / tau)`` after a time ``T``
+    with a pose velocity: ``b = bias_sum / weight / |vx|`` [rad] is the slip-angle bias it
+    measures on both axles (``vx`` [m/s] regularised by ``v_eps``), with the variance
+    ``s² = var_pose (2 - weight) / (2 tau weight) / vx²`` of the pose velocity's noise
+    averaged over that window (``var_pose`` [m²/s]: its variance times its correlation
+    time). The result is ``max(b² - s², 0) + (1 - g) prior``: the bias the pose shows beyond
+    its own noise, plus the part of the prior bias variance ``prior`` [rad²] the data have
+    not yet resolved, ``g = prior / (prior + s²)`` (the prior before the check has seen a
+    pose, nothing of it once the noise is small against it).
+    """
+    if weight <= 0.0:
+        return prior
+    v2 = vx * vx + v_eps * v_eps
+    b = bias_sum / weight
+    s2 = var_pose * (2.0 - weight) / (2.0 * tau * weight) / v2
+    shown = max(b * b / v2 - s2, 0.0)
+    return shown + prior * s2 / (prior + s2) if prior > 0.0 else shown
 
 
 @njit(cache=True)
@@ -343,7 +393,16 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
         bias_f = sbf * slip_sensitivity(alpha_f, fzf, lateral_capacity(xm[Ms.MU_F], fxf, fzf, mu_min), kf)
         bias_r = sb * slip_sensitivity(alpha_r, fzr, lateral_capacity(xm[Ms.MU_R], fxr, fzr, mu_min), kr)
         # slip angles measurably worse than assumed: test the whole inversion at that error
-        sc = np.sqrt(aux[Aux.CONSIST_R])
+        # the band's tire residual holds at moderate ay only; the kinematic check (vy against the
+        # pose's) holds at the ay driven now: the larger of the two, each axle
+        wp = aux[Aux.POSE_W]
+        kin = pose_slip_error(aux[Aux.POSE_VY_BIAS], wp, vx, p.v_eps, p.consist_prior, p.var_pose,
+                              p.pose_check_tau) if wp > 0.0 else 0.0
+        cons_r = max(consistency_mean_square(aux[Aux.CONSIST_R], aux[Aux.CONSIST_W_R], p.consist_prior,
+                                             p.consist_prior_w, max(aux[Aux.CONSIST_W_R], wp)), kin)
+        cons_f = max(consistency_mean_square(aux[Aux.CONSIST_F], aux[Aux.CONSIST_W_F], p.consist_prior,
+                                             p.consist_prior_w, max(aux[Aux.CONSIST_W_F], wp)), kin)
+        sc = np.sqrt(cons_r)
         if sc > sb:
             bias_f = max(bias_f, slip_bias_effect(xu[Fs.FYF], alpha_f, fzf, kf, np.sqrt(sc * sc + sbf * sbf)))
             bias_r = max(bias_r, slip_bias_effect(xu[Fs.FYR], alpha_r, fzr, kr, sc))
@@ -352,8 +411,8 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
         zs = p.slip_z
         gate_f = 0.0
         gate_r = 0.0
-        slip_f = zs * np.sqrt(var_af + aux[Aux.CONSIST_F])
-        slip_r = zs * np.sqrt(var_ar + aux[Aux.CONSIST_R])
+        slip_f = zs * np.sqrt(var_af + cons_f)
+        slip_r = zs * np.sqrt(var_ar + cons_r)
         if zs > 0.0:
             gate_f = slip_bias_effect(xu[Fs.FYF], alpha_f, fzf, kf, slip_f)
             gate_r = slip_bias_effect(xu[Fs.FYR], alpha_r, fzr, kr, slip_r)

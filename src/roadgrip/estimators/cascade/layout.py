@@ -26,7 +26,11 @@ class Aux(IntEnum):
     CONSIST_R = 3  # running mean square of the rear slip-angle consistency residual [rad²]
     CONSIST_F = 4  # the same, front [rad²]
     STEER_LP = 5  # low-passed steering angle [rad] (NaN before the first sample)
-    SIZE = 6
+    CONSIST_W_R = 6  # weight of the evidence in CONSIST_R, 1 - exp(-time in the band / tau) [-]
+    CONSIST_W_F = 7  # the same, front [-]
+    POSE_VY_BIAS = 8  # running mean of the stage-2 vy minus the pose's vy [m/s], started from 0
+    POSE_W = 9  # weight of the evidence in POSE_VY_BIAS, 1 - exp(-time with a pose / tau) [-]
+    SIZE = 10
 
 
 class Out(IntEnum):
@@ -104,6 +108,9 @@ class Params(NamedTuple):
     steer_bias: float  # steering-angle bias [rad]
     vy_bias: float  # lateral-velocity bias [m/s]
     consist_tau: float  # time constant of the slip-angle consistency mean square [s]
+    consist_prior: float  # slip-angle error variance assumed before the consistency evidence [rad²]
+    consist_prior_w: float  # its weight, in units of the evidence weight (prior time / tau) [-]
+    pose_check_tau: float  # time constant of the running mean of vy against the pose's [s]
     var_pose: float  # pose-velocity variance [m²/s²] times its correlation time [s]
     slip_z: float  # slip-angle noise test, in standard deviations [-]
     steer_tau: float  # steering-actuator time constant [s] (0: measured angle)
