@@ -19,10 +19,6 @@ KNOWN_DISHONEST = {
     # it, the turn-ins of a 127-ms late accelerometer are not (short corpus: 0.5 % of the
     # samples miss the INS vy by more than the band; the issue's figure for this car is 5 %)
     ("revs", "gpssm"): "vy band excludes the INS lateral velocity on 0.5 %",
-    # the lateral velocity runs to -4 m/s (truth 0) at 28.3 s at 12.8 m/s in a slalom, the
-    # yaw-rate estimate leaving the gyro's; the guard flags and resets it once both axles'
-    # learned frictions push against their slips, 0.5 s in: vy band wrong on 0.9 %
-    ("sim:dry-gravel-dry:0", "gpssm"): "vy drift flagged late: vy band wrong on 0.9 %",
 }
 
 
