@@ -568,11 +568,16 @@ def test_slip_past_the_basis_domain_does_not_run_away():
         rms[name] = [float(np.sqrt(np.mean(err[t >= t0] ** 2))) for t0 in (20.0, 27.0)]
         flagged[name] = table["diverged"].to_numpy()
     assert rms["default"][0] < 0.5 and rms["default"][1] < 0.1, rms
-    assert not flagged["default"].any()
-    # with the limit at L the lateral velocity runs away (it reached 5 m/s); the guard
-    # notices (the yaw rate no particle explains), flags it and re-initialises the
-    # particles, after which the filter is back on the truth
-    assert flagged["at L"].any() and rms["at L"][0] > 0.4, rms
+    # the first pass of the front slip past 20 deg, where this basis has learned nothing,
+    # leaves the yaw rate unexplained for a second on average (mean normalised innovation
+    # about 200) with vy 0.6 m/s off: flagged for 3 s (74 of 750 samples from 22.8 s), and
+    # re-initialised, after which vy is back on the truth (the rms above)
+    assert flagged["default"].mean() < 0.12, flagged["default"].mean()
+    # with the limit at L the lateral velocity ran away (to 5 m/s, 0.4 m/s rms from 20 s)
+    # before the guard's per-sample test noticed; the windowed test now flags and
+    # re-initialises it within the same second as the default's (11 % of the samples
+    # flagged, 0.25 m/s rms from 20 s), after which the filter is back on the truth
+    assert flagged["at L"].any(), rms
     assert rms["at L"][1] < 0.1, rms
 
 
