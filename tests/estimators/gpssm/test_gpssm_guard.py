@@ -24,6 +24,23 @@ def _samples(drive):
     return [Sample(*row) for row in drive_inputs(drive)]
 
 
+def _both_implementations(ctx, samples, seed):
+    """The NumPy reference and the compiled step over ``samples``, held to each other row
+    for row: their final states and the compiled rows (a DataFrame)."""
+    from roadgrip.estimators.gpssm import filter_step, step_reference
+
+    a_state = b_state = None
+    a_rows, b_rows = [], []
+    for s in samples:
+        a_state, ea = step_reference(ctx, a_state, s, seed=seed)
+        b_state, eb = filter_step(ctx, b_state, s, seed=seed)
+        a_rows.append(ea)
+        b_rows.append(eb)
+    a, b = pd.DataFrame(a_rows), pd.DataFrame(b_rows)
+    pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-7, atol=1e-8)
+    return a_state, b_state, b
+
+
 def test_a_runaway_state_is_flagged_reset_and_reported_with_the_prior_band(snow20):
     # a filter whose particles all left for |vy| = 30 m/s at 12 m/s: the next step is
     # flagged diverged, reports the prior band with a vy band as wide as the error, and
@@ -72,21 +89,13 @@ def test_the_accelerometer_floors_the_upper_bands_where_the_filter_reads_another
     # 0.4 g while the accelerometer reads 0.7 g: both implementations keep the two floors
     # apart (the 'floor' column, which the peak estimates use, the filter's own 0.4; the
     # accelerometer's 0.7 for the upper bands) and agree row for row
-    from roadgrip.estimators.gpssm import Context, filter_step, step_reference
+    from roadgrip.estimators.gpssm import Context
 
     g = 9.80665
     samples = [Sample(t=0.04 * k, ay=0.4 * g, yaw_rate=0.4 * g / 15.0, steer=0.02, vx=15.0, ay_accel=0.7 * g)
                for k in range(60)]
     ctx = Context(_cfg(None, "separable-odd:6", n=24), PRESETS["sedan"])
-    a_state = b_state = None
-    a_rows, b_rows = [], []
-    for s in samples:
-        a_state, ea = step_reference(ctx, a_state, s, seed=1)
-        b_state, eb = filter_step(ctx, b_state, s, seed=1)
-        a_rows.append(ea)
-        b_rows.append(eb)
-    a, b = pd.DataFrame(a_rows), pd.DataFrame(b_rows)
-    pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-7, atol=1e-8)
+    a_state, b_state, b = _both_implementations(ctx, samples, seed=1)
     np.testing.assert_allclose(b.loc[b["t"] >= 1.0, "floor"], 0.4, rtol=1e-9)
     assert a_state.guard.floor_accel == pytest.approx(0.7, rel=1e-12)
     assert b_state.guard.floor_accel == pytest.approx(0.7, rel=1e-12)
@@ -212,23 +221,11 @@ def test_a_yaw_rate_unexplained_on_average_over_a_second_is_flagged():
     # the gyro to the model resets; the mean normalised innovation over the last second
     # catches the bursts (0.3 rad/s against a noise of 0.01: a mean of hundreds), and the
     # two implementations agree on it. A gyro within a few noise levels flags nothing
-    from roadgrip.estimators.gpssm import Context, filter_step, step_reference
+    from roadgrip.estimators.gpssm import Context
 
     cfg = _cfg(None, "separable-odd:6", n=24)
     ctx = Context(cfg, PRESETS["sedan"])
-    flagged = {}
-    for amplitude in (0.3, 0.02):
-        samples = _samples(_gyro_bursts(amplitude))
-        a_state = b_state = None
-        a_rows, b_rows = [], []
-        for s in samples:
-            a_state, ea = step_reference(ctx, a_state, s, seed=2)
-            b_state, eb = filter_step(ctx, b_state, s, seed=2)
-            a_rows.append(ea)
-            b_rows.append(eb)
-        a, b = pd.DataFrame(a_rows), pd.DataFrame(b_rows)
-        pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-7, atol=1e-8)
-        flagged[amplitude] = b
+    flagged = {a: _both_implementations(ctx, _samples(_gyro_bursts(a)), seed=2)[2] for a in (0.3, 0.02)}
     burst = flagged[0.3]
     # no verdict before the window is a full second; a verdict within the second burst
     assert not burst.loc[burst["t"] < 0.9, "diverged"].any()
