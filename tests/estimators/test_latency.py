@@ -74,6 +74,39 @@ def test_the_fit_finds_a_latency_imposed_on_either_signal(planar):
     assert fit_wheel_latency([realigned])[0] == pytest.approx(base, abs=1e-9)
 
 
+def _logged_with_own_latencies(planar: Drive) -> Drive:
+    """``a_x``, ``a_y`` and the wheel speeds each late by their own message's latency:
+    70, 30 and 90 ms (``a_x`` and ``a_y`` are separate messages, as on the multi-body family)."""
+    return _shifted(_shifted(_shifted(planar, ["ax"], 7), ["ay"], 3), WHEEL_COLUMNS, 9)
+
+
+def test_a_vehicle_file_times_ax_by_ay_so_the_calibration_fits_what_remains(planar):
+    from roadgrip.estimators.classify import calibrate
+    from roadgrip.io.calibration import apply_calibration
+
+    base, _ = fit_wheel_latency([planar])
+    # the fitted file's delays, exact: the accelerometer's is a_y's, the speed's the wheels'
+    file_cal = {"delay_accelerometer": 0.03, "delay_speed": 0.09}
+    read = apply_calibration(_logged_with_own_latencies(planar), file_cal)
+    # wheels and a_y back on the drive's clock; a_x moved by a_y's 30 ms, still 40 ms late
+    latency, fit = fit_wheel_latency([read])
+    assert fit["fitted"] and latency == pytest.approx(base - 0.04, abs=1e-9)
+    cal = calibrate([(read, "high")])
+    assert cal.diagnostics["wheel_latency"]["latency_s"] == pytest.approx(base - 0.04, abs=1e-9)
+    assert cal.diagnostics["sensor_calibration"] == file_cal
+    assert Calibration.from_dict(cal.to_dict()).diagnostics["sensor_calibration"] == file_cal
+    assert calibrate([(planar, "high")]).diagnostics["sensor_calibration"] == {}
+
+
+def test_drives_read_with_different_sensor_calibrations_are_refused(planar):
+    from roadgrip.estimators.classify import calibrate
+    from roadgrip.io.calibration import apply_calibration
+
+    read = apply_calibration(planar, {"delay_speed": 0.05})
+    with pytest.raises(ValueError, match=r"different sensor calibrations.*same vehicle file"):
+        calibrate([(read, "high"), (planar, "high")])
+
+
 def test_an_all_wheel_drive_car_has_no_latency_fit(planar):
     awd = Drive(planar.data, replace(planar.meta, vehicle=replace(planar.vehicle, drive="awd")))
     latency, fit = fit_wheel_latency([awd])

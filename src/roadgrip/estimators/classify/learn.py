@@ -42,7 +42,7 @@ from roadgrip.inference.kinematic import (
 )
 from roadgrip.inference.rls import brls_scalar_batch
 
-__all__ = ["SCORE_TOLERANCE", "calibrate"]
+__all__ = ["SCORE_TOLERANCE", "calibrate", "sensor_calibration"]
 
 SCORE_TOLERANCE = 0.01
 """Scores within this of the best count as equally good in :func:`calibrate`
@@ -255,6 +255,7 @@ def calibrate(
         raise ValueError("the stiffness model needs at least one 'high' and one 'low' drive; "
                          "a single class calibrates the saturation model only")
     base = base or default_config()
+    sensors = sensor_calibration([drive for drive, _ in drives])
     kins = [(drive, lab, estimate_kinematics(drive, kinematic)) for drive, lab in drives]
     veh = kins[0][0].vehicle.name
     prov = tuple({"source": d[0].meta.source, "label": d[1], "samples": int(d[0].n)} for d in kins)
@@ -262,6 +263,7 @@ def calibrate(
     friction = _one_class_friction(kins, labels[0], friction) if one_class else _friction(kins, friction)
     if model == "saturation":
         cfg, sm, diag = saturation_calibration(kins, friction, kinematic, estimate_friction=not known)
+        diag["sensor_calibration"] = sensors
         return Calibration(cfg, sm, {}, veh, prov, diag, friction_refs(diag["friction"], "calibrate"))
     scored: list[tuple[float, BRLSConfig, float, int, float]] = []
     off = {name: replace(getattr(base, name), enabled=False) for name in ("long", "lat")}
@@ -321,9 +323,37 @@ def calibrate(
         "error_clip": cfg.error_clip,
         "theoretical_slip": cfg.theoretical_slip,
         "lateral_acceleration": cfg.lateral_acceleration,
+        "sensor_calibration": sensors,
     }
     sm, sm_fit = calibrate_section(kins, kinematic=kinematic)
     return Calibration(cfg, sm, sm_fit, veh, prov, diag, friction)
+
+
+def sensor_calibration(drives: Sequence[Drive]) -> dict[str, float]:
+    """The sensor calibration the labelled drives were read with: the vehicle file's
+    ``calibration`` (:mod:`roadgrip.io.calibration`: delays against the gyro, steering scale
+    and offset, accelerometer biases), as ``meta.extra['calibration']`` records it; empty
+    for drives read as logged.
+
+    A classifier calibrated on drives read with a fitted vehicle file must run on drives read
+    with the same file (``roadgrip estimate --vehicle car.yaml``): its latency, slip zero
+    errors and road load are those of the calibrated signals. The calibration's diagnostics
+    keep the mapping (``sensor_calibration``) so that the file says which.
+
+    Raises
+    ------
+    ValueError
+        When the drives were read with different sensor calibrations (one with a vehicle
+        file's, one without, or two files'): one car's classifier has one set of signals.
+    """
+    cals = [dict((d.meta.extra or {}).get("calibration") or {}) for d in drives]
+    for d, c in zip(drives, cals, strict=True):
+        if c != cals[0]:
+            raise ValueError(
+                "the labelled drives were read with different sensor calibrations "
+                f"({drives[0].meta.source or 'drive 1'}: {cals[0] or 'none'}; {d.meta.source or 'a later drive'}: "
+                f"{c or 'none'}); read them all with the same vehicle file (--vehicle car.yaml)")
+    return {str(k): float(v) for k, v in cals[0].items()}
 
 
 def _one_class_friction(kins: list, label: str, friction: Mapping[str, float] | None) -> dict[str, float]:
