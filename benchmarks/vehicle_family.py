@@ -12,11 +12,17 @@ Each scenario runs at its multi-body default duration and seed 0; ``ROADGRIP_DRI
 caches the drives.
 
 ``--estimators`` prints instead the issue's family criteria, one row a vehicle: the
-classifiers calibrated with ``roadgrip calibrate --label high`` on the dry first minute of
-``dry-gravel-dry`` seed 10 (its channels on/off, longitudinal/lateral, and the latency of the
-wheel speeds behind the accelerometer it aligns, ``lat ms``) and scored on seed 0 (gravel
-flagged within 1 s of its first sample at true utilisation >= 0.6, no false switch; ``-``
-where the calibration refuses the car),
+classifiers calibrated with ``roadgrip calibrate --label high --vehicle car.yaml`` on the dry
+first minute of ``dry-gravel-dry`` seed 10, both drives read with the car's fitted vehicle file
+(``roadgrip vehicle fit`` on :data:`FIT_DRIVE`, the same seed 10: a drive separate from the
+scored one; its delays and accelerometer biases applied, :func:`_fitted_drive`), as the issue
+asks ("plus the fitted vehicle"): the channels on/off, longitudinal/lateral, and the latency
+of the wheel speeds behind the accelerometer the calibration still aligns (``lat ms``: the
+file times ``a_x`` by ``a_y``'s delay, and the two are separate messages), scored on seed 0
+(gravel flagged within 1 s of its first sample at true utilisation >= 0.6, no false switch;
+``-`` where the calibration refuses the car); ``--no-fit`` reads both drives as logged,
+``--classifiers`` prints the classifier columns both ways side by side (as logged | with the
+fitted file) without the cascade,
 the cascade's 5 m cells on ``figure-eight`` seed 0 (cells with >= 10 observations: how
 many, their mean |error|, the share within mean +- 1.96 std, confidently wrong cells), and
 whether each run is honest (:mod:`roadgrip.evaluate.honesty`).
@@ -68,22 +74,26 @@ def _understeer(vp) -> float:
     return vp.mass / wb * (vp.lr / vp.cornering_stiffness_front - vp.lf / vp.cornering_stiffness_rear)
 
 
-def _classifier_cells(name: str) -> str:
-    """Calibration and both classifiers' scores on one vehicle (``--estimators``)."""
+def _classifier_cells(name: str, fit=None) -> str:
+    """Calibration and both classifiers' scores on one vehicle (``--estimators``); with
+    ``fit``, both drives read with the fitted vehicle file (:func:`_fitted_drive`)."""
     from roadgrip.estimators import run_estimator
     from roadgrip.estimators.classify import calibrate
     from roadgrip.evaluate.classification import surface_change_scores
     from roadgrip.evaluate.honesty import score_result
 
-    dry = simulate_scenario("dry-gravel-dry", seed=10, engine="multibody", vehicle=name).slice_time(0.0, 60.0)
+    cal_drive = simulate_scenario("dry-gravel-dry", seed=10, engine="multibody", vehicle=name)
     test = simulate_scenario("dry-gravel-dry", seed=0, engine="multibody", vehicle=name)
+    if fit is not None:
+        cal_drive, test = _fitted_drive(cal_drive, fit), _fitted_drive(test, fit)
+    dry = cal_drive.slice_time(0.0, 60.0)
     try:
         cal = calibrate([(dry, "high")])
     except ValueError:
         return f" {'fails':>8} {'-':>6}" + f" {'-':>7} {'-':>3} {'-':>4} {'-':>6}" * 2
     lat = cal.diagnostics["wheel_latency"]
     row = (f" {cal.diagnostics['long_channel'] + '/' + cal.diagnostics['lat_channel']:>8}"
-           f" {1e3 * lat['latency_s'] if lat['fitted'] else float('nan'):>+6.0f}")
+           + (f" {1e3 * lat['latency_s']:>+6.0f}" if lat["fitted"] else f" {'-':>6}"))
     for method in ("brls", "slipmap"):
         res = run_estimator(method, test, {"calibration": cal})
         sc = surface_change_scores(test, res.table["grip_class"].to_numpy())
@@ -223,15 +233,33 @@ def gpssm_table(names: list[str]) -> None:
     print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
 
 
-def estimator_table(names: list[str]) -> None:
-    """Print the issue's family criteria, one row a vehicle (module docstring)."""
-    cls = " ".join(f"{m + ' [s]':>7} {'fs':>3} {'pass':>4} {'honest':>6}" for m in ("bRLS", "map"))
-    print(f"{'vehicle':<11} {'drive':<5} {'x/y':>8} {'lat ms':>6} {cls} | {'cells':>5} {'mae':>5} {'cover':>5} "
+_CLASSIFIER_HEAD = f"{'x/y':>8} {'lat ms':>6} " + " ".join(
+    f"{m + ' [s]':>7} {'fs':>3} {'pass':>4} {'honest':>6}" for m in ("bRLS", "map"))
+
+
+def estimator_table(names: list[str], fitted: bool = True) -> None:
+    """Print the issue's family criteria, one row a vehicle (module docstring); ``fitted``:
+    the classifiers on the drives read with the fitted vehicle file."""
+    print(f"{'vehicle':<11} {'drive':<5} {_CLASSIFIER_HEAD} | {'cells':>5} {'mae':>5} {'cover':>5} "
           f"{'wrong':>5} {'pass':>4} {'honest':>6}")
     t_start = time.perf_counter()
     for name in names:
         drive = mb_vehicle(name, sensors="ideal").params.drive
-        print(f"{name:<11} {drive:<5}{_classifier_cells(name)} |{_cascade_cells(name)}", flush=True)
+        fit = fit_family_vehicle(name) if fitted else None
+        print(f"{name:<11} {drive:<5}{_classifier_cells(name, fit)} |{_cascade_cells(name)}", flush=True)
+    print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
+
+
+def classifier_table(names: list[str]) -> None:
+    """Print the classifiers' family criteria as logged and with the fitted vehicle file,
+    side by side (``--classifiers``)."""
+    print(f"{'':<17} {'as logged':^61} | {'with the fitted vehicle file':^61}")
+    print(f"{'vehicle':<11} {'drive':<5} {_CLASSIFIER_HEAD} | {_CLASSIFIER_HEAD}")
+    t_start = time.perf_counter()
+    for name in names:
+        drive = mb_vehicle(name, sensors="ideal").params.drive
+        print(f"{name:<11} {drive:<5}{_classifier_cells(name)} |"
+              f"{_classifier_cells(name, fit_family_vehicle(name))}", flush=True)
     print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
 
 
@@ -245,6 +273,10 @@ def main() -> None:
                     help="vehicle fit against the truth and the cascade with the fitted car")
     ap.add_argument("--gpssm", action="store_true",
                     help="the GP-SSM on the snow slalom with the fitted car")
+    ap.add_argument("--no-fit", action="store_true",
+                    help="with --estimators: the classifiers on the drives as logged, not read with the fitted car")
+    ap.add_argument("--classifiers", action="store_true",
+                    help="the classifiers' family criteria as logged and with the fitted car, side by side")
     args = ap.parse_args()
     names = ["ford-escort", "vw-vanagon", *(f"random:{s}" for s in _seeds(args.seeds))]
     if args.gpssm:
@@ -253,8 +285,11 @@ def main() -> None:
     if args.fit:
         fit_table(names[2:])
         return
+    if args.classifiers:
+        classifier_table(names[2:])
+        return
     if args.estimators:
-        estimator_table(names[2:])
+        estimator_table(names[2:], fitted=not args.no_fit)
         return
     short = {"snow-slalom": "snow", "dry-gravel-dry": "dgd", "figure-eight": "fig8", "straight-cruise": "cruise"}
     head = (f"{'vehicle':<11} {'base':<6} {'drive':<5} {'m [kg]':>6} {'Iz':>5} {'lf [m]':>6} {'lr [m]':>6} "

@@ -1,26 +1,34 @@
 """The classifiers on the random multi-body vehicle family (issue 29): ``random:100`` to
 ``random:119``, realistic sensors, each calibrated with ``roadgrip calibrate --label high``
 on the dry first minute of its own ``dry-gravel-dry`` seed 10 and scored on seed 0 against
-the simulator's truth (:func:`roadgrip.evaluate.classification.surface_change_scores`).
+the simulator's truth (:func:`roadgrip.evaluate.classification.surface_change_scores`),
+both as logged and read with the car's fitted vehicle file (``roadgrip vehicle fit`` on
+seed 10 whole at ``--mu 0.6``, separate from the scored drive; its delays, steering and
+accelerometer corrections applied and its vehicle used, as ``--vehicle car.yaml`` does).
 
 The issue's criterion: gravel flagged within 1.0 s of the first sample on gravel at true
-utilisation >= 0.6 and no false switch, on at least 18 of the 20. What holds and is
-asserted here: the one-dry-minute calibration holds on the 15 two-wheel-drive cars and
-refuses the five all-wheel-drive ones, saying why (no free-rolling wheel: the traction
-slips have no speed reference, and the braking slips against a speed coasting on the
-accelerometer do not hold the label); on every car where it holds the slip map meets the
-criterion, and the bRLS on all but one (``random:111``: a 'low' claimed late in a 0.5 g
-stop on the dry asphalt after the gravel). The honesty rule (:mod:`roadgrip.evaluate.honesty`)
-holds on all but one calibrated car for each (the bRLS's ``random:111``; the slip map's
-``random:108``, whose 'low' outlives the return to dry asphalt by 0.33 s past the rule's
-10 s, until the first acceleration there).
+utilisation >= 0.6 and no false switch, on at least 18 of the 20; honest on all 20. What
+holds and is asserted here (``docs/validation-classification.md``, family section):
+
+* as logged, the one-dry-minute calibration holds on the 15 two-wheel-drive cars and refuses
+  the five all-wheel-drive ones, saying why; the slip map meets the criterion on all 15, the
+  bRLS on all but ``random:111``; honest on all but one each (bRLS ``random:111``, slip map
+  ``random:108``);
+* with the fitted vehicle file, the calibration holds on 17 (two all-wheel drives,
+  ``random:106`` and ``119``, besides the 15; ``105``, ``109``, ``110`` refused, saying why);
+  both classifiers meet the criterion on 16 (``random:119``'s only evidence is braking: gravel
+  flagged at its first braking there, 10.3 s late); honest on 14 of the 17 (``106`` and ``119``
+  hold 'low' onto the dry asphalt until their first braking there, ``113`` 1 s past the rule).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
+from roadgrip.drive import Drive
 from roadgrip.estimators import run_estimator
 from roadgrip.estimators.classify import calibrate
 from roadgrip.evaluate.classification import surface_change_scores
@@ -37,19 +45,32 @@ def _mb(vehicle: str, seed: int):
     return simulate_scenario("dry-gravel-dry", seed=seed, engine="multibody", vehicle=vehicle)
 
 
-@pytest.fixture(scope="module")
-def family():
-    """Per vehicle: None where the calibration fails, else per method (scores, honest)."""
+def _read_with_fitted_file(drive: Drive, fit) -> Drive:
+    """The drive as ``--vehicle car.yaml`` of ``fit`` reads it (its calibration and vehicle)."""
+    from roadgrip.io.calibration import CALIBRATION, apply_calibration
+
+    out = apply_calibration(drive, {k: v.value for k, v in fit.values.items() if k in CALIBRATION and v.fitted})
+    return Drive(out.data, replace(out.meta, vehicle=fit.vehicle.replace(name=drive.vehicle.name)))
+
+
+def _family(fitted: bool):
+    """Per vehicle: None where the calibration fails, else per method (scores, honesty)."""
+    from roadgrip.inference.vehicle_identification import fit_vehicle
+
     out = {}
     for vehicle in FAMILY:
-        dry = _mb(vehicle, 10).slice_time(0.0, 60.0)
+        cal_drive, test = _mb(vehicle, 10), _mb(vehicle, 0)
+        if fitted:
+            fit = fit_vehicle(cal_drive, mu=0.6)
+            cal_drive, test = _read_with_fitted_file(cal_drive, fit), _read_with_fitted_file(test, fit)
+        dry = cal_drive.slice_time(0.0, 60.0)
         try:
             cal = calibrate([(dry, "high")])
         except ValueError as e:
             out[vehicle] = None
             assert dry.vehicle.drive == "awd" and "all-wheel driven" in str(e), (vehicle, str(e))
             continue
-        test = _mb(vehicle, 0)
+        assert bool(cal.diagnostics["sensor_calibration"]) == fitted
         runs = {}
         for method in METHODS:
             res = run_estimator(method, test, {"calibration": cal})
@@ -58,11 +79,23 @@ def family():
         out[vehicle] = runs
     for vehicle, runs in out.items():
         for method, (s, h) in (runs or {}).items():
-            print(f"{vehicle} {method:7s}: delays {np.round(s.delays, 2)}, false switches "
-                  f"{s.false_switches}, honest {h.honest} (wrong {h.wrong:.4f})")
+            print(f"{'fitted' if fitted else 'logged'} {vehicle} {method:7s}: delays {np.round(s.delays, 2)}, "
+                  f"false switches {s.false_switches}, honest {h.honest} (wrong {h.wrong:.4f})")
         if runs is None:
             print(f"{vehicle}: the one-dry-minute calibration fails")
     return out
+
+
+@pytest.fixture(scope="module")
+def family():
+    """The drives as logged."""
+    return _family(fitted=False)
+
+
+@pytest.fixture(scope="module")
+def family_fitted():
+    """The drives read with each car's fitted vehicle file."""
+    return _family(fitted=True)
 
 
 def _meets(scores) -> bool:
@@ -89,3 +122,20 @@ def test_brls_detects_gravel_on_all_calibrated_cars_but_one(family):
 def test_classifiers_honest_on_the_calibrated_cars(family, method, dishonest):
     honest = {v: runs[method][1].honest for v, runs in family.items() if runs is not None}
     assert sum(honest.values()) >= len(honest) - dishonest, (method, honest)
+
+
+def test_the_fitted_vehicle_file_calibrates_two_all_wheel_drives_besides(family_fitted):
+    refused = [v for v, r in family_fitted.items() if r is None]
+    assert len(refused) <= 3, refused  # all-wheel drives (asserted in the fixture)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_with_the_fitted_vehicle_file_both_detect_gravel_on_16(family_fitted, method):
+    meets = [v for v, runs in family_fitted.items() if runs is not None and _meets(runs[method][0])]
+    assert len(meets) >= 16, meets
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_with_the_fitted_vehicle_file_honest_on_14(family_fitted, method):
+    honest = [v for v, runs in family_fitted.items() if runs is not None and runs[method][1].honest]
+    assert len(honest) >= 14, honest
