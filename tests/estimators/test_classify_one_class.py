@@ -161,3 +161,18 @@ def test_slip_offset_is_the_driven_wheels_scale_error(planar):
     assert b_cal == pytest.approx(b1, abs=1e-5)
     assert cal.brls.grip.kappa_offset == pytest.approx(b_cal)
     assert cal.diagnostics["slip_zero"]["offset"] == pytest.approx(b_cal)
+
+
+def test_low_is_held_until_high_evidence_only_where_a_wheel_rolls_freely(planar):
+    from roadgrip.estimators.classify.brls_config import (
+        BRAKING_ONLY_HOLD_LOW_S,
+        CALIBRATED_HOLD_HIGH_S,
+    )
+    from roadgrip.estimators.classify.fit import low_claim_hold
+
+    assert low_claim_hold("fwd") == low_claim_hold("rwd") == np.inf
+    # all-wheel drive: informed in braking only, so a 'low' expires between stops
+    assert CALIBRATED_HOLD_HIGH_S <= low_claim_hold("awd") == BRAKING_ONLY_HOLD_LOW_S < np.inf
+    cal = calibrate([(planar[0], "high")])  # the planar sedan: front-wheel drive
+    assert cal.brls.hold_low_s == cal.slipmap.hold_low_s == np.inf
+    assert cal.brls.hold_high_s == cal.slipmap.hold_high_s == CALIBRATED_HOLD_HIGH_S

@@ -250,7 +250,16 @@ only about the road just measured."""
 CALIBRATED_HOLD_HIGH_S = 3.0
 """Claim time of 'high' with a calibration [s]; 'low' is held (``inf``) until evidence
 of high grip: a wrong 'high' on a road that has turned slippery is the dangerous error,
-a 'low' held onto a grippier road the cautious one."""
+a 'low' held onto a grippier road the cautious one (where the evidence of high grip comes
+at the next acceleration: see :data:`BRAKING_ONLY_HOLD_LOW_S`)."""
+
+BRAKING_ONLY_HOLD_LOW_S = 5.0
+"""Claim time of 'low' with a calibration on an all-wheel-drive car [s]: no wheel rolls
+freely, so the longitudinal channel is informed in braking only, and a 'low' held until
+evidence of high grip would outlive a return to a grippy road until the next stop (on the
+random family's all-wheel drives 20 s past the change). The same hold as 'high' would lose
+'low' on gravel between stops sooner (its share of the gravel minute 0.06-0.10 at 3 s,
+0.10-0.13 at 5 s, 0.15-0.18 at 8 s, against 0.69 held)."""
 
 
 def saturation_config(

@@ -25,11 +25,13 @@ settings scored on the labelled drives themselves):
    kinematic stage's slip angles drift with the accelerometer's roll leak).
 
 The claim times of a calibrated classifier are :data:`CALIBRATED_HOLD_HIGH_S` for 'high'
-and held for 'low' (see :mod:`roadgrip.estimators.classify.brls_config`).
+and held for 'low', :data:`BRAKING_ONLY_HOLD_LOW_S` on an all-wheel drive
+(:func:`low_claim_hold`; see :mod:`roadgrip.estimators.classify.brls_config`).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
@@ -42,6 +44,7 @@ from roadgrip.constants import GRAVITY, GRIP_CLASS_SPLIT
 from roadgrip.drive import Drive
 from roadgrip.estimators.classify.brls import model_regressors
 from roadgrip.estimators.classify.brls_config import (
+    BRAKING_ONLY_HOLD_LOW_S,
     CALIBRATED_HOLD_HIGH_S,
     BRLSConfig,
     saturation_config,
@@ -73,9 +76,10 @@ from roadgrip.inference.kinematic import (
     drive_lateral_acceleration,
     estimate_kinematics,
 )
+from roadgrip.signals import undriven_wheels
 
 __all__ = ["AWD_REFUSAL", "fit_class_friction", "fit_grip_model", "fit_slip_angle_offsets", "fit_slip_offset",
-           "saturation_calibration"]
+           "low_claim_hold", "saturation_calibration"]
 
 STIFFNESS_PRIOR = 0.2
 """Standard deviation of the log stiffness around the vehicle's parameters."""
@@ -479,9 +483,10 @@ def saturation_calibration(
             + (AWD_REFUSAL if drives[0][0].vehicle.drive == "awd" else
                "are the drives excited and correctly labelled?")
         )
+    hold_low = low_claim_hold(drives[0][0].vehicle.drive)
     cfg = replace(cfg, long=replace(cfg.long, enabled=on["long"]), lat=replace(cfg.lat, enabled=on["lat"]),
-                  hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf)
-    sm = replace(slipmap_saturation(model, hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=np.inf,
+                  hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=hold_low)
+    sm = replace(slipmap_saturation(model, hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=hold_low,
                                     lateral=on["lat"]), longitudinal=on["long"])
     diag = {"model": "saturation", "labels": "+".join(labels), "grip_fit": fitted, "slip_angle_zero": zero,
             "slip_zero": slip_zero, "wheel_latency": latency_fit,
@@ -492,6 +497,15 @@ def saturation_calibration(
     if demonstrated is not None:
         diag["friction_demonstrated"] = dict(demonstrated)
     return cfg, sm, diag
+
+
+def low_claim_hold(drive: str) -> float:
+    """How long a calibrated classifier holds 'low' after its last evidence [s], by the drive
+    layout (``'fwd'``, ``'rwd'``, ``'awd'``): until evidence of high grip (``inf``) where a
+    free-rolling wheel informs the longitudinal channel at every acceleration;
+    :data:`~roadgrip.estimators.classify.brls_config.BRAKING_ONLY_HOLD_LOW_S` on an
+    all-wheel drive, whose channel is informed in braking only."""
+    return math.inf if undriven_wheels(drive).any() else BRAKING_ONLY_HOLD_LOW_S
 
 
 def _holds_label(cfg: BRLSConfig, data, name: str) -> bool:
