@@ -222,6 +222,35 @@ def test_pose_slip_error_is_the_bias_beyond_the_pose_noise():
     assert pose_slip_error(0.2 * w, w, 10.0, 0.0, 0.0, 0.01, 2.0) == pytest.approx(0.02**2 - s2w)
 
 
+def test_latency_slip_error_is_the_latency_times_the_change_of_ay():
+    """The accelerometer latency's slip-angle error against the formula worked by hand."""
+    from roadgrip.estimators.cascade.kernel import latency_slip_error
+
+    # 0.05 s times a 2 m/s² change at 10 m/s: 0.01 m/s² s / (m/s) = 0.01 rad
+    assert latency_slip_error(2.0, 10.0, 0.0, 0.05**2) == pytest.approx(0.01**2)
+    assert latency_slip_error(-2.0, -10.0, 0.0, 0.05**2) == pytest.approx(0.01**2)
+    # no change of ay, or a known clock: nothing
+    assert latency_slip_error(0.0, 10.0, 0.0, 0.05**2) == 0.0
+    assert latency_slip_error(2.0, 10.0, 0.0, 0.0) == 0.0
+    # the speed is regularised as the slip angles are
+    assert latency_slip_error(2.0, 0.0, 0.1, 0.05**2) == pytest.approx((0.05 * 2.0 / 0.1) ** 2)
+
+
+def test_an_accelerometer_behind_the_gyro_is_assumed_with_accel_latency_std(drive06):
+    """An accelerometer 0.1 s behind the gyro on the steering sine: every change of ay moves vy,
+    and the observations taken in those changes are confidently wrong when the clocks are
+    assumed one; with the latency assumed (0.06 s) none is (on this sine, where ay never
+    rests, that leaves no observation at all: the price of an unknown clock)."""
+    from roadgrip.io.calibration import shift_columns
+
+    late = shift_columns(drive06, {"ay": -0.1})
+    assumed_one_clock = C.run(late, C.CascadeConfig()).table
+    assert _confidently_wrong_obs(assumed_one_clock, "front", 0.6) > 20  # 70 measured
+    assumed_late = C.run(late, C.CascadeConfig(accel_latency_std=0.06)).table
+    for axle in ("front", "rear"):
+        assert _confidently_wrong_obs(assumed_late, axle, 0.6) == 0
+
+
 def test_friction_returns_to_the_prior_over_distance():
     """With a correlation length L, an unexcited state decays to the prior as exp(-distance / L)."""
     straight = simulate_brush(mu=0.6, duration=5.0, steer_amp=0.0, seed=2)

@@ -135,7 +135,12 @@ without a tire model, at every ``a_y``: the running mean (2 s) of the stage-2 ``
 the pose's is their lateral-velocity bias, ``/ |vx|`` a slip-angle bias on both axles
 (:func:`~roadgrip.estimators.cascade.kernel.pose_slip_error`, the bias beyond the pose's
 own noise); the larger of the two checks is used. Before either check has evidence,
-``slip_error_prior`` is assumed (0 by default: exact until shown otherwise).
+``slip_error_prior`` is assumed (0 by default: exact until shown otherwise). Neither
+check follows a change faster than its window: an accelerometer that lags the gyro by
+``d`` puts ``d`` times each change of ``a_y`` into ``vy`` at once, so with
+``accel_latency_std`` (0 by default: one clock) the slip angles' error assumed grows by
+``accel_latency_std (a_y - mean a_y) / |vx|``, the mean over the checks' window
+(:func:`~roadgrip.estimators.cascade.kernel.latency_slip_error`).
 
 The last test concerns the slip angle's *random* error: the exact inversion is
 repeated at ``alpha ± z sqrt(var(alpha) + e²)`` (``z = slip_noise_z``,

@@ -94,6 +94,19 @@ class CascadeConfig(EstimatorConfig):
         after the start, before its pose (0.06 m/s at 3 m/s) can resolve the bias below
         0.01 rad (docs/validation-cascade.md). 0, the default: exact until the checks show
         otherwise.
+    accel_latency_std : float
+        Standard deviation [s] of the accelerometer's latency behind the gyro's that the
+        drive may carry (:func:`~roadgrip.estimators.cascade.kernel.latency_slip_error`).
+        Stage 1 integrates ``ay - r vx``, so a latency ``d`` turns every change of the
+        lateral acceleration into a lateral-velocity error ``d`` times that change, faster
+        than the checks' 2 s window follows: the slip angles are assumed that much less
+        accurate while the lateral acceleration departs from its running mean. 0, the
+        default: one clock (the accelerometer and gyro of one device, or a drive aligned by a
+        vehicle file's calibration, ``roadgrip vehicle fit``). Separate, unaligned messages
+        need the spread of their latencies: 0.06 s for the simulator's realistic sensors
+        (two independent 0-150 ms latencies), where 0 leaves observations 0.02 rad off in the
+        transients (``docs/validation-cascade.md``); it costs the observations of every
+        transient, the more the slower the car.
     max_slip_bias_effect : float
         A sample counts as excited only if a slip-angle error of ``slip_bias_std``
         would move its ``mu`` observation by at most this much [-]: close to the
@@ -179,6 +192,7 @@ class CascadeConfig(EstimatorConfig):
     pose_velocity_std: float = 0.1
     pose_velocity_corr_time: float = 0.3
     pose_window: float = 1.0
+    accel_latency_std: float = 0.0
     wheel_slip_stiffness: float = 10.0
     v_min: float = 1.0
     v_eps: float = 0.1

@@ -151,6 +151,7 @@ def make_params(vehicle: VehicleParams, config: CascadeConfig, derived: dict[str
         pose_check_tau=POSE_CHECK_TIME,
         var_pose=f(derived.get("pose_velocity_std", config.pose_velocity_std) ** 2
                    * derived.get("pose_velocity_corr_time", config.pose_velocity_corr_time)),
+        var_latency=f(config.accel_latency_std**2),
         slip_z=f(config.slip_noise_z),
         steer_tau=f(derived["steer_response_time"] or 0.0),
         mu_prior=f(config.mu_prior),
@@ -280,6 +281,7 @@ def init(info: DriveInfo, config: CascadeConfig, seed: int = 0) -> CascadeState:
     Pm = np.eye(FrictionState.SIZE) * config.mu_prior_std**2
     aux = np.zeros(Aux.SIZE)
     aux[Aux.STEER_LP] = np.nan
+    aux[Aux.AY_LP] = np.nan
     windows = tuple(d.get("pose_windows", ())) if d.get("pose_velocity") == "derived" else ()
     plan = NoisePlan(tuple(d.get("noise_running", ())), windows,
                      bool(d.get("bias_at_standstill", False)), float(config.accel_bias_rate_std**2))

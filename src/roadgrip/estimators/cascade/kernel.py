@@ -275,6 +275,14 @@ def _slip_and_loads(f, u, k, dt, p):  # pragma: no cover - compiled
         lam_p = min(dt / p.pose_check_tau, 1.0)
         aux[Aux.POSE_VY_BIAS] += lam_p * (vy - vyp - aux[Aux.POSE_VY_BIAS])
         aux[Aux.POSE_W] += lam_p * (1.0 - aux[Aux.POSE_W])
+    # the lateral acceleration's change over the check's window: a latency of the accelerometer
+    # behind the gyro integrates into a vy error of that change times the latency
+    ay_m = u.ay[k] - xe[Vs.BIAS_AY]
+    if dt > 0.0 and ay_m == ay_m:
+        if aux[Aux.AY_LP] != aux[Aux.AY_LP]:
+            aux[Aux.AY_LP] = ay_m
+        aux[Aux.AY_LP] += min(dt / p.pose_check_tau, 1.0) * (ay_m - aux[Aux.AY_LP])
+        aux[Aux.AY_DEV] = ay_m - aux[Aux.AY_LP]
     return alpha_f, alpha_r, var_af, var_ar, fzf, fzr, fxf, fxr
 
 
@@ -317,6 +325,19 @@ def pose_slip_error(bias_sum, weight, vx, v_eps, prior, var_pose, tau):  # pragm
     s2 = var_pose * (2.0 - weight) / (2.0 * tau * weight) / v2
     shown = max(b * b / v2 - s2, 0.0)
     return shown + prior * s2 / (prior + s2) if prior > 0.0 else shown
+
+
+@njit(cache=True)
+def latency_slip_error(ay_change, vx, v_eps, var_latency):  # pragma: no cover - compiled
+    """Mean square slip-angle error [rad²] an unknown accelerometer latency leaves unresolved.
+
+    Stage 1 integrates ``ay - r vx``; an accelerometer that lags (or leads) the gyro by ``d``
+    [s] turns a change of the lateral acceleration into a lateral-velocity error ``d`` times
+    that change, which the running means of the checks follow only over their window. With
+    ``ay_change`` [m/s²] the lateral acceleration minus its running mean over that window and
+    ``var_latency`` [s²] the variance of ``d``: ``var_latency ay_change² / (vx² + v_eps²)``.
+    """
+    return var_latency * ay_change * ay_change / (vx * vx + v_eps * v_eps)
 
 
 @njit(cache=True)
@@ -402,6 +423,9 @@ def _friction_stage(f, dt, p, w, slip, out):  # pragma: no cover - compiled
                                              p.consist_prior_w, max(aux[Aux.CONSIST_W_R], wp)), kin)
         cons_f = max(consistency_mean_square(aux[Aux.CONSIST_F], aux[Aux.CONSIST_W_F], p.consist_prior,
                                              p.consist_prior_w, max(aux[Aux.CONSIST_W_F], wp)), kin)
+        lat = latency_slip_error(aux[Aux.AY_DEV], vx, p.v_eps, p.var_latency)
+        cons_r += lat
+        cons_f += lat
         sc = np.sqrt(cons_r)
         if sc > sb:
             bias_f = max(bias_f, slip_bias_effect(xu[Fs.FYF], alpha_f, fzf, kf, np.sqrt(sc * sc + sbf * sbf)))

@@ -30,7 +30,9 @@ class Aux(IntEnum):
     CONSIST_W_F = 7  # the same, front [-]
     POSE_VY_BIAS = 8  # running mean of the stage-2 vy minus the pose's vy [m/s], started from 0
     POSE_W = 9  # weight of the evidence in POSE_VY_BIAS, 1 - exp(-time with a pose / tau) [-]
-    SIZE = 10
+    AY_LP = 10  # running mean of the bias-corrected ay [m/s²] (NaN before the first sample)
+    AY_DEV = 11  # ay minus that running mean at the last sample [m/s²]
+    SIZE = 12
 
 
 class Out(IntEnum):
@@ -112,6 +114,7 @@ class Params(NamedTuple):
     consist_prior_w: float  # its weight, in units of the evidence weight (prior time / tau) [-]
     pose_check_tau: float  # time constant of the running mean of vy against the pose's [s]
     var_pose: float  # pose-velocity variance [m²/s²] times its correlation time [s]
+    var_latency: float  # variance of the accelerometer's latency behind the gyro's [s²]
     slip_z: float  # slip-angle noise test, in standard deviations [-]
     steer_tau: float  # steering-actuator time constant [s] (0: measured angle)
     mu_prior: float  # prior friction mean [-], which the state returns to over distance
