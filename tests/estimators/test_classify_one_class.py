@@ -133,6 +133,22 @@ def test_cli_calibrate_from_one_dry_drive(planar, tmp_path):
     assert "--label" in str(res.exception)
 
 
+def test_cli_calibrate_with_a_fitted_vehicle_file_records_its_sensor_calibration(planar, tmp_path):
+    import yaml
+
+    dry, _ = planar
+    path, out, car = tmp_path / "dry.parquet", tmp_path / "cal.yaml", tmp_path / "car.yaml"
+    dry.save(path)
+    sensors = {"delay_speed": 0.02, "delay_accelerometer": 0.01, "ax_bias": 0.05}
+    car.write_text(yaml.safe_dump({**dry.vehicle.to_dict(), "calibration": sensors}))
+    res = CliRunner().invoke(app, ["calibrate", f"{path}@0-60", "--label", "high", "--vehicle", str(car),
+                                   "-o", str(out)], env={"COLUMNS": "200"})
+    assert res.exit_code == 0, res.output
+    assert read_calibration(out).diagnostics["sensor_calibration"] == sensors
+    row = next(line for line in res.output.splitlines() if "sensor_calibration.ax_bias" in line)
+    assert "m/s²" in row and "0.05" in row
+
+
 def test_slip_offset_is_the_driven_wheels_scale_error(planar):
     """A 0.6 % scale error of the driven (front) wheel speeds shifts the fitted zero error of
     the driven slip by 1 - 1 / 1.006 (the slip against the free-rolling wheels), and the

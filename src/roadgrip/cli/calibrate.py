@@ -16,6 +16,7 @@ import typer
 from rich.table import Table
 
 from roadgrip.cli._common import ChannelsOpt, FormatOpt, TopicsOpt, VehicleOpt, app, console
+from roadgrip.io.calibration import CALIBRATION as SENSOR_CALIBRATION
 
 if TYPE_CHECKING:
     from roadgrip.estimators.classify import Calibration
@@ -137,6 +138,8 @@ UNITS = {
     "road_load": "m/s², 1/m", "alpha_offset_f": "rad", "alpha_offset_r": "rad", "kappa_offset": "-",
     "offset": "-", "slope_per_mps2": "1/(m/s²)",
     "offset_deg": "deg", "slope_deg_per_mps2": "deg/(m/s²)", "D": "-",
+    # diagnostics.sensor_calibration: the vehicle file's calibration the drives were read with
+    **{k: unit for k, (unit, _) in SENSOR_CALIBRATION.items()},
 }
 """Units of the calibration's entries by their last key, as the calibration file holds them."""
 
