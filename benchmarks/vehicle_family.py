@@ -23,9 +23,22 @@ file times ``a_x`` by ``a_y``'s delay, and the two are separate messages), score
 ``-`` where the calibration refuses the car); ``--no-fit`` reads both drives as logged,
 ``--classifiers`` prints the classifier columns both ways side by side (as logged | with the
 fitted file) without the cascade,
-the cascade's 5 m cells on ``figure-eight`` seed 0 (cells with >= 10 observations: how
-many, their mean |error|, the share within mean +- 1.96 std, confidently wrong cells), and
-whether each run is honest (:mod:`roadgrip.evaluate.honesty`).
+the cascade's 5 m cells on ``figure-eight`` seed 0 (the observations the map kept, the most
+in one cell, the cells with >= 10 observations: how many, their mean |error|, the share
+within mean +- 1.96 std, confidently wrong cells), and whether each run is honest
+(:mod:`roadgrip.evaluate.honesty`).
+
+``--cascade`` prints the cascade's columns alone, with the preset car and with the fitted car
+(below) side by side. Rules for the cascade, fixed before measuring. Its sensors: the preset car's drive has the
+accelerometer and the gyro on separate messages, unaligned, so the cascade is told their
+latencies' spread, ``accel_latency_std`` = :data:`UNALIGNED_LATENCY_STD` (two independent
+0-150 ms latencies of the simulator's realistic sensors); a drive aligned by the fitted car's
+calibration keeps the fit's delay error, :data:`ALIGNED_LATENCY_STD` (the issue's bound on a
+fitted delay). The cells criterion's first two parts (mean |error| <= 0.05 and >= 90 % within
+mean +- 1.96 std, over the cells with >= 10 observations) need such cells: a vehicle whose run
+yields none is excluded from them (``-`` in ``pass``, its counts printed), and they count over
+the others; the third part, no confidently wrong cell (any cell), is judged on every vehicle.
+The last lines say how many pass of how many judged.
 
 ``--fit`` prints ``roadgrip vehicle fit`` against the truth, one row a vehicle, and the
 cascade's figure-eight cells again with the fitted vehicle and its sensor calibration
@@ -103,10 +116,23 @@ def _classifier_cells(name: str, fit=None) -> str:
     return row
 
 
-def _cascade_cells(name: str, fit=None) -> str:
+UNALIGNED_LATENCY_STD = 0.06
+"""``accel_latency_std`` [s] of the preset car's drive: the standard deviation of the difference
+of two independent uniform 0-150 ms latencies, ``0.15 / sqrt(6)``."""
+ALIGNED_LATENCY_STD = 0.02
+"""``accel_latency_std`` [s] of a drive aligned by the fitted calibration: the issue's bound on
+a fitted delay's error."""
+
+CASCADE_HEADER = (f"{'map obs':>7} {'max n':>5} {'cells':>5} {'mae':>5} {'cover':>5} {'wrong':>5} {'pass':>4} "
+                  f"{'honest':>6}")
+"""Column titles of :func:`_cascade_cells`."""
+
+
+def _cascade_cells(name: str, fit=None, tally: dict | None = None) -> str:
     """The cascade's 5 m cells on the figure-eight and its honesty (``--estimators``); with
     ``fit`` (a :class:`~roadgrip.inference.vehicle_identification.VehicleFit`), on the drive
-    calibrated by it and with its vehicle."""
+    calibrated by it and with its vehicle. ``tally`` counts ``vehicles``, ``honest``,
+    ``judged``, ``passed`` and ``excluded`` (the module docstring's rules)."""
     from roadgrip.constants import Z95
     from roadgrip.estimators import run_estimator
     from roadgrip.evaluate.honesty import score_result
@@ -115,15 +141,33 @@ def _cascade_cells(name: str, fit=None) -> str:
 
     d = simulate_scenario("figure-eight", seed=0, engine="multibody", vehicle=name)
     run_on = d if fit is None else _fitted_drive(d, fit)
-    res = run_estimator("cascade", run_on, {})
+    latency = UNALIGNED_LATENCY_STD if fit is None else ALIGNED_LATENCY_STD
+    res = run_estimator("cascade", run_on, {"accel_latency_std": latency})
     score = score_map(run_on, grid_from_estimates(res.table, cell=5.0))
+    n_map = int(score.cells["n_obs"].sum())
+    n_max = int(score.cells["n_obs"].max()) if len(score.cells) else 0
     c = score.cells[(score.cells["n_obs"] >= 10) & score.cells["mu_true"].notna()]
     err = (c["mu_mean"] - c["mu_true"]).abs()
     mae = float(err.mean()) if len(c) else float("nan")
     cover = float(np.mean(err <= Z95 * c["mu_std"])) if len(c) else float("nan")
-    ok = len(c) > 0 and mae <= 0.05 and cover >= 0.9 and score.confidently_wrong == 0
-    return (f" {len(c):>5d} {mae:>5.2f} {cover:>5.2f} {score.confidently_wrong:>5d} {'yes' if ok else 'no':>4}"
-            f" {'yes' if score_result(res, run_on).honest else 'no':>6}")
+    ok = mae <= 0.05 and cover >= 0.9 and score.confidently_wrong == 0
+    honest = score_result(res, run_on).honest
+    if tally is not None:
+        for key, add in (("vehicles", True), ("honest", honest), ("judged", len(c) > 0),
+                         ("passed", len(c) > 0 and ok), ("excluded", len(c) == 0),
+                         ("none_wrong", score.confidently_wrong == 0)):
+            tally[key] = tally.get(key, 0) + int(add)
+    verdict = "-" if len(c) == 0 else "yes" if ok else "no"
+    return (f" {n_map:>7d} {n_max:>5d} {len(c):>5d} {mae:>5.2f} {cover:>5.2f} {score.confidently_wrong:>5d}"
+            f" {verdict:>4} {'yes' if honest else 'no':>6}")
+
+
+def _cascade_tally(tally: dict) -> str:
+    """The family's cascade figures gathered by :func:`_cascade_cells`, one line."""
+    n = tally.get("vehicles", 0)
+    return (f"cascade: honest {tally.get('honest', 0)} of {n}; no confidently wrong cell {tally.get('none_wrong', 0)}"
+            f" of {n}; cells criterion {tally.get('passed', 0)} of {tally.get('judged', 0)} judged, "
+            f"{tally.get('excluded', 0)} excluded (no 5 m cell with >= 10 observations)")
 
 
 FIT_DRIVE = ("dry-gravel-dry", 10, 0.6)
@@ -186,9 +230,9 @@ def fit_passes(err: dict[str, float]) -> bool:
 def fit_table(names: list[str]) -> None:
     """Print the fit against the truth and the cascade with the fitted car (module docstring)."""
     print(f"{'vehicle':<11} {'drive':<5} {'Cf %':>6} {'Cr %':>6} {'acc ms':>6} {'steer':>6} {'speed':>6} "
-          f"{'pose':>6} {'off deg':>7} {'pass':>4} | {'cells':>5} {'mae':>5} {'cover':>5} {'wrong':>5} "
-          f"{'pass':>4} {'honest':>6}")
+          f"{'pose':>6} {'off deg':>7} {'pass':>4} | {CASCADE_HEADER}")
     t_start = time.perf_counter()
+    tally: dict = {}
     for name in names:
         fit = fit_family_vehicle(name)
         e = fit_errors(name, fit)
@@ -197,7 +241,8 @@ def fit_table(names: list[str]) -> None:
         for k in ("delay_accelerometer", "steer_delay", "delay_speed", "delay_pose"):
             row += f" {1e3 * e[k]:>+6.0f}"
         row += f" {np.degrees(e['steer_offset']):>+7.3f} {'yes' if fit_passes(e) else 'no':>4} |"
-        print(row + _cascade_cells(name, fit), flush=True)
+        print(row + _cascade_cells(name, fit, tally), flush=True)
+    print(_cascade_tally(tally))
     print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
 
 
@@ -240,13 +285,15 @@ _CLASSIFIER_HEAD = f"{'x/y':>8} {'lat ms':>6} " + " ".join(
 def estimator_table(names: list[str], fitted: bool = True) -> None:
     """Print the issue's family criteria, one row a vehicle (module docstring); ``fitted``:
     the classifiers on the drives read with the fitted vehicle file."""
-    print(f"{'vehicle':<11} {'drive':<5} {_CLASSIFIER_HEAD} | {'cells':>5} {'mae':>5} {'cover':>5} "
-          f"{'wrong':>5} {'pass':>4} {'honest':>6}")
+    print(f"{'vehicle':<11} {'drive':<5} {_CLASSIFIER_HEAD} | {CASCADE_HEADER}")
     t_start = time.perf_counter()
+    tally: dict = {}
     for name in names:
         drive = mb_vehicle(name, sensors="ideal").params.drive
         fit = fit_family_vehicle(name) if fitted else None
-        print(f"{name:<11} {drive:<5}{_classifier_cells(name, fit)} |{_cascade_cells(name)}", flush=True)
+        print(f"{name:<11} {drive:<5}{_classifier_cells(name, fit)} |{_cascade_cells(name, tally=tally)}",
+              flush=True)
+    print(_cascade_tally(tally))
     print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
 
 
@@ -260,6 +307,23 @@ def classifier_table(names: list[str]) -> None:
         drive = mb_vehicle(name, sensors="ideal").params.drive
         print(f"{name:<11} {drive:<5}{_classifier_cells(name)} |"
               f"{_classifier_cells(name, fit_family_vehicle(name))}", flush=True)
+    print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
+
+
+def cascade_table(names: list[str]) -> None:
+    """Print the cascade's family criteria with the preset car and with the fitted car, side
+    by side (``--cascade``; the module docstring's rules)."""
+    print(f"{'':<17} {'preset car':^57} | {'fitted car':^57}")
+    print(f"{'vehicle':<11} {'drive':<5} {CASCADE_HEADER} | {CASCADE_HEADER}")
+    t_start = time.perf_counter()
+    preset: dict = {}
+    fitted: dict = {}
+    for name in names:
+        drive = mb_vehicle(name, sensors="ideal").params.drive
+        print(f"{name:<11} {drive:<5}{_cascade_cells(name, tally=preset)} |"
+              f"{_cascade_cells(name, fit_family_vehicle(name), fitted)}", flush=True)
+    print("preset car " + _cascade_tally(preset))
+    print("fitted car " + _cascade_tally(fitted))
     print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
 
 
@@ -277,6 +341,8 @@ def main() -> None:
                     help="with --estimators: the classifiers on the drives as logged, not read with the fitted car")
     ap.add_argument("--classifiers", action="store_true",
                     help="the classifiers' family criteria as logged and with the fitted car, side by side")
+    ap.add_argument("--cascade", action="store_true",
+                    help="the cascade's family criteria with the preset and with the fitted car, side by side")
     args = ap.parse_args()
     names = ["ford-escort", "vw-vanagon", *(f"random:{s}" for s in _seeds(args.seeds))]
     if args.gpssm:
@@ -287,6 +353,9 @@ def main() -> None:
         return
     if args.classifiers:
         classifier_table(names[2:])
+        return
+    if args.cascade:
+        cascade_table(names[2:])
         return
     if args.estimators:
         estimator_table(names[2:], fitted=not args.no_fit)
