@@ -6,11 +6,14 @@ vehicle description, the honesty rule of :func:`roadgrip.evaluate.honesty.score_
 These sensors leave the slip angles 0.01-0.07 rad off, differently at each lateral
 acceleration (``docs/validation-cascade.md``). The kinematic check against the pose
 (:func:`roadgrip.estimators.cascade.kernel.pose_slip_error`) measures that error at the
-lateral acceleration driven and keeps such samples out of the map: 18 of the 20 runs are
-honest (11 without it). Asserted: at least 18 honest, and the two known open ones
-(``random:106``, ``random:115``: 0.2-0.3 % of the judged samples wrong, in the first hard
-corner, where the pose's heading bias of 0.008 rad hides the slip-angle bias from the check)
-listed, so that a change in which cars fail is seen.
+lateral acceleration driven; it follows a change only over its 2 s window. The accelerometer
+and the gyro come on separate messages with independent 0-150 ms latencies, which put the
+latency's difference times each change of ``a_y`` into ``v_y`` at once (0.02 rad of slip angle
+at ``random:115``'s first corner exit): the cascade is told so, ``accel_latency_std`` the
+spread of that difference (:func:`roadgrip.estimators.cascade.kernel.latency_slip_error`).
+Asserted: all 20 runs honest, and no confidently wrong 5 m cell on at least 18 (none of the
+20 yields a cell with ten observations, so the cells' error and cover are not judged here;
+``benchmarks/vehicle_family.py --cascade`` prints them).
 """
 
 from __future__ import annotations
@@ -19,28 +22,34 @@ import pytest
 
 from roadgrip.estimators import run_estimator
 from roadgrip.evaluate.honesty import score_result
+from roadgrip.evaluate.map_truth import score_map
+from roadgrip.mapping import grid_from_estimates
 from roadgrip.sim.scenarios import simulate_scenario
 
 pytestmark = pytest.mark.slow
 
 FAMILY = tuple(f"random:{s}" for s in range(100, 120))
-KNOWN_DISHONEST = {"random:106", "random:115"}
-"""Open: bands that exclude the truth on 0.32 % and 0.24 % of the judged samples (limit 0.1 %)."""
+UNALIGNED_LATENCY_STD = 0.06
+"""Standard deviation [s] of the difference of two independent uniform 0-150 ms latencies,
+``0.15 / sqrt(6)``, as ``benchmarks/vehicle_family.py`` states it."""
 
 
 @pytest.fixture(scope="module")
 def family():
-    """Per vehicle: the honesty score of the cascade's run."""
+    """Per vehicle: the honesty score of the cascade's run and its 5 m map's score."""
     out = {}
     for vehicle in FAMILY:
         d = simulate_scenario("figure-eight", seed=0, engine="multibody", vehicle=vehicle)
-        out[vehicle] = score_result(run_estimator("cascade", d, {}), d)
+        res = run_estimator("cascade", d, {"accel_latency_std": UNALIGNED_LATENCY_STD})
+        out[vehicle] = (score_result(res, d), score_map(d, grid_from_estimates(res.table, cell=5.0)))
     return out
 
 
-def test_honest_on_the_family_but_the_two_known(family):
-    dishonest = {v for v, score in family.items() if not score.honest}
-    assert len(dishonest) <= 2, sorted(dishonest)
-    assert dishonest <= KNOWN_DISHONEST, sorted(dishonest - KNOWN_DISHONEST)
-    for v in dishonest:
-        assert family[v].wrong_axle < 0.005, (v, family[v].wrong_axle)
+def test_honest_on_the_whole_family(family):
+    dishonest = {v: score.wrong_axle for v, (score, _) in family.items() if not score.honest}
+    assert not dishonest, dishonest
+
+
+def test_no_confidently_wrong_cell_on_at_least_18(family):
+    wrong = {v: m.confidently_wrong for v, (_, m) in family.items() if m.confidently_wrong}
+    assert len(wrong) <= 2, wrong  # random:109: one cell of two observations, measured
