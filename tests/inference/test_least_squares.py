@@ -9,6 +9,7 @@ from roadgrip.inference.least_squares import (
     HOLD_SAMPLES,
     eiv_lstsq,
     filter_noise_energy,
+    fuse_scalar,
     held_samples,
     lstsq,
 )
@@ -82,3 +83,38 @@ def test_a_channel_quieter_than_its_resolution_is_never_held():
     assert not held_samples(v).any()
     assert not held_samples(np.zeros(10)).any()
     assert not held_samples([1.0, 2.0]).any()
+
+
+def test_fuse_scalar_with_a_linear_function_is_the_kalman_update():
+    # z = a'b + e: the combined estimate is the Kalman update, exactly and in one step
+    rng = np.random.default_rng(4)
+    A = rng.standard_normal((3, 3))
+    cov = A @ A.T + np.eye(3)
+    beta = rng.standard_normal(3)
+    a = np.array([0.5, -2.0, 1.0])
+    z, var = 3.0, 0.2
+    b, c = fuse_scalar(beta, cov, lambda x: float(a @ x), z, var)
+    gain = cov @ a / (a @ cov @ a + var)
+    np.testing.assert_allclose(b, beta + gain * (z - a @ beta), rtol=1e-6)
+    np.testing.assert_allclose(c, cov - np.outer(gain, a @ cov), rtol=1e-6, atol=1e-9)
+
+
+def test_fuse_scalar_minimises_the_combined_objective():
+    # a nonlinear g (a ratio, as 1/C_r of the single-track coefficients): the result is
+    # the minimum of the objective, found independently by a general minimiser
+    from scipy.optimize import minimize
+
+    beta, cov = np.array([2.0, 1.0]), np.array([[0.04, 0.01], [0.01, 0.09]])
+    g = lambda x: x[1] / x[0]  # noqa: E731
+    z, var = 0.8, 0.01**2
+    b, _ = fuse_scalar(beta, cov, g, z, var)
+    c_inv = np.linalg.inv(cov)
+    obj = lambda x: (x - beta) @ c_inv @ (x - beta) + (z - g(x)) ** 2 / var  # noqa: E731
+    ref = minimize(obj, beta, method="Nelder-Mead", options={"xatol": 1e-10, "fatol": 1e-14}).x
+    np.testing.assert_allclose(b, ref, rtol=1e-5)
+    assert g(b) == pytest.approx(z, abs=3 * 0.01)
+
+
+def test_fuse_scalar_refuses_a_bad_variance():
+    with pytest.raises(ValueError, match="variance"):
+        fuse_scalar(np.zeros(2), np.eye(2), lambda x: x[0], 1.0, 0.0)

@@ -258,15 +258,22 @@ def _fit_relative(df, base=None, **patch):
             v["cornering_stiffness_rear"].value / cr - 1.0)
 
 
+def _no_pose(*args, **kwargs):
+    """In place of ``rear_axle_from_pose``: the identity alone (these tests show what a fix
+    of the identity changes, which the pose's rear axle would partly hide)."""
+    return None
+
+
 def test_gyro_noise_neither_dilutes_the_stiffnesses_nor_moves_the_delay():
     # white noise of 0.02 rad/s on the gyro, differentiated into r': without the
     # correction the yaw term is diluted (stiffnesses over 20 % high, delay early)
     df = _injected().data.copy()
     df["yaw_rate"] += 0.02 * np.random.default_rng(3).standard_normal(len(df))
-    delay, front, rear = _fit_relative(df)
+    delay, front, rear = _fit_relative(df, rear_axle_from_pose=_no_pose)
     assert delay == pytest.approx(STEER_LAG * 0.01, abs=0.01)
     assert abs(front) < 0.10 and abs(rear) < 0.10
-    _, front_raw, rear_raw = _fit_relative(df, _regressor_noise=lambda *a: np.zeros((4, 4)))
+    _, front_raw, rear_raw = _fit_relative(df, _regressor_noise=lambda *a: np.zeros((4, 4)),
+                                           rear_axle_from_pose=_no_pose)
     assert front_raw > 0.2 and rear_raw > 0.2
 
 
@@ -282,10 +289,11 @@ def test_values_held_by_the_logger_are_left_out():
         steer[i:i + 25] = steer[i]
         rate[max(i - 300, 0):i + 300] = 0.0
     df["steer"] = steer
-    delay, front, rear = _fit_relative(df)
+    delay, front, rear = _fit_relative(df, rear_axle_from_pose=_no_pose)
     assert delay == pytest.approx(STEER_LAG * 0.01, abs=0.01)
     assert abs(front) < 0.05 and abs(rear) < 0.05
-    delay_raw, front_raw, _ = _fit_relative(df, _near_holds=lambda drive, *a: np.zeros(drive.n, bool))
+    delay_raw, front_raw, _ = _fit_relative(df, _near_holds=lambda drive, *a: np.zeros(drive.n, bool),
+                                            rear_axle_from_pose=_no_pose)
     assert delay_raw - STEER_LAG * 0.01 > 0.015 and front_raw < -0.1
 
 
@@ -321,3 +329,39 @@ def test_speed_delay_with_the_accelerometer_on_its_own_clock():
     v = fit_vehicle(Drive(df.drop(columns=["x", "y", "psi"]), d.meta), mu=0.6).values["delay_speed"]
     assert v.fitted and "a_x on a_y's clock" in v.note
     assert v.value == pytest.approx(0.06 - 0.10, abs=0.03)
+
+
+def _rear_from_pose(d: Drive):
+    from roadgrip.inference.vehicle_identification import rear_axle_from_pose
+    from roadgrip.signals import wheel_speed_vx
+
+    return rear_axle_from_pose(d, d.vehicle, wheel_speed_vx(d)[0], 0.01, 0.0, 0.0, 1.0)
+
+
+def test_rear_axle_from_the_pose_against_the_simulated_truth():
+    # the single-track simulation's pose measures the rear slip angle: 1/C_r within 2.5
+    # standard errors of the tire's slope, and a heading bias of 1 deg (v_x times it in v_y)
+    # goes into the constant
+    d = _sim()
+    inv_cr, var, n = _rear_from_pose(d)
+    _, cr = _true_stiffness(d)
+    assert n > 5000
+    assert abs(inv_cr * cr - 1.0) <= 2.5 * math.sqrt(var) * cr
+    assert math.sqrt(var) * cr < 0.08
+    df = d.data.copy()
+    df["psi"] += np.deg2rad(1.0)
+    assert _rear_from_pose(Drive(df, d.meta))[0] == pytest.approx(inv_cr, rel=0.005)
+    assert _rear_from_pose(Drive(d.data.drop(columns=["x", "y", "psi"]), d.meta)) is None
+
+
+def test_the_pose_narrows_the_stiffnesses():
+    # the same drive without its pose: the identity alone, with larger standard errors
+    d = _injected()
+    with_pose = fit_vehicle(d).values
+    without = fit_vehicle(Drive(d.data.drop(columns=["x", "y", "psi"]), d.meta)).values
+    cf, cr = _true_stiffness(_sim())
+    for k, true in (("cornering_stiffness_front", cf), ("cornering_stiffness_rear", cr)):
+        assert with_pose[k].std < without[k].std
+        assert abs(with_pose[k].value / true - 1.0) < 0.05
+    assert "pose" in with_pose["cornering_stiffness_rear"].note
+    assert "pose" not in without["cornering_stiffness_rear"].note

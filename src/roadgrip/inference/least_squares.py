@@ -12,6 +12,11 @@ Three things a regression on logged signals must allow for, each a small pure fu
   estimate ``b = (X'X - E[dX' dX])^-1 X'y`` is consistent (:func:`eiv_lstsq`); the noise
   of a filtered signal is its white noise times the filter's energy ``sum w_k²``
   (:func:`filter_noise_energy`).
+- **A second, independent measurement of a function of the coefficients.** An estimate
+  ``b`` with covariance ``C`` and an independent scalar measurement ``z = g(b) + e``,
+  ``e ~ N(0, v)``, combine into the generalised least-squares estimate minimising ``(b' -
+  b)' C^-1 (b' - b) + (z - g(b'))² / v`` (Gauss-Newton on ``g``; exact in one step for a
+  linear ``g``) (:func:`fuse_scalar`).
 - **Held samples.** A logger that resamples a bus repeats the last value received while a
   message is missing; during the hold the channel is late by up to the hold's length. A
   channel whose white noise exceeds its resolution never repeats a value
@@ -20,12 +25,15 @@ Three things a regression on logged signals must allow for, each a small pure fu
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from roadgrip.io.derived import savgol_quadratic, white_noise_std
 
-__all__ = ["HOLD_SAMPLES", "eiv_lstsq", "filter_noise_energy", "held_samples", "lstsq", "n_eff"]
+__all__ = ["HOLD_SAMPLES", "eiv_lstsq", "filter_noise_energy", "fuse_scalar", "held_samples", "lstsq",
+           "n_eff"]
 
 HOLD_SAMPLES = 4
 """Fewest consecutive identical samples taken for a hold (on a channel whose white noise
@@ -117,6 +125,67 @@ def eiv_lstsq(X: NDArray, y: NDArray, noise: NDArray) -> tuple[NDArray, NDArray,
     sigma2 = rss / max(n - p, 1) * (n / n_eff(res))
     a_inv = np.linalg.inv(A)
     return beta, sigma2 * a_inv @ xtx @ a_inv, rss, float(y @ y - xty @ beta)
+
+
+def fuse_scalar(beta: NDArray, cov: NDArray, g: Callable[[NDArray], float], z: float,
+                var: float, *, iterations: int = 20) -> tuple[NDArray, NDArray]:
+    """An estimate combined with an independent measurement of a scalar function of it
+    (module docstring).
+
+    Parameters
+    ----------
+    beta : ndarray, shape (p,)
+        The estimate.
+    cov : ndarray, shape (p, p)
+        Its covariance (positive definite).
+    g : callable
+        ``g(b) -> float``, smooth near ``beta``; differentiated numerically.
+    z : float
+        The measurement of ``g``, in ``g``'s unit.
+    var : float
+        Its variance, ``> 0``.
+    iterations : int
+        Most Gauss-Newton steps.
+
+    Returns
+    -------
+    beta : ndarray, shape (p,)
+        The combined estimate.
+    cov : ndarray, shape (p, p)
+        Its covariance, ``(C^-1 + h h' / var)^-1`` with ``h`` the gradient of ``g`` there.
+
+    Raises
+    ------
+    ValueError
+        ``var`` not positive and finite.
+
+    Examples
+    --------
+    >>> b, c = fuse_scalar(np.array([1.0, 2.0]), np.eye(2), lambda b: b[0], 3.0, 1.0)
+    >>> b.round(6), c.round(6)
+    (array([2., 2.]), array([[0.5, 0. ],
+           [0. , 1. ]]))
+    """
+    if not (np.isfinite(var) and var > 0):
+        raise ValueError(f"the measurement's variance must be positive and finite, got {var!r}")
+    beta = np.asarray(beta, float)
+    c_inv = np.linalg.inv(cov)
+    b = beta.copy()
+
+    def grad(b):
+        h = 1e-7 * np.maximum(np.abs(b), 1e-12)
+        g0 = g(b)
+        return np.array([(g(b + h[k] * np.eye(len(b))[k]) - g0) / h[k] for k in range(len(b))])
+
+    for _ in range(iterations):
+        h = grad(b)
+        info = c_inv + np.outer(h, h) / var
+        step = np.linalg.solve(info, c_inv @ (beta - b) + h * (z - g(b)) / var)
+        b = b + step
+        if np.all(np.abs(step) <= 1e-12 * np.maximum(np.abs(b), 1e-300)):
+            break
+    h = grad(b)
+    return b, np.linalg.inv(c_inv + np.outer(h, h) / var)
 
 
 def filter_noise_energy(m: int, deriv: int = 0, delta: float = 1.0, shift: float = 0.0) -> float:

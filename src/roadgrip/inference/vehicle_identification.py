@@ -43,8 +43,19 @@ a steering delay is nearly ``l² r'/v_x`` times itself, move the delay: 40-50 ms
 random family at a 0.15 s filter); the regression is corrected for the measured noise of
 the gyro and the accelerometer (:func:`~roadgrip.inference.least_squares.eiv_lstsq`).
 
+**Rear axle with a pose.** Where the drive has a pose (its delay fitted), its lateral
+velocity ``v_y`` (:func:`~roadgrip.io.derived.body_velocity_from_pose`) measures the rear
+slip angle, and ``alpha_r = F_yr/C_r + c``, ``F_yr = (m l_f a_y - I_z r')/l``, measures
+``1/C_r`` directly (the constant ``c`` takes the pose's heading bias, ``v_x`` times which
+it adds to ``v_y``). The pose's noise is on the dependent side, so it does not dilute. This
+is a second, independent measurement of ``(l_r J/I_z - K)/l``, combined with the identity's
+coefficients by generalised least squares
+(:func:`~roadgrip.inference.least_squares.fuse_scalar`). The front axle's analogue is not
+used: with the steering on its right-hand side it separates ``C_f`` from the steering scale
+no better than the identity does.
+
 Standard errors are least-squares errors inflated for the residuals' correlation
-(``n_eff = n (1 - rho_1)/(1 + rho_1)``), propagated by the delta method; the stiffnesses'
+(``n_eff = n (1 - rho_1)/(1 + rho_1)``), propagated by the delta method; the coefficients'
 include the delay's own error through their slope along the delay.
 """
 
@@ -61,6 +72,7 @@ from roadgrip.drive import Drive
 from roadgrip.inference.least_squares import (
     eiv_lstsq,
     filter_noise_energy,
+    fuse_scalar,
     held_samples,
     lstsq,
     n_eff,
@@ -71,7 +83,7 @@ from roadgrip.sensor_delay import DelayFit, estimate_delay
 from roadgrip.signals import WHEELS, undriven_wheels, wheel_speed_vx
 from roadgrip.vehicle.params import CALIBRATION_KEY, FIELD_RANGES, VehicleParams
 
-__all__ = ["FittedValue", "VehicleFit", "fit_vehicle"]
+__all__ = ["FittedValue", "VehicleFit", "fit_vehicle", "rear_axle_from_pose"]
 
 V_MIN = 5.0
 """Smallest speed [m/s] of a sample in the single-track fit (``r/v_x`` and the slip
@@ -96,6 +108,9 @@ SMOOTH = 0.3
 linear filter on both sides of the identity, which holds through it; 0.3 s passes the
 manoeuvres (a quadratic fit over 0.3 s keeps 1 Hz to within 2 %) and leaves the
 differentiated gyro noise (0.005 rad/s at 100 Hz) under 0.5 % of ``r'``'s variance."""
+POSE_WINDOW = 0.5
+"""Savitzky-Golay window [s] of the rear-axle equation with the pose's ``v_y`` (and of every
+signal in it)."""
 
 
 
@@ -412,8 +427,65 @@ def _near_holds(drive: Drive, dt: float, acc_delay: float, lag: int) -> NDArray:
     return bad | (_shifted(drive.t, ay_held.astype(float), acc_delay) > 0)
 
 
+def rear_axle_from_pose(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc_delay: float,
+                        pose_delay: float, mu: float) -> tuple[float, float, int] | None:
+    """``1/C_r`` [rad/N] from the pose's lateral velocity (module docstring, "Rear axle with
+    a pose").
+
+    Parameters
+    ----------
+    drive : Drive
+        With ``x``, ``y``, ``psi``, ``yaw_rate``, ``ay`` (``ax`` if present).
+    base : VehicleParams
+        Mass, axle distances, yaw inertia and roll gradient.
+    vx : ndarray, shape (n,)
+        Longitudinal speed [m/s].
+    dt : float
+        Sample spacing [s].
+    acc_delay, pose_delay : float
+        The accelerometer's and the pose's delay behind the gyro [s].
+    mu : float
+        Friction of the road driven [-] (linear range ``|a_y| < LINEAR_AY mu g``).
+
+    Returns
+    -------
+    (inv_cr, var, n) or None
+        ``1/C_r`` [rad/N], its variance (least squares, inflated for correlated residuals)
+        and the samples used; None without a pose, with fewer than :data:`MIN_LINEAR`
+        linear-range samples or a non-positive slope.
+    """
+    if not drive.has_pose:
+        return None
+    t = drive.t
+    L, m, Iz = base.wheelbase, base.mass, base.yaw_inertia
+    vy = body_velocity_from_pose(t, drive.col("x"), drive.col("y"), drive.col("psi"),
+                                 window=POSE_WINDOW)[1]
+    known = _shifted(t, np.isfinite(vy).astype(float), pose_delay) > 0.999
+    vy = _shifted(t, np.where(np.isfinite(vy), vy, 0.0), pose_delay)
+    roll = 1.0 + GRAVITY * base.roll_gradient
+    ay = _smooth(_shifted(t, drive.col("ay"), acc_delay), dt, POSE_WINDOW) / roll
+    ax = (_smooth(_shifted(t, drive.col("ax"), acc_delay), dt, POSE_WINDOW) if drive.has("ax")
+          else np.zeros(drive.n))
+    r = _smooth(drive.col("yaw_rate"), dt, POSE_WINDOW)
+    rdot = _smooth(drive.col("yaw_rate"), dt, POSE_WINDOW, deriv=1)
+    vxs = _smooth(vx, dt, POSE_WINDOW)
+    edge = _half_width(dt, POSE_WINDOW) + round(abs(pose_delay) / dt) + 1
+    sel = known & (vxs >= V_MIN) & (np.abs(ay) < LINEAR_AY * mu * GRAVITY) & (np.abs(ax) < MAX_AX)
+    sel[:edge] = sel[-edge:] = False
+    sel &= ~_near_holds(drive, dt, acc_delay, 0)
+    n = int(sel.sum())
+    if n < MIN_LINEAR:
+        return None
+    force = (m * base.lf * ay[sel] - Iz * rdot[sel]) / L
+    alpha = -(vy[sel] - base.lr * r[sel]) / vxs[sel]
+    beta, cov, _ = lstsq(np.column_stack([force, np.ones(n)]), alpha)
+    if not beta[0] > 0:
+        return None
+    return float(beta[0]), float(cov[0, 0]), n
+
+
 def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc_delay: float,
-                  mu: float) -> tuple[dict[str, FittedValue], int]:
+                  mu: float, pose_delay: float | None = None) -> tuple[dict[str, FittedValue], int]:
     """Steering delay, scale, offset and both cornering stiffnesses (module docstring)."""
     t = drive.t
     L, m = base.wheelbase, base.mass
@@ -455,6 +527,14 @@ def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc
     n_res = n_eff(y - X @ beta)
     curv = (rss[min(i + 1, len(rss) - 1)] - 2 * rss[i] + rss[max(i - 1, 0)]) / dt**2
     d_std = math.sqrt(2.0 * rss_min / n_res / curv) if curv > 0 else math.nan
+    if math.isfinite(d_std):  # the delay trades off against J (a shift is ~ l² r'/v_x)
+        slope = (eiv_lstsq(X, _shifted(t, steer, d + dt)[sel], noise)[0] - beta) / dt
+        cov = cov + np.outer(slope, slope) * d_std**2
+    pose_rear = (rear_axle_from_pose(drive, base, vx, dt, acc_delay, pose_delay, mu)
+                 if pose_delay is not None else None)
+    if pose_rear is not None:  # 1/C_r = (l_r J/I_z - K)/l, measured again by the pose
+        beta, cov = fuse_scalar(beta, cov, lambda b: (base.lr * b[3] / base.yaw_inertia - b[2])
+                                / b[0] / L, pose_rear[0], pose_rear[1])
     s = 1.0 / beta[0]
 
     def params(b):
@@ -472,9 +552,6 @@ def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc
         bp[k] += h
         jac[:, k] = (params(bp) - p) / h
     var = np.diag(jac @ cov @ jac.T)
-    if math.isfinite(d_std):  # the delay trades off against J (a shift is ~ l² r'/v_x)
-        p_d = params(eiv_lstsq(X, _shifted(t, steer, d + dt)[sel], noise)[0])
-        var = var + ((p_d - p) / dt * d_std) ** 2
     pstd = np.sqrt(np.maximum(var, 0.0))
     out: dict[str, FittedValue] = {}
     at_edge = i in (0, len(rss) - 1)
@@ -494,7 +571,9 @@ def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc
                                       "(too little transient yaw excitation)", getattr(base, name))
         else:
             out[name] = _fitted(name, p[k], pstd[k], "N/rad",
-                                f"with yaw_inertia {base.yaw_inertia:g} kg m²")
+                                f"with yaw_inertia {base.yaw_inertia:g} kg m²"
+                                + (f"; rear axle also from the pose ({pose_rear[2]} samples)"
+                                   if pose_rear is not None else ""))
     front, rear = out["cornering_stiffness_front"], out["cornering_stiffness_rear"]
     if front.fitted != rear.fitted:  # one axle alone would change the balance (K): keep both
         for k, name in ((3, "cornering_stiffness_front"), (4, "cornering_stiffness_rear")):
@@ -553,7 +632,9 @@ def fit_vehicle(drive: Drive, base: VehicleParams | None = None, *, mu: float = 
     values = _delays(drive, vx, src, dt)
     acc = values["delay_accelerometer"]
     acc_delay = acc.value if acc.fitted else 0.0
-    st, n_lin = _single_track(drive, base, vx, dt, acc_delay, mu)
+    pose = values.get("delay_pose")
+    st, n_lin = _single_track(drive, base, vx, dt, acc_delay, mu,
+                              pose.value if pose is not None and pose.fitted else None)
     values.update(st)
     values.update(_accelerometer(drive, vx, dt, acc_delay))
     values["wheel_radius"] = _wheel_radius(drive, base, dt)
