@@ -11,10 +11,13 @@ an all-wheel drive); the steering offset the road-wheel angle at a zero reading,
 
 The issue's criterion (stiffnesses within 10 %, each delay within 20 ms, the steering offset
 within 0.1 deg, on 18 of 20) is reached for every delay (20 of 20) and the offset (19 of 20),
-not for the stiffnesses: both within 10 % on 13 of 20, 12 vehicles passing whole
-(``docs/vehicle-fit.md``). What is asserted: those counts, and that every fitted stiffness
-lies within three of its standard errors of the truth (the errors are honest where the
-values miss).
+not for the stiffnesses: the rear within 10 % on 19 of 20 (the pose's lateral velocity measures
+it again), both on 13 of 20, 13 vehicles passing whole (``docs/vehicle-fit.md``). What is
+asserted: those counts, and that every fitted stiffness lies within three of its standard
+errors of the truth (the errors are honest where the values miss).
+
+The drives come from the drive cache (``ROADGRIP_DRIVE_CACHE``, by default the repository's
+``.cache/drives`` that ``tests/conftest.py`` names); a drive missing there is simulated.
 """
 
 from __future__ import annotations
@@ -80,13 +83,15 @@ def test_steering_offset_within_01_deg_on_19(family):
 def test_stiffnesses_within_10_percent_on_13_and_honest_on_all(family):
     ok = [n for n, e in family.items() if _stiff_ok(e)]
     assert len(ok) >= 13, sorted(set(FAMILY) - set(ok))
+    rear = [n for n, e in family.items() if abs(e["cornering_stiffness_rear"][0]) <= 0.10]
+    assert len(rear) >= 19, sorted(set(FAMILY) - set(rear))
     for name, e in family.items():
         for k in STIFFNESS:
             err, std = e[k]
             assert np.isfinite(err) and abs(err) <= 3.0 * std, (name, k, err, std)
 
 
-def test_whole_criterion_on_12(family):
+def test_whole_criterion_on_13(family):
     ok = [n for n, e in family.items() if _stiff_ok(e) and abs(e["steer_offset"][0]) <= np.radians(0.1)
           and all(abs(e[k][0]) <= 0.020 for k in DELAYS)]
-    assert len(ok) >= 12, sorted(set(FAMILY) - set(ok))
+    assert len(ok) >= 13, sorted(set(FAMILY) - set(ok))
