@@ -71,3 +71,23 @@ def test_bad_calibration_entry_is_named(tmp_path: Path):
     with pytest.raises(ValueError, match="unknown calibration 'steer_gain'"):
         read_calibration(_car(tmp_path, {"steer_gain": 1.0}))
     assert read_calibration("sedan") == {}
+
+
+def test_a_x_moves_by_its_own_delay_where_the_file_gives_one(tmp_path: Path):
+    raw = _drive()
+    f = tmp_path / "d.parquet"
+    raw.save(f)
+    cal = {"delay_accelerometer": 0.05, "delay_accelerometer_x": 0.02}
+    d = read_drive(f, vehicle=str(_car(tmp_path, cal)))
+    assert d.n == raw.n - 5  # the larger shift decides the dropped end
+    np.testing.assert_allclose(d.col("ay"), raw.col("ay")[5:], atol=1e-12)
+    np.testing.assert_allclose(d.col("ax"), raw.col("ax")[2:-3], atol=1e-12)
+    assert d.meta.extra["alignment_s"] == {"ax": 0.02, "ay": 0.05}
+    # a file without the entry (written before it existed) keeps one accelerometer clock
+    old = apply_calibration(raw, {"delay_accelerometer": 0.05})
+    np.testing.assert_allclose(old.col("ax"), raw.col("ax")[5:], atol=1e-12)
+    np.testing.assert_allclose(old.col("ay"), raw.col("ay")[5:], atol=1e-12)
+    # a_x's delay alone moves a_x alone
+    only_x = apply_calibration(raw, {"delay_accelerometer_x": 0.03})
+    np.testing.assert_allclose(only_x.col("ax"), raw.col("ax")[3:], atol=1e-12)
+    np.testing.assert_allclose(only_x.col("ay"), raw.col("ay")[:-3], atol=0)

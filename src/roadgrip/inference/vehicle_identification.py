@@ -6,10 +6,13 @@ or ``'undetermined'`` with the reason; an undetermined value keeps the base vehi
 ===========================  ==========================================================
 quantity                     evidence
 ===========================  ==========================================================
-accelerometer delay          ``a_y`` against ``v_x r`` (+ ``dv_y/dt`` with a pose), vs the gyro
+accelerometer (a_y) delay    ``a_y`` against ``v_x r`` (+ ``dv_y/dt`` with a pose), vs the gyro
                              (:func:`roadgrip.sensor_delay.estimate_delay`)
-wheel-speed / vx delay       ``d v_x/dt`` against ``a_x`` (outside braking), plus ``a_x``'s
-                             delay: its integral against the pose's speed (else ``a_y``'s)
+``a_x``'s own delay          the integral of ``a_x + v_y r`` against the pose's speed, plus the
+                             pose's delay (``a_x`` may be a message of its own; without a
+                             pose: undetermined, ``a_y``'s kept)
+wheel-speed / vx delay       ``d v_x/dt`` against ``a_x + v_y r`` (outside braking), plus
+                             ``a_x``'s delay (else ``a_y``'s)
 pose delay                   ``dpsi/dt`` against the gyro
 steering delay, offset,      the linear single-track identity (below), by least squares
 scale, cornering stiffness   over the linear-range samples, the delay by a profile
@@ -79,7 +82,7 @@ from roadgrip.inference.least_squares import (
 )
 from roadgrip.io.calibration import CALIBRATION
 from roadgrip.io.derived import body_velocity_from_pose, savgol_quadratic, white_noise_std
-from roadgrip.sensor_delay import DelayFit, estimate_delay
+from roadgrip.sensor_delay import estimate_delay
 from roadgrip.signals import WHEELS, undriven_wheels, wheel_speed_vx
 from roadgrip.vehicle.params import CALIBRATION_KEY, FIELD_RANGES, VehicleParams
 
@@ -239,46 +242,85 @@ def _pose_vy(drive: Drive) -> NDArray | None:
     return vy if np.isfinite(vy).mean() > 0.5 else None
 
 
-def _speed_delay(drive: Drive, vx: NDArray, src: str, dt: float, pose: FittedValue | None,
-                 acc: DelayFit) -> FittedValue | None:
-    """Delay of the speed (:func:`wheel_speed_vx`) against the gyro: ``dv_x/dt`` against
-    ``a_x``, plus ``a_x``'s delay: the integral of ``a_x`` against the pose's speed, plus the
-    pose's delay, where the pose times it, else ``a_y``'s (one accelerometer, one clock).
-    Wheel speeds (``src``) are used outside braking (``a_x < -BRAKING``, widened by 1 s): a
-    braked wheel slips, and its speed falls ahead of the car's. None without ``a_x``."""
+def _ax_dvx(drive: Drive) -> NDArray:
+    """``dv_x/dt`` [m/s²] from the accelerometer: ``a_x + v_y r``, ``v_y`` from the pose where
+    it has one (in a turn ``v_y r`` is not small: left out, it moves a delay fitted on
+    ``a_x`` alone by 10-20 ms), else ``a_x``."""
+    vy = _pose_vy(drive)
+    if vy is None:
+        return drive.col("ax")
+    return drive.col("ax") + np.where(np.isfinite(vy), vy, 0.0) * drive.col("yaw_rate")
+
+
+def _ax_delay(drive: Drive, pose: FittedValue | None, acc: FittedValue) -> FittedValue | None:
+    """Delay of ``a_x`` against the gyro (``delay_accelerometer_x``): the integral of ``a_x +
+    v_y r`` (``dv_x/dt``; ``v_y`` from the pose) against the pose's speed (a delay commutes
+    with the integral; the pose differentiated would be noisier), plus the pose's own delay
+    behind the gyro. ``a_x`` and ``a_y`` may be
+    separate messages with their own latencies, so ``a_y``'s delay does not time ``a_x``.
+    Undetermined without ``x, y, psi``, with the pose's delay undetermined or too little
+    change of speed; its value is then ``a_y``'s (``acc``), which the calibration applies to
+    ``a_x`` in its place. None without ``a_x``."""
     if not drive.has("ax"):
+        return None
+    why = None
+    if not drive.has_pose:
+        why = "no pose"
+    elif pose is None or not pose.fitted:
+        why = "the pose's delay is undetermined"
+    else:
+        t = drive.t
+        v_pose = body_velocity_from_pose(t, drive.col("x"), drive.col("y"), drive.col("psi"),
+                                         window=0.5)[0]
+        ok = np.isfinite(v_pose)
+        if ok.mean() <= 0.5:
+            why = "the pose's speed is known on half the drive or less"
+        else:
+            dvx = _ax_dvx(drive)
+            v_ax = np.concatenate(([0.0], np.cumsum(0.5 * (dvx[1:] + dvx[:-1]) * np.diff(t))))
+            fit = estimate_delay(t, v_ax, v_pose, valid=ok, max_lag=1.0)
+            if fit.reliable:
+                return _fitted("delay_accelerometer_x", fit.delay + pose.value,
+                               math.hypot(fit.std, pose.std), "s",
+                               f"integral of a_x ~ the pose's speed (peak correlation "
+                               f"{fit.peak_corr:.2f}) plus the pose's delay")
+            why = (f"integral of a_x ~ the pose's speed: peak correlation {fit.peak_corr:.2f} "
+                   "(too little change of speed)")
+    kept = acc.value if acc.fitted else math.nan
+    return _undetermined("delay_accelerometer_x", "s",
+                         f"{why}; a_x is moved by delay_accelerometer (a_y's)", kept)
+
+
+def _speed_delay(drive: Drive, vx: NDArray, src: str, dt: float, ax_delay: FittedValue | None,
+                 acc: FittedValue) -> FittedValue | None:
+    """Delay of the speed (:func:`wheel_speed_vx`) against the gyro: ``dv_x/dt`` against
+    ``a_x``, plus ``a_x``'s delay (``ax_delay``, :func:`_ax_delay`; where undetermined,
+    ``a_y``'s, ``acc``). Wheel speeds (``src``) are used outside braking (``a_x < -BRAKING``,
+    widened by 1 s): a braked wheel slips, and its speed falls ahead of the car's. None
+    without ``a_x``."""
+    if not drive.has("ax") or ax_delay is None:
         return None
     t = drive.t
     rolling = np.ones(drive.n, bool)
     if src == "wheels":
         rolling = ~_dilate(drive.col("ax") < -BRAKING, round(1.0 / dt))
-    fit = estimate_delay(t, _smooth(vx, dt, 0.5, deriv=1), drive.col("ax"), signal_valid=rolling,
+    fit = estimate_delay(t, _smooth(vx, dt, 0.5, deriv=1), _ax_dvx(drive), signal_valid=rolling,
                          max_lag=1.0)
     if not fit.reliable:
         return _undetermined("delay_speed", "s", f"dv_x/dt ~ a_x: peak correlation {fit.peak_corr:.2f} "
                              "(too little acceleration and braking)")
-    ax_clock = None
-    if pose is not None and pose.fitted and drive.has_pose:
-        v_pose = body_velocity_from_pose(t, drive.col("x"), drive.col("y"), drive.col("psi"),
-                                         window=0.5)[0]
-        ok = np.isfinite(v_pose)
-        if ok.mean() > 0.5:
-            ax = drive.col("ax")  # integrated (a delay commutes with it), not the pose differentiated
-            v_ax = np.concatenate(([0.0], np.cumsum(0.5 * (ax[1:] + ax[:-1]) * np.diff(t))))
-            ax_pose = estimate_delay(t, v_ax, v_pose, valid=ok, max_lag=1.0)
-            if ax_pose.reliable:
-                ax_clock = (ax_pose.delay + pose.value, math.hypot(ax_pose.std, pose.std),
-                            "a_x timed by the pose (its integral ~ the pose's speed)")
-    if ax_clock is None and acc.reliable:
-        ax_clock = (acc.delay, acc.std, "a_x on a_y's clock")
-    if ax_clock is None:
+    if ax_delay.fitted:
+        ax_clock = (ax_delay.value, ax_delay.std, "a_x timed by the pose (delay_accelerometer_x)")
+    elif acc.fitted:
+        ax_clock = (acc.value, acc.std, "a_x on a_y's clock")
+    else:
         return _undetermined("delay_speed", "s", "a_x's delay undetermined (no pose, a_y untimed)")
     return _fitted("delay_speed", fit.delay + ax_clock[0], math.hypot(fit.std, ax_clock[1]), "s",
                    f"dv_x/dt ~ a_x (peak correlation {fit.peak_corr:.2f}), {ax_clock[2]}")
 
 
 def _delays(drive: Drive, vx: NDArray, src: str, dt: float) -> dict[str, FittedValue]:
-    """Delays of the accelerometer, the speed and the pose against the gyro."""
+    """Delays of the accelerometer's two axes, the speed and the pose against the gyro."""
     out: dict[str, FittedValue] = {}
     t = drive.t
     r = drive.col("yaw_rate")
@@ -305,7 +347,10 @@ def _delays(drive: Drive, vx: NDArray, src: str, dt: float) -> dict[str, FittedV
                                         f"dpsi/dt ~ r, peak correlation {fit.peak_corr:.2f}")
         else:
             out["delay_pose"] = _undetermined("delay_pose", "s", "dpsi/dt ~ r: too little turning")
-    speed = _speed_delay(drive, vx, src, dt, out.get("delay_pose"), acc)
+    ax_delay = _ax_delay(drive, out.get("delay_pose"), out["delay_accelerometer"])
+    if ax_delay is not None:
+        out["delay_accelerometer_x"] = ax_delay
+    speed = _speed_delay(drive, vx, src, dt, ax_delay, out["delay_accelerometer"])
     if speed is not None:
         out["delay_speed"] = speed
     return out

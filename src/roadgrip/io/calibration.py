@@ -21,16 +21,20 @@ from roadgrip.vehicle.params import CALIBRATION_KEY
 __all__ = ["CALIBRATION", "apply_calibration", "read_calibration", "shift_columns"]
 
 CALIBRATION: dict[str, tuple[str, float]] = {
-    "delay_accelerometer": ("s", 1.0), "delay_speed": ("s", 1.0), "steer_delay": ("s", 1.0),
-    "steer_scale": ("-", 10.0), "steer_offset": ("rad", 0.5), "ay_bias": ("m/s²", 20.0),
+    "delay_accelerometer": ("s", 1.0), "delay_accelerometer_x": ("s", 1.0), "delay_speed": ("s", 1.0),
+    "steer_delay": ("s", 1.0), "steer_scale": ("-", 10.0), "steer_offset": ("rad", 0.5), "ay_bias": ("m/s²", 20.0),
     "ax_bias": ("m/s²", 20.0),
 }  # fmt: skip
 """The sensor calibration a vehicle file carries (``calibration:``): name -> (unit, largest
-magnitude). Delays are against the gyro; the road-wheel angle is ``steer_scale steer +
-steer_offset``; the biases are subtracted."""
+magnitude). Delays are against the gyro: ``delay_accelerometer`` moves ``ay``, and ``ax``
+too unless ``delay_accelerometer_x`` (``a_x``'s own, a separate message on some buses) is
+given (a file written before it existed keeps one accelerometer clock); the road-wheel angle
+is ``steer_scale steer + steer_offset``; the biases are subtracted."""
 
-_DELAYED = {"delay_accelerometer": ("ax", "ay"), "steer_delay": ("steer",),
-            "delay_speed": ("vx", *WHEEL_COLUMNS)}
+_DELAYED = {"delay_accelerometer": ("ax", "ay"), "delay_accelerometer_x": ("ax",),
+            "steer_delay": ("steer",), "delay_speed": ("vx", *WHEEL_COLUMNS)}
+"""The columns each delay moves; a later entry overrides an earlier one for a column
+(``delay_accelerometer_x`` over ``delay_accelerometer`` for ``ax``)."""
 
 
 def read_calibration(path: str | Path) -> dict[str, float]:
@@ -95,8 +99,9 @@ def shift_columns(drive: Drive, shifts: dict[str, float]) -> Drive:
 def apply_calibration(drive: Drive, calibration: dict[str, float]) -> Drive:
     """The drive with its sensors calibrated (:data:`CALIBRATION`).
 
-    Each sensor's columns move back by its delay (the accelerometer's ``ax, ay``, the
-    speed's ``vx`` and wheel speeds, ``steer``; the ends without a partner dropped), then
+    Each sensor's columns move back by its delay (the accelerometer's ``ay``, and ``ax`` by
+    ``delay_accelerometer_x`` where given, else by ``delay_accelerometer``; the speed's ``vx``
+    and wheel speeds; ``steer``; the ends without a partner dropped), then
     ``steer <- steer_scale steer + steer_offset``, ``ay <- ay - ay_bias``, ``ax <- ax - ax_bias``.
     ``meta.extra['calibration']`` records what was applied.
 
