@@ -52,7 +52,8 @@ steering compliance, ``1/(1/C_f + c)`` (a steering-angle sensor cannot tell the 
 is what an estimator reading that sensor needs); the rear is the tire's; each delay is its
 sensor's latency minus the gyro's (the speed's: the undriven wheels', or the ``vx`` column's on
 an all-wheel drive, which is what :func:`roadgrip.signals.wheel_speed_vx` reads; the
-accelerometer's: ``a_y``'s); the steering offset is the road-wheel angle at a zero reading,
+accelerometer's: ``a_y``'s; ``ax ms``: ``a_x``'s, against the delay the file moves ``a_x`` by,
+its own ``delay_accelerometer_x`` or, where that is undetermined, ``a_y``'s); the steering offset is the road-wheel angle at a zero reading,
 ``-offset/(1 + ratio_error)``. An undetermined value fails its criterion.
 
 ``--gpssm`` prints the GP-SSM on ``snow-slalom`` seed 0 (200 particles, filter seed 0, as the
@@ -210,10 +211,13 @@ def fit_errors(name: str, fit) -> dict[str, float]:
              "cornering_stiffness_rear": vp.cornering_stiffness_rear,
              "delay_accelerometer": ch["ay"].delay - gyro, "steer_delay": ch["steer"].delay - gyro,
              "delay_speed": speed - gyro, "delay_pose": ch["psi"].delay - gyro,
+             "delay_accelerometer_x": ch["ax"].delay - gyro,
              "steer_offset": -st.offset / (1.0 + st.ratio_error)}
     out = {}
     for k, true in truth.items():
         fv = fit.values.get(k)
+        if k == "delay_accelerometer_x" and (fv is None or not fv.fitted):
+            fv = fit.values.get("delay_accelerometer")  # what the file moves a_x by without it
         val = fv.value if fv is not None and fv.fitted else float("nan")
         out[k] = (val / true - 1.0) if k.startswith("cornering") else val - true
     return out
@@ -230,7 +234,7 @@ def fit_passes(err: dict[str, float]) -> bool:
 def fit_table(names: list[str]) -> None:
     """Print the fit against the truth and the cascade with the fitted car (module docstring)."""
     print(f"{'vehicle':<11} {'drive':<5} {'Cf %':>6} {'Cr %':>6} {'acc ms':>6} {'steer':>6} {'speed':>6} "
-          f"{'pose':>6} {'off deg':>7} {'pass':>4} | {CASCADE_HEADER}")
+          f"{'pose':>6} {'ax ms':>6} {'off deg':>7} {'pass':>4} | {CASCADE_HEADER}")
     t_start = time.perf_counter()
     tally: dict = {}
     for name in names:
@@ -238,7 +242,7 @@ def fit_table(names: list[str]) -> None:
         e = fit_errors(name, fit)
         row = (f"{name:<11} {fit.vehicle.drive:<5} {100 * e['cornering_stiffness_front']:>+6.1f} "
                f"{100 * e['cornering_stiffness_rear']:>+6.1f}")
-        for k in ("delay_accelerometer", "steer_delay", "delay_speed", "delay_pose"):
+        for k in ("delay_accelerometer", "steer_delay", "delay_speed", "delay_pose", "delay_accelerometer_x"):
             row += f" {1e3 * e[k]:>+6.0f}"
         row += f" {np.degrees(e['steer_offset']):>+7.3f} {'yes' if fit_passes(e) else 'no':>4} |"
         print(row + _cascade_cells(name, fit, tally), flush=True)
