@@ -178,8 +178,8 @@ def test_race_car_second_half_follows_the_ins():
     with seed 1). Over the whole drive the RMSE is 1.65 m/s: what the filter learns in the
     first half stretches the curve. With the file ``roadgrip vehicle fit`` writes from the
     first half, its calibration applied as the command line applies it, the second half
-    gives 3.9 m/s: the accelerometer moved 113 ms earlier alone gives 5.0, the steering
-    scale and offset alone 0.18 (``benchmarks/race_car.py``)."""
+    gave 3.9 m/s while the fit moved the accelerometer 113 ms earlier (the sideslip rate's
+    lag, not the sensor's: next test)."""
     from roadgrip.constants import Z95
     from roadgrip.estimators import run_estimator
     from roadgrip.evaluate.honesty import reference_vy
@@ -198,3 +198,41 @@ def test_race_car_second_half_follows_the_ins():
     cover = float((np.abs(err) <= Z95 * table["vy_std"].to_numpy() + 0.1)[ok].mean())
     print(f"race car, second half: vy RMSE {rmse:.3f} m/s, cover {cover:.3f}, flagged {1 - ok.mean():.3f}")
     assert rmse <= 0.4 and cover >= 0.9 and ok.mean() >= 0.95
+
+
+def test_race_car_second_half_with_the_fitted_file_holds_the_ins():
+    """Issue 29's chain on the race car: ``roadgrip vehicle fit`` on the first half, its
+    file applied to the second half as the command line applies it. Without a pose the
+    accelerometer's delay is named undetermined (the sideslip rate lends ``a_y`` about
+    90 ms against ``v_x r``), so ``a_y`` stays as logged; the band then holds the INS on
+    at least 95 % of the unflagged samples (filter seeds 0-4: 99.4-100 %; ``v_y`` RMSE
+    0.17, 0.46, 0.29, 0.18, 1.62 m/s, so the RMSE is not asserted). With the 113 ms the
+    fit used to apply, the same seeds held it on 76-100 % (``benchmarks/race_car.py``)."""
+    from roadgrip.constants import Z95
+    from roadgrip.estimators import run_estimator
+    from roadgrip.evaluate.honesty import reference_vy
+    from roadgrip.inference.vehicle_identification import fit_vehicle
+    from roadgrip.io import read_drive
+
+    root = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "revs"
+    path = root / "race_car_100hz.csv"
+    if not path.exists():
+        pytest.skip(f"revs data not found at {path}")
+    drive = read_drive(path, format="canonical", vehicle=str(root / "race_car.yaml"))
+    mid = drive.t[0] + 0.5 * drive.duration
+    fit = fit_vehicle(drive.slice_time(drive.t[0], mid), drive.vehicle)
+    assert not fit.values["delay_accelerometer"].fitted
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        car = Path(tmp) / "car.yaml"
+        car.write_text(fit.to_yaml())
+        fitted = read_drive(path, format="canonical", vehicle=str(car))
+    assert "delay_accelerometer" not in fitted.meta.extra["calibration"]
+    second = fitted.slice_time(mid, np.inf)
+    table = run_estimator("gpssm", second, {"basis": "separable-odd:20"}, seed=0).table
+    err = table["vy"].to_numpy() - reference_vy(path, second.t)
+    ok = ~table["diverged"].to_numpy(bool)
+    cover = float((np.abs(err) <= Z95 * table["vy_std"].to_numpy() + 0.1)[ok].mean())
+    print(f"race car, second half, fitted file: vy RMSE {np.sqrt(np.mean(err**2)):.3f} m/s, cover {cover:.3f}")
+    assert cover >= 0.95 and ok.mean() >= 0.95
