@@ -17,8 +17,8 @@ first minute of ``dry-gravel-dry`` seed 10, both drives read with the car's fitt
 (``roadgrip vehicle fit`` on :data:`FIT_DRIVE`, the same seed 10: a drive separate from the
 scored one; its delays and accelerometer biases applied, :func:`_fitted_drive`), as the issue
 asks ("plus the fitted vehicle"): the channels on/off, longitudinal/lateral, and the latency
-of the wheel speeds behind the accelerometer the calibration still aligns (``lat ms``: the
-file times ``a_x`` by ``a_y``'s delay, and the two are separate messages), scored on seed 0
+of the wheel speeds behind the accelerometer the calibration still aligns (``lat ms``; the
+file moves ``a_x`` by its own delay where the fit drive's pose times it), scored on seed 0
 (gravel flagged within 1 s of its first sample at true utilisation >= 0.6, no false switch;
 ``-`` where the calibration refuses the car); ``--no-fit`` reads both drives as logged,
 ``--classifiers`` prints the classifier columns both ways side by side (as logged | with the

@@ -18,11 +18,13 @@ grows with the acceleration and reads as a latency (about ``v / (g C_x)``, 80-11
 the family's cars), so the latency is not fitted there.
 
 A drive read with a fitted vehicle file (``--vehicle car.yaml``, :mod:`roadgrip.io.calibration`)
-has its wheel speeds moved by the speed's delay and ``a_x`` by the accelerometer's, which the
-fit measures on ``a_y``; where ``a_x`` and ``a_y`` are separate messages of the bus (each with
-its own latency, as on the multi-body family's realistic sensors) the two are not on one clock
-after it, so the fit runs on such drives too and measures what remains. Taking the latency
-as 0 there instead fails more of the family (``docs/validation-classification.md``).
+has its wheel speeds moved by the speed's delay and ``a_x`` by its own
+(``delay_accelerometer_x``), which puts the two on one clock and leaves the fit about 0. A
+file without that entry (written before it existed, or fitted on a drive without a pose)
+moves ``a_x`` by ``a_y``'s delay, and where ``a_x`` and ``a_y`` are separate messages of the
+bus (each with its own latency, as on the multi-body family's realistic sensors) the two are
+not on one clock after it: so the fit runs on calibrated drives too and measures what
+remains (``docs/validation-classification.md``).
 
 :func:`delay_channels` aligns: the earlier of the two signals waits for the later, the
 accelerometer's ``ax`` when the wheel speeds are later (``latency > 0``), the four wheel
