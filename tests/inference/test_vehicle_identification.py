@@ -390,3 +390,20 @@ def test_the_pose_narrows_the_stiffnesses():
         assert abs(with_pose[k].value / true - 1.0) < 0.05
     assert "pose" in with_pose["cornering_stiffness_rear"].note
     assert "pose" not in without["cornering_stiffness_rear"].note
+
+
+def test_accelerometer_gain_is_not_diluted_by_the_pose():
+    """A body-mounted accelerometer reading 1.12 a_y (roll and scale): the gain is found
+    within 3 %, with a pose on the drive. The pose's dv_y/dt, twice differentiated, used
+    to enter the regressor and dilute the gain (0.98 on a multi-body car reading 1.15)."""
+    d = _sim()
+    assert d.has_pose
+    df = d.data.copy()
+    df["ay"] = 1.12 * df["ay"] + 0.1
+    rng = np.random.default_rng(3)  # the multi-body scenarios' pose: 0.1 m, 0.005 rad
+    for c, std in (("x", 0.1), ("y", 0.1), ("psi", 0.005)):
+        df[c] = df[c] + std * rng.standard_normal(len(df))
+    v = fit_vehicle(Drive(df, d.meta)).values
+    assert v["ay_gain"].value == pytest.approx(1.12, rel=0.03)
+    assert abs(v["ay_bias"].value - 0.1) < max(0.05, 3 * v["ay_bias"].std)
+    assert v["roll_gradient"].fitted
