@@ -14,12 +14,13 @@ holds and is asserted here (``docs/validation-classification.md``, family sectio
   the five all-wheel-drive ones, saying why; the slip map meets the criterion on all 15, the
   bRLS on all but ``random:111``; honest on all but one each (bRLS ``random:111``, slip map
   ``random:108``);
-* with the fitted vehicle file, the calibration holds on 17 (two all-wheel drives,
-  ``random:106`` and ``119``, besides the 15; ``105``, ``109``, ``110`` refused, saying why);
-  both classifiers meet the criterion on 16 (``random:119``'s only evidence is braking: gravel
-  flagged at its first braking there, 10.3 s late); honest on 16 of the 17 (``113`` holds
-  'low' onto the dry asphalt 1 s past the rule; the all-wheel drives' 'low' lasts 5 s past
-  its evidence, :func:`roadgrip.estimators.classify.fit.low_claim_hold`).
+* with the fitted vehicle file (``a_x`` moved by its own delay), the calibration holds on 18
+  (three all-wheel drives, ``random:105``, ``106`` and ``110``, besides the 15; ``109`` and
+  ``119`` refused, saying why); both classifiers meet the criterion on 17 (``random:110``:
+  the bRLS switches falsely, the slip map never flags the gravel); honest on at least 16
+  (bRLS; measured: ``110`` and ``113`` not) and 17 (slip map; ``113``, which held 'low' onto
+  the dry asphalt past the rule) of the 18 (the all-wheel drives' 'low' lasts 5 s past its evidence,
+  :func:`roadgrip.estimators.classify.fit.low_claim_hold`).
 """
 
 from __future__ import annotations
@@ -125,18 +126,18 @@ def test_classifiers_honest_on_the_calibrated_cars(family, method, dishonest):
     assert sum(honest.values()) >= len(honest) - dishonest, (method, honest)
 
 
-def test_the_fitted_vehicle_file_calibrates_two_all_wheel_drives_besides(family_fitted):
+def test_the_fitted_vehicle_file_calibrates_three_all_wheel_drives_besides(family_fitted):
     refused = [v for v, r in family_fitted.items() if r is None]
-    assert len(refused) <= 3, refused  # all-wheel drives (asserted in the fixture)
+    assert len(refused) <= 2, refused  # all-wheel drives (asserted in the fixture)
 
 
 @pytest.mark.parametrize("method", METHODS)
-def test_with_the_fitted_vehicle_file_both_detect_gravel_on_16(family_fitted, method):
+def test_with_the_fitted_vehicle_file_both_detect_gravel_on_17(family_fitted, method):
     meets = [v for v, runs in family_fitted.items() if runs is not None and _meets(runs[method][0])]
-    assert len(meets) >= 16, meets
+    assert len(meets) >= 17, meets
 
 
-@pytest.mark.parametrize("method", METHODS)
-def test_with_the_fitted_vehicle_file_honest_on_16(family_fitted, method):
+@pytest.mark.parametrize(("method", "least"), [("brls", 16), ("slipmap", 17)])
+def test_with_the_fitted_vehicle_file_honest_on_16_and_17(family_fitted, method, least):
     honest = [v for v, runs in family_fitted.items() if runs is not None and runs[method][1].honest]
-    assert len(honest) >= 16, honest
+    assert len(honest) >= least, honest
