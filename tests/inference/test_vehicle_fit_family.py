@@ -6,7 +6,7 @@ stiffnesses undetermined even with error-free sensors), against the simulator's 
 Truths (as ``benchmarks/vehicle_family.py --fit`` states them): the front cornering stiffness
 in series with the steering compliance, ``1/(1/C_f + c)``; the rear the tire's; each delay its
 sensor's latency minus the gyro's (the speed's: the undriven wheels', or the ``vx`` column's on
-an all-wheel drive); the steering offset the road-wheel angle at a zero reading,
+an all-wheel drive; ``a_x``'s own, a message apart from ``a_y``); the steering offset the road-wheel angle at a zero reading,
 ``-offset/(1 + ratio_error)``.
 
 The issue's criterion (stiffnesses within 10 %, each delay within 20 ms, the steering offset
@@ -33,7 +33,7 @@ from roadgrip.sim.vehicle_family import mb_vehicle
 pytestmark = pytest.mark.slow
 
 FAMILY = tuple(f"random:{s}" for s in range(100, 120))
-DELAYS = ("delay_accelerometer", "steer_delay", "delay_speed", "delay_pose")
+DELAYS = ("delay_accelerometer", "delay_accelerometer_x", "steer_delay", "delay_speed", "delay_pose")
 STIFFNESS = ("cornering_stiffness_front", "cornering_stiffness_rear")
 
 
@@ -48,6 +48,7 @@ def _errors(name: str) -> dict[str, tuple[float, float]]:
              "cornering_stiffness_rear": vp.cornering_stiffness_rear,
              "delay_accelerometer": ch["ay"].delay - gyro, "steer_delay": ch["steer"].delay - gyro,
              "delay_speed": speed - gyro, "delay_pose": ch["psi"].delay - gyro,
+             "delay_accelerometer_x": ch["ax"].delay - gyro,
              "steer_offset": -st.offset / (1.0 + st.ratio_error)}
     out = {}
     for k, true in truth.items():
