@@ -35,3 +35,25 @@ def test_straight_driving_does_not_pull_the_gain_down(dgd1):
     assert not table["diverged"].any()
     err = table["yaw_rate_est"].to_numpy() - dgd1.col("yaw_rate_true")
     assert np.sqrt(np.mean(err**2)) < 0.02
+
+
+def test_the_gains_prior_can_be_the_vehicles():
+    """``ay_gain_prior='vehicle'``: the particles' gains start around ``1 + g
+    roll_gradient`` of the drive's vehicle (what ``roadgrip vehicle fit`` writes), 1 by
+    default; the prior's width is ``ay_gain_sigma`` either way; a bad value is named."""
+    from roadgrip.constants import GRAVITY
+    from roadgrip.estimators.gpssm.inputs import Sample
+    from roadgrip.estimators.gpssm.state import Context, init_state
+    from roadgrip.vehicle import PRESETS
+
+    rolled = PRESETS["sedan"].replace(roll_gradient=0.012)
+    sample = Sample(*([0.0] * len(Sample._fields)))._replace(vx=15.0)
+    for prior, mean in (("one", 1.0), ("vehicle", 1.0 + GRAVITY * 0.012)):
+        cfg = GPSSMConfig(particles=4000, ay_gain_prior=prior)
+        ctx = Context(cfg, rolled)
+        assert ctx.gain_mean == pytest.approx(mean)
+        gains = init_state(ctx, sample, seed=0).x[:, 2]
+        assert gains.mean() == pytest.approx(mean, abs=4 * LEARNED / np.sqrt(4000))
+        assert gains.std() == pytest.approx(LEARNED, rel=0.05)
+    with pytest.raises(ValueError, match="ay_gain_prior"):
+        GPSSMConfig(ay_gain_prior="fitted")

@@ -174,6 +174,11 @@ class GPSSMConfig(EstimatorConfig):
         Vanagon's snow slalom (drive and filter seed 3) the fixed 1.114 let the lateral
         velocity settle 0.75 m/s off (band covering 0.2 % of the samples, curve MAE 0.13 /
         0.39) where the learned gain (1.133) gives 100 % and 0.009 / 0.007.
+    ay_gain_prior : {'one', 'vehicle'}
+        Mean of the gain's prior: ``'one'`` (the accelerometer reads the force, the
+        paper's model), or ``'vehicle'``: ``1 + g roll_gradient`` of the drive's vehicle,
+        the gain ``roadgrip vehicle fit`` measures (``a_y`` against ``v_x r``: scale and
+        roll together) and writes into the vehicle file as ``roll_gradient``.
     axle_loads : {'static', 'dynamic'}
         ``'static'``: the paper's static axle loads. ``'dynamic'``: the loads with the
         longitudinal load transfer of the measured ``ax`` (CG height, wheelbase,
@@ -282,6 +287,7 @@ class GPSSMConfig(EstimatorConfig):
     max_sideslip: float | None = None
     slip_limit: float | None = None
     ay_gain_sigma: float = 0.1
+    ay_gain_prior: str = "one"
     ay_noise: str = "running"
     ay_gain_walk: float = 0.01
     ay_gain_gate: float = 1.0
@@ -330,6 +336,8 @@ class GPSSMConfig(EstimatorConfig):
             v = getattr(self, name)
             if not (np.isfinite(v) and 0.0 <= v < 0.5):
                 raise ValueError(f"{name} must be in [0, 0.5), got {v!r}")
+        if self.ay_gain_prior not in ("one", "vehicle"):
+            raise ValueError(f"ay_gain_prior must be 'one' or 'vehicle', got {self.ay_gain_prior!r}")
         if not (np.isfinite(self.ay_gain_gate) and 0.0 <= self.ay_gain_gate <= 50.0):
             raise ValueError(f"ay_gain_gate must be in [0, 50] m/s², got {self.ay_gain_gate!r}")
         if not 0.0 < self.ess_threshold <= 1.0:

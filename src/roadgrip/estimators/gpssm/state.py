@@ -13,6 +13,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from roadgrip.constants import GRAVITY
 from roadgrip.estimators.gpssm import linalg as la
 from roadgrip.estimators.gpssm.config import GPSSMConfig
 from roadgrip.estimators.gpssm.guard import Guard
@@ -42,7 +43,7 @@ class Context:
     substeps : int
     """
 
-    __slots__ = ("config", "gain_sigma", "gain_walk", "kernel", "noise_scale", "sigma_ay", "sigma_yaw_rate", "substeps",
+    __slots__ = ("config", "gain_mean", "gain_sigma", "gain_walk", "kernel", "noise_scale", "sigma_ay", "sigma_yaw_rate", "substeps",
                  "veh", "vehicle")
 
     def __init__(self, config: GPSSMConfig, vehicle: VehicleParams, substeps: int = 1) -> None:
@@ -61,6 +62,10 @@ class Context:
         imu = config.ay_source == "imu"
         self.gain_sigma = config.ay_gain_sigma if imu else 0.0
         self.gain_walk = config.ay_gain_walk if (imu and config.ay_gain_sigma > 0.0) else 0.0
+        # the gain's prior mean: 1, or the vehicle's 1 + g roll_gradient (a fitted file's gain)
+        self.gain_mean = 1.0
+        if imu and config.ay_gain_prior == "vehicle":
+            self.gain_mean = float(np.clip(1.0 + GRAVITY * vehicle.roll_gradient, GAIN_MIN, GAIN_MAX))
         # the accelerometer's running noise level (guard.step_sigma_ay), over the sub-steps
         self.noise_scale = math.sqrt(self.substeps) if (imu and config.ay_noise == "running") else 0.0
         self.kernel: dict[str, Any] = {}
@@ -228,9 +233,9 @@ def init_state(ctx: Context, sample: Sample, seed: int = 0) -> GPSSMState:
     x = np.empty((N, State.SIZE))
     x[:, State.VY] = config.sigma_vy0 * rng.standard_normal(N)
     x[:, State.YAW_RATE] = sample.yaw_rate + ctx.sigma_yaw_rate * rng.standard_normal(N)
-    x[:, State.AY_GAIN] = 1.0
+    x[:, State.AY_GAIN] = ctx.gain_mean
     if ctx.gain_sigma > 0.0:
-        x[:, State.AY_GAIN] = np.clip(1.0 + ctx.gain_sigma * rng.standard_normal(N), GAIN_MIN, GAIN_MAX)
+        x[:, State.AY_GAIN] = np.clip(ctx.gain_mean + ctx.gain_sigma * rng.standard_normal(N), GAIN_MIN, GAIN_MAX)
     return GPSSMState(
         k=0,
         t=float(sample.t),
