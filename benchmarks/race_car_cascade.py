@@ -183,6 +183,21 @@ def main() -> None:
                   f"{np.median(base['alpha_f_std'].to_numpy()[m]):.4f}, rear {np.median(base['alpha_r_std'].to_numpy()[m]):.4f};"
                   f" |alpha_INS| median front {np.median(np.abs(ins['front'][m])):.4f}, rear "
                   f"{np.median(np.abs(ins['rear'][m])):.4f}")
+        # what the brush model reads at the INS's slip angles, with the file's stiffness and with
+        # the INS's linear-range one: the friction and how far into the sliding range (u / 3)
+        print(f"{name}: the brush inversion at the INS's slip angles, median friction (u / 3 = the share of the"
+              " sliding range's slip angle)")
+        for axle, a in (("front", "f"), ("rear", "r")):
+            fz = base[f"Fz{a}"].to_numpy()
+            fz0 = v.fz_front if axle == "front" else v.fz_rear
+            for label, c in (("file", getattr(v, f"cornering_stiffness_{axle}")), ("INS", c_ins[axle])):
+                cap, _, _ = brush_mu_inverse(base[f"Fy{a}"].to_numpy(), ins[axle], fz, c / fz0)
+                line = f"  {axle:5s} C {label:4s} {c:.3g} N/rad:"
+                for lo, hi in BANDS_G[2:]:
+                    m = (g_use >= lo) & (g_use < hi) & np.isfinite(cap)
+                    u3 = c / fz0 * np.abs(np.tan(ins[axle][m])) / cap[m] / 3.0
+                    line += f"  {lo:.1f}-{hi:.1f} g: mu {np.median(cap[m]):.2f} (u / 3 {np.median(u3):.2f})"
+                print(line)
         print()
 
 
