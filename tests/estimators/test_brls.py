@@ -534,3 +534,38 @@ def test_dart_run_equals_stepping_with_pose_aid():
     batch = BRLS.run(drive, config).table
     np.testing.assert_allclose(batch["theta_lat"], rows["theta_lat"], rtol=1e-10)
     np.testing.assert_array_equal(batch["grip_class"].to_numpy(), rows["grip_class"].to_numpy())
+
+
+def test_fitted_brls_takes_braking_slips_at_the_onset_of_a_stop_only():
+    """As the slip map (``slipmap_evidence.BRAKING_ONSET_S``): later in a stop the speed
+    coasting on the accelerometer has drifted by more than the class separation, and its
+    per-sample evidence would read a saturated stop on gravel as high grip. A 3 s stop at
+    5 m/s² from rest: longitudinal regressors in its first ``BRAKING_ONSET_S`` (within two
+    sample steps), none after it until the car has stopped braking."""
+    from roadgrip.estimators.classify.brls import model_regressors
+    from roadgrip.estimators.classify.brls_config import saturation_config
+    from roadgrip.estimators.classify.grip_model import default_grip_model
+    from roadgrip.estimators.classify.slipmap_evidence import BRAKING_ONSET_S
+    from roadgrip.inference.kinematic import KinematicOutput
+    from roadgrip.vehicle.params import PRESETS
+
+    params = next(iter(PRESETS.values()))
+    dt = 0.01
+    t = np.arange(0.0, 6.0, dt)
+    stop = (t >= 1.0) & (t < 4.0)
+    ax = np.where(stop, -5.0, 0.0)
+    n = t.size
+    z = np.zeros(n)
+    kin = KinematicOutput(vx=np.full(n, 20.0), vy=z, beta=z, alpha_f=z, alpha_r=z,
+                          kappa=np.where(stop[:, None], -0.05, 0.0) * np.ones((n, 4)),
+                          wheels_valid=np.ones((n, 4), bool))
+    cfg = saturation_config(grip=default_grip_model(params, 1.0, 0.4))
+    assert cfg.grip.braking_evidence
+    (phi_long, _, _, _), _ = model_regressors(kin, ax, z, z, params, cfg, t)
+    informed = t[stop & (phi_long != 0.0)]
+    assert informed.size and informed[0] <= 1.0 + 2 * dt
+    assert informed[-1] == pytest.approx(1.0 + BRAKING_ONSET_S, abs=2.5 * dt)
+    # without the fitted model's braking evidence the stop informs nothing
+    (phi_off, _, _, _), _ = model_regressors(
+        kin, ax, z, z, params, replace(cfg, grip=replace(cfg.grip, braking_evidence=False)), t)
+    assert not np.any(phi_off[stop] != 0.0)

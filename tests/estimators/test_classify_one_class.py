@@ -197,3 +197,13 @@ def test_a_calibrated_low_expires_before_the_honesty_rule_judges_it(planar):
     # return to grip expires before the rule stops excusing it after the change
     assert cal.brls.hold_low_s + cal.brls.memory_s + CHANGE_GRACE_S <= CHANGE_MAX_S
     assert cal.brls.hold_high_s == cal.slipmap.hold_high_s == CALIBRATED_HOLD_HIGH_S
+
+
+def test_one_class_calibration_takes_the_traction_slips_first_where_a_wheel_rolls_freely(planar):
+    """The braking slips (against a speed coasting on the accelerometer) are the weaker
+    evidence: the front-drive sedan's traction slips hold its dry label, so the calibration
+    leaves braking out, and the classifiers see no longitudinal evidence in a stop."""
+    cal = calibrate([(planar[0], "high")])
+    assert cal.diagnostics["long_channel"] == "on"
+    assert cal.diagnostics["braking_evidence"] is False
+    assert not cal.brls.grip.braking_evidence and not cal.slipmap.grip.braking_evidence

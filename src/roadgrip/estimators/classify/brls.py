@@ -236,7 +236,9 @@ def model_regressors(
                          braking=fitted)
         settled = braking.memory < BRAKING_MEMORY_MAX
         if fitted:
-            settled = settled | braking_samples(kin_f, ax_f)
+            # the onset of a stop only, as the slip map (slipmap_evidence.BRAKING_ONSET_S): later
+            # the coasting speed's bias exceeds the class separation and reads as high grip
+            settled = settled | (braking_samples(kin_f, ax_f) & np.atleast_1d(braking.onset()))
         return (np.where(settled, ch.phi_long, 0.0), np.where(settled, ch.y_long, 0.0),
                 ch.phi_lat, ch.y_lat), state
     phi_long, phi_lat = regressors(kin, np.asarray(steer), config.min_speed, config.lateral_regressor,

@@ -456,16 +456,22 @@ def saturation_calibration(
     lateral = "slips"
     braking = True
     if len(labels) == 1:
-        on["long"] = on["long"] and _holds_label(cfg, data, "long")
-        if not on["long"]:
-            # the braking slips (against a coasting speed, with the wheels' radius errors)
-            # may contradict the label where the traction slips hold it
-            traction = replace(cfg, grip=replace(model, braking_evidence=False))
-            _, pooled_t = _median_positions(traction, data)
+        # the braking slips (against a speed coasting on the accelerometer, with the wheels'
+        # radius errors) are the weaker evidence: where a free-rolling wheel gives the traction
+        # slips they are tried first, and the braking slips only where those do not hold the
+        # label; on an all-wheel drive braking is the only longitudinal evidence
+        traction = replace(cfg, grip=replace(model, braking_evidence=False))
+        tries = [(cfg, True), (traction, False)]
+        if undriven_wheels(drives[0][0].vehicle.drive).any():
+            tries.reverse()
+        on["long"] = False
+        for c, with_braking in tries:
+            _, pooled_t = _median_positions(c, data)
             med = pooled_t["long"][labels[0]]
             if med is not None and (med > 0.5 if labels[0] == "high" else med < 0.5) \
-                    and _holds_label(traction, data, "long"):
-                model, cfg, on["long"], braking = traction.grip, traction, True, False
+                    and _holds_label(c, data, "long"):
+                model, cfg, on["long"], braking = c.grip, c, True, with_braking
+                break
         # the slip angles' lateral channel is not shown to separate the classes by one
         # class (with two it fails on the multi-body cars; on the planar dry-gravel-dry it
         # holds the dry label, yet the slip map called dry asphalt 'low' in a lane change):
