@@ -220,7 +220,8 @@ def model_regressors(
     the longitudinal channel waiting after braking
     (:data:`~roadgrip.estimators.classify.slipmap_evidence.BRAKING_MEMORY_MAX`) except,
     with a fitted model (``config.grip``), on the braking samples themselves
-    (:func:`~roadgrip.estimators.classify.grip_model.braking_samples`).
+    (:func:`~roadgrip.estimators.classify.grip_model.braking_samples`) at the onset of a
+    stop (:meth:`~roadgrip.estimators.classify.slipmap_evidence.Braking.onset`).
     ``t`` [s] (shape (T,)), ``dt0`` and ``filtered`` (shape (PREFILTER_SIZE,),
     default zeros) drive that filter.
     """
