@@ -16,7 +16,6 @@ import typer
 from rich.table import Table
 
 from roadgrip.cli._common import ChannelsOpt, FormatOpt, TopicsOpt, VehicleOpt, app, console
-from roadgrip.io.calibration import CALIBRATION as SENSOR_CALIBRATION
 
 if TYPE_CHECKING:
     from roadgrip.estimators.classify import Calibration
@@ -138,10 +137,10 @@ UNITS = {
     "road_load": "m/s², 1/m", "alpha_offset_f": "rad", "alpha_offset_r": "rad", "kappa_offset": "-",
     "offset": "-", "slope_per_mps2": "1/(m/s²)",
     "offset_deg": "deg", "slope_deg_per_mps2": "deg/(m/s²)", "D": "-",
-    # diagnostics.sensor_calibration: the vehicle file's calibration the drives were read with
-    **{k: unit for k, (unit, _) in SENSOR_CALIBRATION.items()},
 }
-"""Units of the calibration's entries by their last key, as the calibration file holds them."""
+"""Units of the calibration's entries by their last key, as the calibration file holds them
+(``diagnostics.sensor_calibration``, the vehicle file's calibration the drives were read
+with, in the vehicle file's units: :data:`roadgrip.io.calibration.CALIBRATION`)."""
 
 GRIP_FITTED = ("c_long", "c_lat", "mu_high", "mu_low", "gain_x", "gain_y", "model_error_x",
                "model_error_y", "resistance_0", "resistance_2", "alpha_offset_f", "alpha_offset_r",
@@ -158,7 +157,11 @@ def _unit(path: Sequence[str]) -> str:
         return "-"
     if key.endswith("_s"):
         return "s"
-    return UNITS.get(key, "")
+    if key in UNITS:
+        return UNITS[key]
+    from roadgrip.io.calibration import CALIBRATION  # not at import: the command line starts light
+
+    return CALIBRATION[key][0] if key in CALIBRATION else ""
 
 
 def _value(v: Any) -> str:

@@ -74,6 +74,18 @@ from numpy.typing import NDArray
 
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
+from roadgrip.inference.channel_delays import MAX_SIDESLIP_LAG, sideslip_lag
+from roadgrip.inference.channel_delays import fit_delays as _delays
+from roadgrip.inference.fit_signals import POSE_WINDOW
+from roadgrip.inference.fit_signals import dilate as _dilate
+from roadgrip.inference.fit_signals import half_width as _half_width
+from roadgrip.inference.fit_signals import shifted as _shifted
+from roadgrip.inference.fit_signals import smooth as _smooth
+from roadgrip.inference.fit_signals import uniform_dt as _uniform_dt
+from roadgrip.inference.fitted_value import FittedValue
+from roadgrip.inference.fitted_value import describe as _describe
+from roadgrip.inference.fitted_value import fitted as _fitted
+from roadgrip.inference.fitted_value import undetermined as _undetermined
 from roadgrip.inference.least_squares import (
     eiv_lstsq,
     filter_noise_energy,
@@ -83,12 +95,11 @@ from roadgrip.inference.least_squares import (
     n_eff,
 )
 from roadgrip.io.calibration import CALIBRATION
-from roadgrip.io.derived import body_velocity_from_pose, savgol_quadratic, white_noise_std
-from roadgrip.sensor_delay import estimate_delay
+from roadgrip.io.derived import body_velocity_from_pose, white_noise_std
 from roadgrip.signals import WHEELS, undriven_wheels, wheel_speed_vx
 from roadgrip.vehicle.params import CALIBRATION_KEY, FIELD_RANGES, VehicleParams
 
-__all__ = ["FittedValue", "VehicleFit", "fit_vehicle", "rear_axle_from_pose"]
+__all__ = ["MAX_SIDESLIP_LAG", "FittedValue", "VehicleFit", "fit_vehicle", "rear_axle_from_pose", "sideslip_lag"]
 
 V_MIN = 5.0
 """Smallest speed [m/s] of a sample in the single-track fit (``r/v_x`` and the slip
@@ -104,56 +115,10 @@ MIN_AY_STD = 0.5
 MAX_REL_STD = 0.25
 """Largest relative standard error of a fitted gain, radius or stiffness (2 sigma: within
 +-50 %); the value and its error are reported either way."""
-BRAKING = 0.5
-"""Deceleration [m/s²] above which the wheels are taken as braked (slipping)."""
 MAX_STEER_LAG = 0.3
 """Largest steering delay [s] searched."""
-MAX_SIDESLIP_LAG = 0.02
-"""Largest delay [s] the unmeasured sideslip rate may lend ``a_y`` (:func:`sideslip_lag`)
-for its delay against the gyro to be fitted without a pose: the family's tolerance. The
-full-size race car at 40 m/s: 113 ms found, where its INS's own lateral velocity puts
-``a_y`` 25 ms behind the gyro."""
-SMOOTH = 0.3
-"""Savitzky-Golay window [s] of the signals and of ``r'`` in the single-track fit: one
-linear filter on both sides of the identity, which holds through it; 0.3 s passes the
-manoeuvres (a quadratic fit over 0.3 s keeps 1 Hz to within 2 %) and leaves the
-differentiated gyro noise (0.005 rad/s at 100 Hz) under 0.5 % of ``r'``'s variance."""
-POSE_WINDOW = 0.5
-"""Savitzky-Golay window [s] of the rear-axle equation with the pose's ``v_y`` (and of every
-signal in it)."""
 
 
-
-
-@dataclass(frozen=True)
-class FittedValue:
-    """One identified quantity.
-
-    Attributes
-    ----------
-    name : str
-        E.g. ``'cornering_stiffness_front'``, ``'steer_offset'``.
-    value : float
-        In ``unit``; the base vehicle's value (or NaN for a sensor quantity) when
-        undetermined.
-    std : float
-        Standard error in ``unit`` (NaN when undetermined).
-    unit : str
-    status : {'fitted', 'undetermined'}
-    note : str
-        Why undetermined, or what the value means.
-    """
-
-    name: str
-    value: float
-    std: float
-    unit: str
-    status: str
-    note: str = ""
-
-    @property
-    def fitted(self) -> bool:
-        return self.status == "fitted"
 
 
 @dataclass(frozen=True)
@@ -200,196 +165,6 @@ class VehicleFit:
             if v.name not in FIELD_RANGES and not (v.name in CALIBRATION and v.fitted):
                 lines.append(f"# {v.name}: {_describe(v, value=True)}")
         return "\n".join(lines) + "\n"
-
-
-def _describe(v: FittedValue, value: bool = False) -> str:
-    val = f"{v.value:.6g} " if value and math.isfinite(v.value) else ""
-    if v.fitted:
-        return f"{val}± {v.std:.3g} {v.unit} (fitted){'; ' + v.note if v.note else ''}"
-    return f"{val}{v.unit} undetermined: {v.note}"
-
-
-def _fitted(name, value, std, unit, note=""):
-    return FittedValue(name, float(value), float(std), unit, "fitted", note)
-
-
-def _undetermined(name, unit, note, value=math.nan):
-    return FittedValue(name, float(value), math.nan, unit, "undetermined", note)
-
-
-def _uniform_dt(t: NDArray) -> float:
-    return float(np.median(np.diff(t)))
-
-
-def _half_width(dt: float, window: float = SMOOTH) -> int:
-    """Half-width [samples] of the Savitzky-Golay filter of ``window`` [s]."""
-    return max(round(window / dt / 2), 2)
-
-
-def _smooth(v: NDArray, dt: float, window: float = SMOOTH, deriv: int = 0) -> NDArray:
-    m = _half_width(dt, window)
-    out = savgol_quadratic(v, 2 * m + 1, deriv=deriv, delta=dt)
-    ok = np.isfinite(out)
-    if ok.any() and not ok.all():  # hold the first and last centred values at the ends
-        i = np.flatnonzero(ok)
-        out = np.interp(np.arange(len(out)), i, out[i])
-    return out
-
-
-def _shifted(t: NDArray, v: NDArray, delay: float) -> NDArray:
-    """``v`` moved back by ``delay`` [s] (``out(t) = v(t + delay)``), held at the ends."""
-    return v if delay == 0.0 else np.interp(t + delay, t, v)
-
-
-def _pose_vy(drive: Drive) -> NDArray | None:
-    if not drive.has_pose:
-        return None
-    vy = body_velocity_from_pose(drive.t, drive.col("x"), drive.col("y"), drive.col("psi"),
-                                 window=0.5)[1]
-    return vy if np.isfinite(vy).mean() > 0.5 else None
-
-
-def _ax_dvx(drive: Drive) -> NDArray:
-    """``dv_x/dt`` [m/s²] from the accelerometer: ``a_x + v_y r``, ``v_y`` from the pose where
-    it has one (in a turn ``v_y r`` is not small: left out, it moves a delay fitted on
-    ``a_x`` alone by 10-20 ms), else ``a_x``."""
-    vy = _pose_vy(drive)
-    if vy is None:
-        return drive.col("ax")
-    return drive.col("ax") + np.where(np.isfinite(vy), vy, 0.0) * drive.col("yaw_rate")
-
-
-def _ax_delay(drive: Drive, pose: FittedValue | None, acc: FittedValue) -> FittedValue | None:
-    """Delay of ``a_x`` against the gyro (``delay_accelerometer_x``): the integral of ``a_x +
-    v_y r`` (``dv_x/dt``; ``v_y`` from the pose) against the pose's speed (a delay commutes
-    with the integral; the pose differentiated would be noisier), plus the pose's own delay
-    behind the gyro. ``a_x`` and ``a_y`` may be
-    separate messages with their own latencies, so ``a_y``'s delay does not time ``a_x``.
-    Undetermined without ``x, y, psi``, with the pose's delay undetermined or too little
-    change of speed; its value is then ``a_y``'s (``acc``), which the calibration applies to
-    ``a_x`` in its place. None without ``a_x``."""
-    if not drive.has("ax"):
-        return None
-    why = None
-    if not drive.has_pose:
-        why = "no pose"
-    elif pose is None or not pose.fitted:
-        why = "the pose's delay is undetermined"
-    else:
-        t = drive.t
-        v_pose = body_velocity_from_pose(t, drive.col("x"), drive.col("y"), drive.col("psi"),
-                                         window=0.5)[0]
-        ok = np.isfinite(v_pose)
-        if ok.mean() <= 0.5:
-            why = "the pose's speed is known on half the drive or less"
-        else:
-            dvx = _ax_dvx(drive)
-            v_ax = np.concatenate(([0.0], np.cumsum(0.5 * (dvx[1:] + dvx[:-1]) * np.diff(t))))
-            fit = estimate_delay(t, v_ax, v_pose, valid=ok, max_lag=1.0)
-            if fit.reliable:
-                return _fitted("delay_accelerometer_x", fit.delay + pose.value,
-                               math.hypot(fit.std, pose.std), "s",
-                               f"integral of a_x ~ the pose's speed (peak correlation "
-                               f"{fit.peak_corr:.2f}) plus the pose's delay")
-            why = (f"integral of a_x ~ the pose's speed: peak correlation {fit.peak_corr:.2f} "
-                   "(too little change of speed)")
-    kept = acc.value if acc.fitted else math.nan
-    return _undetermined("delay_accelerometer_x", "s",
-                         f"{why}; a_x is moved by delay_accelerometer (a_y's)", kept)
-
-
-def _speed_delay(drive: Drive, vx: NDArray, src: str, dt: float, ax_delay: FittedValue | None,
-                 acc: FittedValue) -> FittedValue | None:
-    """Delay of the speed (:func:`wheel_speed_vx`) against the gyro: ``dv_x/dt`` against
-    ``a_x``, plus ``a_x``'s delay (``ax_delay``, :func:`_ax_delay`; where undetermined,
-    ``a_y``'s, ``acc``). Wheel speeds (``src``) are used outside braking (``a_x < -BRAKING``,
-    widened by 1 s): a braked wheel slips, and its speed falls ahead of the car's. None
-    without ``a_x``."""
-    if not drive.has("ax") or ax_delay is None:
-        return None
-    t = drive.t
-    rolling = np.ones(drive.n, bool)
-    if src == "wheels":
-        rolling = ~_dilate(drive.col("ax") < -BRAKING, round(1.0 / dt))
-    fit = estimate_delay(t, _smooth(vx, dt, 0.5, deriv=1), _ax_dvx(drive), signal_valid=rolling,
-                         max_lag=1.0)
-    if not fit.reliable:
-        return _undetermined("delay_speed", "s", f"dv_x/dt ~ a_x: peak correlation {fit.peak_corr:.2f} "
-                             "(too little acceleration and braking)")
-    if ax_delay.fitted:
-        ax_clock = (ax_delay.value, ax_delay.std, "a_x timed by the pose (delay_accelerometer_x)")
-    elif acc.fitted:
-        ax_clock = (acc.value, acc.std, "a_x on a_y's clock")
-    else:
-        return _undetermined("delay_speed", "s", "a_x's delay undetermined (no pose, a_y untimed)")
-    return _fitted("delay_speed", fit.delay + ax_clock[0], math.hypot(fit.std, ax_clock[1]), "s",
-                   f"dv_x/dt ~ a_x (peak correlation {fit.peak_corr:.2f}), {ax_clock[2]}")
-
-
-def sideslip_lag(base: VehicleParams, vx: float) -> float:
-    """The delay [s] that the sideslip rate lends ``a_y`` against ``v_x r``.
-
-    In a turn of a linear single-track car the lateral velocity follows the lateral
-    acceleration, ``v_y = l_r r - v_x alpha_r`` with ``alpha_r = m l_f a_y / (l C_r)``, so
-    ``a_y = v_x r + dv_y/dt ~ v_x r + (l_r / v_x - c v_x) da_y/dt`` (``c = m l_f / (l C_r)``):
-    against ``v_x r`` alone, ``a_y`` looks late by ``c v_x - l_r / v_x``. Measured against
-    the simulator's truth (a sedan at 14 m/s, no pose): -13 ms found where this gives -12 ms.
-
-    Parameters
-    ----------
-    base : VehicleParams
-        Mass, axle distances and the rear cornering stiffness.
-    vx : float
-        The speed of the turns [m/s].
-    """
-    c = base.mass * base.lf / (base.wheelbase * base.cornering_stiffness_rear)
-    return c * vx - base.lr / max(vx, 1e-3)
-
-
-def _delays(drive: Drive, vx: NDArray, src: str, dt: float,
-            base: VehicleParams) -> dict[str, FittedValue]:
-    """Delays of the accelerometer's two axes, the speed and the pose against the gyro."""
-    out: dict[str, FittedValue] = {}
-    t = drive.t
-    r = drive.col("yaw_rate")
-    ref = vx * r
-    vy = _pose_vy(drive)
-    pair = "a_y ~ v_x r"
-    if vy is not None:
-        ok = np.isfinite(vy)
-        ref = ref + np.where(ok, _smooth(np.where(ok, vy, 0.0), dt, 0.5, deriv=1), 0.0)
-        pair = "a_y ~ v_x r + dv_y/dt"
-    acc = estimate_delay(t, drive.col("ay"), ref, max_lag=1.0)
-    turning = np.abs(drive.col("ay")) > 1.0
-    v_turn = float(np.median(vx[turning])) if turning.any() else 0.0
-    lag = sideslip_lag(base, v_turn) if vy is None and v_turn > 0 else 0.0
-    if abs(lag) > MAX_SIDESLIP_LAG:
-        out["delay_accelerometer"] = _undetermined(
-            "delay_accelerometer", "s", f"{pair} without a pose: the sideslip rate at "
-            f"{v_turn:.0f} m/s looks like {1e3 * lag:+.0f} ms (c v_x - l_r/v_x), beyond "
-            f"{1e3 * MAX_SIDESLIP_LAG:.0f} ms; found {1e3 * acc.delay:.0f} ± {1e3 * acc.std:.0f} ms")
-    elif acc.reliable:
-        out["delay_accelerometer"] = _fitted("delay_accelerometer", acc.delay, acc.std, "s",
-                                             f"{pair}, peak correlation {acc.peak_corr:.2f}")
-    else:
-        out["delay_accelerometer"] = _undetermined(
-            "delay_accelerometer", "s", f"{pair}: peak correlation {acc.peak_corr:.2f}, "
-            f"standard error {acc.std:.3g} s (too little turning)")
-    if drive.has("psi"):
-        rate = np.gradient(np.unwrap(drive.col("psi")), t)
-        fit = estimate_delay(t, rate, r, max_lag=1.0)
-        if fit.reliable:
-            out["delay_pose"] = _fitted("delay_pose", fit.delay, fit.std, "s",
-                                        f"dpsi/dt ~ r, peak correlation {fit.peak_corr:.2f}")
-        else:
-            out["delay_pose"] = _undetermined("delay_pose", "s", "dpsi/dt ~ r: too little turning")
-    ax_delay = _ax_delay(drive, out.get("delay_pose"), out["delay_accelerometer"])
-    if ax_delay is not None:
-        out["delay_accelerometer_x"] = ax_delay
-    speed = _speed_delay(drive, vx, src, dt, ax_delay, out["delay_accelerometer"])
-    if speed is not None:
-        out["delay_speed"] = speed
-    return out
 
 
 def _accelerometer(drive: Drive, vx: NDArray, dt: float, acc_delay: float) -> dict[str, FittedValue]:
@@ -486,15 +261,6 @@ def _regressor_noise(drive: Drive, L: float, m: float, vx: NDArray, dt: float,
     out[2, 2] = len(vx) * (m / L * s_a) ** 2 * filter_noise_energy(h, shift=acc_delay / dt)
     out[3, 3] = len(vx) * (s_r / L) ** 2 * filter_noise_energy(h, 1, dt)
     return out
-
-
-def _dilate(mask: NDArray, k: int) -> NDArray:
-    """``mask`` widened by ``k`` samples on both sides."""
-    if not mask.any() or k <= 0:
-        return mask
-    c = np.concatenate(([0], np.cumsum(mask)))
-    i = np.arange(len(mask))
-    return (c[np.minimum(i + k + 1, len(mask))] - c[np.maximum(i - k, 0)]) > 0
 
 
 def _near_holds(drive: Drive, dt: float, acc_delay: float, lag: int) -> NDArray:
