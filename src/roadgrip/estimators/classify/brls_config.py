@@ -248,18 +248,10 @@ UNCALIBRATED_HOLD_S = 2.0
 only about the road just measured."""
 
 CALIBRATED_HOLD_HIGH_S = 3.0
-"""Claim time of 'high' with a calibration [s]: a wrong 'high' on a road that has turned
-slippery is the dangerous error, a 'low' held onto a grippier road the cautious one, so
-'low' lasts longer (:data:`CALIBRATED_HOLD_LOW_S`, :data:`BRAKING_ONLY_HOLD_LOW_S`)."""
-
-CALIBRATED_HOLD_LOW_S = 8.0
-"""Claim time of 'low' with a calibration on a car with a free-rolling wheel [s]. Its
-longitudinal channel is informed at every acceleration, but a car may cruise for longer
-than the honesty rule excuses a claim after a change (``evaluate.honesty.CHANGE_MAX_S``,
-10 s) before its next one: 'low' held until evidence of high grip then outlives the return
-to a grippy road (random:113 with its fitted vehicle file, 11 s of cruise on dry asphalt
-after the gravel). 8 s is that 10 s less the rule's 1 s grace and the channels' 1 s memory,
-over which the last evidence of a change may still say 'low'."""
+"""Claim time of 'high' with a calibration [s]; 'low' is held (``inf``) until evidence
+of high grip: a wrong 'high' on a road that has turned slippery is the dangerous error,
+a 'low' held onto a grippier road the cautious one (where the evidence of high grip comes
+at the next acceleration: see :data:`BRAKING_ONLY_HOLD_LOW_S`)."""
 
 BRAKING_ONLY_HOLD_LOW_S = 5.0
 """Claim time of 'low' with a calibration on an all-wheel-drive car [s]: no wheel rolls

@@ -25,12 +25,13 @@ settings scored on the labelled drives themselves):
    kinematic stage's slip angles drift with the accelerometer's roll leak).
 
 The claim times of a calibrated classifier are :data:`CALIBRATED_HOLD_HIGH_S` for 'high'
-and :data:`CALIBRATED_HOLD_LOW_S` for 'low', :data:`BRAKING_ONLY_HOLD_LOW_S` on an
-all-wheel drive (:func:`low_claim_hold`; see :mod:`roadgrip.estimators.classify.brls_config`).
+and held for 'low', :data:`BRAKING_ONLY_HOLD_LOW_S` on an all-wheel drive
+(:func:`low_claim_hold`; see :mod:`roadgrip.estimators.classify.brls_config`).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
@@ -45,7 +46,6 @@ from roadgrip.estimators.classify.brls import model_regressors
 from roadgrip.estimators.classify.brls_config import (
     BRAKING_ONLY_HOLD_LOW_S,
     CALIBRATED_HOLD_HIGH_S,
-    CALIBRATED_HOLD_LOW_S,
     BRLSConfig,
     saturation_config,
 )
@@ -507,13 +507,11 @@ def saturation_calibration(
 
 def low_claim_hold(drive: str) -> float:
     """How long a calibrated classifier holds 'low' after its last evidence [s], by the drive
-    layout (``'fwd'``, ``'rwd'``, ``'awd'``):
-    :data:`~roadgrip.estimators.classify.brls_config.CALIBRATED_HOLD_LOW_S` where a
-    free-rolling wheel informs the longitudinal channel at every acceleration (a cruise may
-    still outlast the honesty rule's excuse after a change);
+    layout (``'fwd'``, ``'rwd'``, ``'awd'``): until evidence of high grip (``inf``) where a
+    free-rolling wheel informs the longitudinal channel at every acceleration;
     :data:`~roadgrip.estimators.classify.brls_config.BRAKING_ONLY_HOLD_LOW_S` on an
     all-wheel drive, whose channel is informed in braking only."""
-    return CALIBRATED_HOLD_LOW_S if undriven_wheels(drive).any() else BRAKING_ONLY_HOLD_LOW_S
+    return math.inf if undriven_wheels(drive).any() else BRAKING_ONLY_HOLD_LOW_S
 
 
 def _holds_label(cfg: BRLSConfig, data, name: str) -> bool:
