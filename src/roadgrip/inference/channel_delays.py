@@ -11,12 +11,11 @@ from numpy.typing import NDArray
 
 from roadgrip.drive import Drive
 from roadgrip.inference.fit_signals import dilate as _dilate
-from roadgrip.inference.fit_signals import pose_vy as _pose_vy
+from roadgrip.inference.fit_signals import pose_velocity, usable
 from roadgrip.inference.fit_signals import smooth as _smooth
 from roadgrip.inference.fitted_value import FittedValue
 from roadgrip.inference.fitted_value import fitted as _fitted
 from roadgrip.inference.fitted_value import undetermined as _undetermined
-from roadgrip.io.derived import body_velocity_from_pose
 from roadgrip.sensor_delay import estimate_delay
 from roadgrip.vehicle.params import VehicleParams
 
@@ -31,17 +30,17 @@ full-size race car at 40 m/s: 113 ms found, where its INS's own lateral velocity
 ``a_y`` 25 ms behind the gyro."""
 
 
-def _ax_dvx(drive: Drive) -> NDArray:
+def _ax_dvx(drive: Drive, vy: NDArray | None) -> NDArray:
     """``dv_x/dt`` [m/s²] from the accelerometer: ``a_x + v_y r``, ``v_y`` from the pose where
     it has one (in a turn ``v_y r`` is not small: left out, it moves a delay fitted on
     ``a_x`` alone by 10-20 ms), else ``a_x``."""
-    vy = _pose_vy(drive)
     if vy is None:
         return drive.col("ax")
     return drive.col("ax") + np.where(np.isfinite(vy), vy, 0.0) * drive.col("yaw_rate")
 
 
-def _ax_delay(drive: Drive, pose: FittedValue | None, acc: FittedValue) -> FittedValue | None:
+def _ax_delay(drive: Drive, pose: FittedValue | None, acc: FittedValue, v_pose: NDArray | None,
+              dvx: NDArray) -> FittedValue | None:
     """Delay of ``a_x`` against the gyro (``delay_accelerometer_x``): the integral of ``a_x +
     v_y r`` (``dv_x/dt``; ``v_y`` from the pose) against the pose's speed (a delay commutes
     with the integral; the pose differentiated would be noisier), plus the pose's own delay
@@ -49,7 +48,8 @@ def _ax_delay(drive: Drive, pose: FittedValue | None, acc: FittedValue) -> Fitte
     separate messages with their own latencies, so ``a_y``'s delay does not time ``a_x``.
     Undetermined without ``x, y, psi``, with the pose's delay undetermined or too little
     change of speed; its value is then ``a_y``'s (``acc``), which the calibration applies to
-    ``a_x`` in its place. None without ``a_x``."""
+    ``a_x`` in its place. ``v_pose``: the pose's speed [m/s]; ``dvx``: :func:`_ax_dvx`.
+    None without ``a_x``."""
     if not drive.has("ax"):
         return None
     why = None
@@ -59,13 +59,10 @@ def _ax_delay(drive: Drive, pose: FittedValue | None, acc: FittedValue) -> Fitte
         why = "the pose's delay is undetermined"
     else:
         t = drive.t
-        v_pose = body_velocity_from_pose(t, drive.col("x"), drive.col("y"), drive.col("psi"),
-                                         window=0.5)[0]
         ok = np.isfinite(v_pose)
         if ok.mean() <= 0.5:
             why = "the pose's speed is known on half the drive or less"
         else:
-            dvx = _ax_dvx(drive)
             v_ax = np.concatenate(([0.0], np.cumsum(0.5 * (dvx[1:] + dvx[:-1]) * np.diff(t))))
             fit = estimate_delay(t, v_ax, v_pose, valid=ok, max_lag=1.0)
             if fit.reliable:
@@ -81,19 +78,19 @@ def _ax_delay(drive: Drive, pose: FittedValue | None, acc: FittedValue) -> Fitte
 
 
 def _speed_delay(drive: Drive, vx: NDArray, src: str, dt: float, ax_delay: FittedValue | None,
-                 acc: FittedValue) -> FittedValue | None:
+                 acc: FittedValue, dvx: NDArray) -> FittedValue | None:
     """Delay of the speed (:func:`wheel_speed_vx`) against the gyro: ``dv_x/dt`` against
     ``a_x``, plus ``a_x``'s delay (``ax_delay``, :func:`_ax_delay`; where undetermined,
     ``a_y``'s, ``acc``). Wheel speeds (``src``) are used outside braking (``a_x < -BRAKING``,
     widened by 1 s): a braked wheel slips, and its speed falls ahead of the car's. None
-    without ``a_x``."""
+    without ``a_x``. ``dvx``: :func:`_ax_dvx`."""
     if not drive.has("ax") or ax_delay is None:
         return None
     t = drive.t
     rolling = np.ones(drive.n, bool)
     if src == "wheels":
         rolling = ~_dilate(drive.col("ax") < -BRAKING, round(1.0 / dt))
-    fit = estimate_delay(t, _smooth(vx, dt, 0.5, deriv=1), _ax_dvx(drive), signal_valid=rolling,
+    fit = estimate_delay(t, _smooth(vx, dt, 0.5, deriv=1), dvx, signal_valid=rolling,
                          max_lag=1.0)
     if not fit.reliable:
         return _undetermined("delay_speed", "s", f"dv_x/dt ~ a_x: peak correlation {fit.peak_corr:.2f} "
@@ -129,13 +126,14 @@ def sideslip_lag(base: VehicleParams, vx: float) -> float:
 
 
 def fit_delays(drive: Drive, vx: NDArray, src: str, dt: float,
-            base: VehicleParams) -> dict[str, FittedValue]:
+               base: VehicleParams) -> dict[str, FittedValue]:
     """Delays of the accelerometer's two axes, the speed and the pose against the gyro."""
     out: dict[str, FittedValue] = {}
     t = drive.t
     r = drive.col("yaw_rate")
     ref = vx * r
-    vy = _pose_vy(drive)
+    pose_v = pose_velocity(drive)  # once: every delay below that uses the pose reads it
+    vy = usable(pose_v[1]) if pose_v is not None else None
     pair = "a_y ~ v_x r"
     if vy is not None:
         ok = np.isfinite(vy)
@@ -165,10 +163,12 @@ def fit_delays(drive: Drive, vx: NDArray, src: str, dt: float,
                                         f"dpsi/dt ~ r, peak correlation {fit.peak_corr:.2f}")
         else:
             out["delay_pose"] = _undetermined("delay_pose", "s", "dpsi/dt ~ r: too little turning")
-    ax_delay = _ax_delay(drive, out.get("delay_pose"), out["delay_accelerometer"])
+    dvx = _ax_dvx(drive, vy) if drive.has("ax") else np.zeros(drive.n)
+    ax_delay = _ax_delay(drive, out.get("delay_pose"), out["delay_accelerometer"],
+                         pose_v[0] if pose_v is not None else None, dvx)
     if ax_delay is not None:
         out["delay_accelerometer_x"] = ax_delay
-    speed = _speed_delay(drive, vx, src, dt, ax_delay, out["delay_accelerometer"])
+    speed = _speed_delay(drive, vx, src, dt, ax_delay, out["delay_accelerometer"], dvx)
     if speed is not None:
         out["delay_speed"] = speed
     return out

@@ -10,7 +10,8 @@ from numpy.typing import NDArray
 from roadgrip.drive import Drive
 from roadgrip.io.derived import body_velocity_from_pose, savgol_quadratic
 
-__all__ = ["POSE_WINDOW", "SMOOTH", "dilate", "half_width", "pose_vy", "shifted", "smooth", "uniform_dt"]
+__all__ = ["POSE_WINDOW", "SMOOTH", "dilate", "half_width", "pose_velocity", "shifted", "smooth", "uniform_dt",
+           "usable"]
 
 SMOOTH = 0.3
 """Savitzky-Golay window [s] of the signals and of ``r'`` in the single-track fit: one
@@ -46,12 +47,18 @@ def shifted(t: NDArray, v: NDArray, delay: float) -> NDArray:
     return v if delay == 0.0 else np.interp(t + delay, t, v)
 
 
-def pose_vy(drive: Drive) -> NDArray | None:
+def pose_velocity(drive: Drive) -> tuple[NDArray, NDArray] | None:
+    """The pose's body velocity, longitudinal and lateral [m/s] (0.5 s windows,
+    :func:`~roadgrip.io.derived.body_velocity_from_pose`); None without a pose."""
     if not drive.has_pose:
         return None
-    vy = body_velocity_from_pose(drive.t, drive.col("x"), drive.col("y"), drive.col("psi"),
-                                 window=0.5)[1]
-    return vy if np.isfinite(vy).mean() > 0.5 else None
+    v = body_velocity_from_pose(drive.t, drive.col("x"), drive.col("y"), drive.col("psi"), window=0.5)
+    return v[0], v[1]
+
+
+def usable(v: NDArray | None) -> NDArray | None:
+    """``v`` where it is known on more than half the drive, else None."""
+    return v if v is not None and np.isfinite(v).mean() > 0.5 else None
 
 
 def dilate(mask: NDArray, k: int) -> NDArray:
