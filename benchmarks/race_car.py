@@ -42,6 +42,25 @@ def _fmt(ok: bool) -> str:
     return "met" if ok else "NOT met"
 
 
+def fit_first_half(out: Path):
+    """The race car split at its middle, ``vehicle fit`` on the first half (the shipped file
+    as its base) and the fitted file written to ``out``: returns the data path, the drive
+    read with the shipped file, the middle [s], the fit and the fitted file's path."""
+    from roadgrip.inference.vehicle_identification import fit_vehicle
+    from roadgrip.io import read_drive
+
+    path = ROOT / "race_car_100hz.csv"
+    if not path.exists():
+        raise SystemExit(f"race-car data not found at {path}")
+    drive = read_drive(path, format="canonical", vehicle=str(ROOT / "race_car.yaml"))
+    mid = drive.t[0] + 0.5 * drive.duration
+    fit = fit_vehicle(drive.slice_time(drive.t[0], mid), drive.vehicle)
+    out.mkdir(parents=True, exist_ok=True)
+    car = out / "race_car_fitted.yaml"
+    car.write_text(fit.to_yaml())
+    return path, drive, mid, fit, car
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0, help="filter seed of the GP-SSM")
@@ -53,24 +72,13 @@ def main() -> None:
     from roadgrip.estimators.classify import calibrate
     from roadgrip.evaluate.honesty import score_result
     from roadgrip.evaluate.honesty_matrix import reference_vy
-    from roadgrip.inference.vehicle_identification import fit_vehicle
     from roadgrip.io import read_drive
     from roadgrip.io.calibration import read_calibration
     from roadgrip.signals import sustained_grip
 
-    path = ROOT / "race_car_100hz.csv"
-    if not path.exists():
-        raise SystemExit(f"race-car data not found at {path}")
-    drive = read_drive(path, format="canonical", vehicle=str(ROOT / "race_car.yaml"))
-    mid = drive.t[0] + 0.5 * drive.duration
-    first = drive.slice_time(drive.t[0], mid)
-
     t0 = time.perf_counter()
-    fit = fit_vehicle(first, drive.vehicle)
-    out = Path(args.out) if args.out else Path("report") / "race_car"
-    out.mkdir(parents=True, exist_ok=True)
-    car = out / "race_car_fitted.yaml"
-    car.write_text(fit.to_yaml())
+    path, drive, mid, fit, car = fit_first_half(Path(args.out) if args.out else Path("report") / "race_car")
+    first = drive.slice_time(drive.t[0], mid)
     cal = read_calibration(car)
     print(f"vehicle fit on the first half ({first.duration:.0f} s) in {time.perf_counter() - t0:.1f} s -> {car}")
     for v in fit.values.values():

@@ -39,7 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "revs"
+from race_car import fit_first_half  # the split and the fit of benchmarks/race_car.py (same folder)
+
 BANDS_G = ((0.0, 0.3), (0.3, 0.6), (0.6, 0.9), (0.9, 3.0))
 
 
@@ -54,19 +55,9 @@ def main() -> None:
     from roadgrip.estimators.cascade import brush_mu_inverse
     from roadgrip.evaluate.honesty import score_result
     from roadgrip.evaluate.honesty_matrix import reference_vy
-    from roadgrip.inference.vehicle_identification import fit_vehicle
     from roadgrip.io import read_drive
 
-    path = ROOT / "race_car_100hz.csv"
-    if not path.exists():
-        raise SystemExit(f"race-car data not found at {path}")
-    shipped = read_drive(path, format="canonical", vehicle=str(ROOT / "race_car.yaml"))
-    mid = shipped.t[0] + 0.5 * shipped.duration
-    fit = fit_vehicle(shipped.slice_time(shipped.t[0], mid), shipped.vehicle)
-    out = Path(args.out) if args.out else Path("report") / "race_car"
-    out.mkdir(parents=True, exist_ok=True)
-    car = out / "race_car_fitted.yaml"
-    car.write_text(fit.to_yaml())
+    path, shipped, mid, fit, car = fit_first_half(Path(args.out) if args.out else Path("report") / "race_car")
     halves = {"fitted": read_drive(path, format="canonical", vehicle=str(car)).slice_time(mid, np.inf),
               "shipped": shipped.slice_time(mid, np.inf)}
 
