@@ -13,16 +13,17 @@ holds and is asserted here (``docs/validation-classification.md``, family sectio
 * as logged, the one-dry-minute calibration holds on the 15 two-wheel-drive cars and two of
   the five all-wheel-drive ones (``random:105``, ``119``), refusing the others saying why; both
   classifiers meet the criterion on 16 (``random:119``'s only evidence is braking: gravel
-  flagged at its first braking there, 10.2 s late); honest on all 17 but the slip map on
-  ``random:108`` (:data:`KNOWN_DISHONEST`);
+  flagged at its first braking there, 10.2 s late); both honest on all 17;
 * with the fitted vehicle file (``a_x`` moved by its own delay), the calibration holds on 18
   (three all-wheel drives, ``random:105``, ``106`` and ``110``, besides the 15; ``109`` and
   ``119`` refused, saying why); the bRLS meets the criterion on 18, the slip map on 17
   (``random:110``: it never flags the gravel, its braking onsets alone do not move the
-  index); both honest on 17 of the 18: ``random:113`` holds its 'low' onto dry asphalt
-  past the rule (a calibrated 'low' is held until evidence of high grip, 5 s on an
-  all-wheel drive, :func:`roadgrip.estimators.classify.fit.low_claim_hold`; an 8 s expiry
-  made it honest and cost the known cars' accuracy at high utilisation); braking slips
+  index); both honest on all 18. A calibrated 'low' is held until evidence of high grip
+  (5 s on an all-wheel drive, :func:`roadgrip.estimators.classify.fit.low_claim_hold`),
+  and decided afresh once 8 s old (``redecide_low_s``): ``random:113`` (fitted) and
+  ``random:108`` (as logged, slip map) cruise on dry asphalt after the gravel until 9.4 s
+  past the change, and their first dry acceleration ends the old 'low' 0.1-0.2 s into it,
+  within the rule's 10 s (held, the old estimate's inertia kept it 0.2-1.0 s past). Braking slips
   only at a stop's onset, and on a two-wheel drive only where its traction slips do not
   hold the label.
 """
@@ -119,22 +120,10 @@ def test_as_logged_both_detect_gravel_on_16(family, method):
     assert len(meets) >= 16, meets
 
 
-KNOWN_DISHONEST = {
-    # a calibrated 'low' is held until evidence of high grip (the known cars' accuracy at
-    # high utilisation needs the hold on gravel: 0.78-0.90 against 0.95 with an 8 s expiry);
-    # these cars cruise on dry asphalt after the gravel past the rule's 10 s before their
-    # next acceleration: 'low' 0.2-1.0 s too long
-    ("logged", "slipmap"): {"random:108"},
-    ("fitted", "brls"): {"random:113"},
-    ("fitted", "slipmap"): {"random:113"},
-}
-"""Calibrated cars whose run the honesty rule finds wrong, and why (issue 29, open)."""
-
-
 @pytest.mark.parametrize("method", METHODS)
-def test_as_logged_honest_on_every_calibrated_car_but_the_known(family, method):
+def test_as_logged_honest_on_every_calibrated_car(family, method):
     dishonest = {v for v, runs in family.items() if runs is not None and not runs[method][1].honest}
-    assert dishonest <= KNOWN_DISHONEST.get(("logged", method), set()), dishonest
+    assert not dishonest, dishonest
 
 
 def test_the_fitted_vehicle_file_calibrates_three_all_wheel_drives_besides(family_fitted):
@@ -149,6 +138,6 @@ def test_with_the_fitted_vehicle_file_the_brls_detects_gravel_on_18_the_slip_map
 
 
 @pytest.mark.parametrize("method", METHODS)
-def test_with_the_fitted_vehicle_file_honest_on_every_calibrated_car_but_the_known(family_fitted, method):
+def test_with_the_fitted_vehicle_file_honest_on_every_calibrated_car(family_fitted, method):
     dishonest = {v for v, runs in family_fitted.items() if runs is not None and not runs[method][1].honest}
-    assert dishonest <= KNOWN_DISHONEST.get(("fitted", method), set()), dishonest
+    assert not dishonest, dishonest

@@ -131,6 +131,12 @@ class BRLSConfig:
         thresholds and only an estimate past its threshold by a fifth of the
         reference gap claims a class again (the road may have changed).
         ``inf``: the paper's state machine, which holds its state.
+    redecide_low_s : float
+        A 'low' not supported within this time [s] (below ``hold_low_s``) is still
+        claimed, but decided afresh as an expired claim is: the estimates relax to
+        the thresholds and the next informed samples, past a threshold by a fifth
+        of the reference gap, either support 'low' again or switch to 'high'
+        (the old estimate does not slow the switch). ``inf``: never.
     slip_filter_tau_s : float
         Saturation model: time constant [s] of the first-order low-pass of the
         slips and accelerations before the model (0 = none).
@@ -157,11 +163,12 @@ class BRLSConfig:
     hold_high_s: float = math.inf
     hold_low_s: float = math.inf
     slip_filter_tau_s: float = 0.0
+    redecide_low_s: float = math.inf
 
     def __post_init__(self) -> None:
         if self.model not in BRLS_MODELS:
             raise ValueError(f"model must be one of {BRLS_MODELS}, got {self.model!r}")
-        for name in ("hold_high_s", "hold_low_s"):
+        for name in ("hold_high_s", "hold_low_s", "redecide_low_s"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive (inf = hold), got {getattr(self, name)!r}")
         if self.lateral_acceleration not in LATERAL_ACCELERATION_SOURCES:
@@ -252,6 +259,17 @@ CALIBRATED_HOLD_HIGH_S = 3.0
 of high grip: a wrong 'high' on a road that has turned slippery is the dangerous error,
 a 'low' held onto a grippier road the cautious one (where the evidence of high grip comes
 at the next acceleration: see :data:`BRAKING_ONLY_HOLD_LOW_S`)."""
+
+CALIBRATED_REDECIDE_LOW_S = 8.0
+"""Age [s] from which a calibrated classifier decides a held 'low' afresh
+(``redecide_low_s``): the next informed samples either support it again or switch to
+'high' (or, informed but undecided, withdraw it) without the old estimate's inertia, so
+that a dry acceleration within the honesty rule's 10 s after a change
+(:data:`roadgrip.evaluate.honesty.CHANGE_MAX_S`) ends the 'low' at once (0.1-0.2 s into
+it on the random family, where the held estimate took 0.7-1.6 s). 'low' stays claimed
+until then: on the known multi-body cars the gravel's slalom comes 9-26 s after the last
+braking with no channel informed (the lateral one off), and an 8 s expiry costs 0.08-0.20
+of the accuracy at high utilisation there."""
 
 BRAKING_ONLY_HOLD_LOW_S = 5.0
 """Claim time of 'low' with a calibration on an all-wheel-drive car [s]: no wheel rolls

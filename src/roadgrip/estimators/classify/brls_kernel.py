@@ -36,7 +36,9 @@ THETA_LONG, S_LONG, THETA_LAT, S_LAT, HIGH, INFORMED, E_LONG, E_LAT = range(8)
 F_PHI_LONG, F_Y_LONG, F_PHI_LAT, F_Y_LAT = range(8, 12)
 SINCE = 12
 """Time since an informed channel last supported the state [s]."""
-STATE_SIZE = 13
+WITHDRAWN = 13
+"""A 'low' decided afresh (``redecide_low_s``) met informed samples that did not decide: not claimed."""
+STATE_SIZE = 14
 THETA = (THETA_LONG, THETA_LAT)
 """Stiffness estimate of channel ``c`` (0 long, 1 lat)."""
 S = (S_LONG, S_LAT)
@@ -68,6 +70,7 @@ class BRLSParams(NamedTuple):
     error_clip: float
     hold_high_s: float
     hold_low_s: float
+    redecide_low_s: float
 
 
 class BRLSState(NamedTuple):
@@ -89,6 +92,9 @@ class BRLSState(NamedTuple):
         Prefilter states of ``phi_long, ax, phi_lat, ay``.
     since_support : float
         Time since an informed channel last supported the state [s] (inf before).
+    withdrawn : bool
+        A 'low' being decided afresh met informed samples that did not decide: it is
+        not claimed until the new evidence supports it or switches the state.
     """
 
     theta_long: float
@@ -101,6 +107,7 @@ class BRLSState(NamedTuple):
     e_lat: float
     filtered: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
     since_support: float = math.inf
+    withdrawn: bool = False
 
 
 class BRLSOutput(NamedTuple):
@@ -141,6 +148,7 @@ def brls_params(cfg: BRLSConfig) -> BRLSParams:
         error_clip=float(cfg.error_clip),
         hold_high_s=float(cfg.hold_high_s),
         hold_low_s=float(cfg.hold_low_s),
+        redecide_low_s=float(cfg.redecide_low_s),
     )
 
 
@@ -151,6 +159,7 @@ def _state_vector(s: BRLSState) -> NDArray[np.float64]:
     v[E_LONG], v[E_LAT] = s.e_long, s.e_lat
     v[F_PHI_LONG], v[F_Y_LONG], v[F_PHI_LAT], v[F_Y_LAT] = s.filtered
     v[SINCE] = s.since_support
+    v[WITHDRAWN] = float(s.withdrawn)
     return v
 
 
@@ -159,7 +168,7 @@ def _state_from_vector(v: NDArray[np.float64]) -> BRLSState:
         float(v[THETA_LONG]), float(v[S_LONG]), float(v[THETA_LAT]), float(v[S_LAT]),
         bool(v[HIGH] > 0.5), bool(v[INFORMED] > 0.5), float(v[E_LONG]), float(v[E_LAT]),
         (float(v[F_PHI_LONG]), float(v[F_Y_LONG]), float(v[F_PHI_LAT]), float(v[F_Y_LAT])),
-        float(v[SINCE]),
+        float(v[SINCE]), bool(v[WITHDRAWN] > 0.5),
     )
 
 
@@ -174,8 +183,9 @@ def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - 
     e_min = p.excitation_min
     clip = p.error_clip
     high = st[HIGH] > 0.5
-    # an expired claim: no state to hold, the estimates relax to the thresholds
-    stale = st[SINCE] > (p.hold_high_s if high else p.hold_low_s)
+    # an expired claim (or a 'low' to decide afresh, still claimed: redecide_low_s): no
+    # state to hold, the estimates relax to the thresholds
+    stale = st[SINCE] > (p.hold_high_s if high else min(p.hold_low_s, p.redecide_low_s))
     # identical first-order prefilter on regressor and output (keeps y = theta phi)
     st[F_PHI_LONG] += kf * (phi_long - st[F_PHI_LONG])
     st[F_Y_LONG] += kf * (y_long - st[F_Y_LONG])
@@ -237,6 +247,9 @@ def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - 
                 elif st[THETA[c]] > p.threshold[c] + margin:
                     says_high = True
         switch = (high and says_low and not says_high) or ((not high) and says_high and not says_low)
+    if stale and not high and ((p.enabled[0] and st[E[0]] >= e_min) or (p.enabled[1] and st[E[1]] >= e_min)):
+        # an informed channel on an old 'low': no claim unless it decides (below)
+        st[WITHDRAWN] = 1.0
     if switch:
         high = not high
         st[HIGH] = 1.0 if high else 0.0
@@ -253,6 +266,8 @@ def _update(st, dt, phi_long, y_long, phi_lat, y_lat, p):  # pragma: no cover - 
             ):
                 support = True
     st[SINCE] = 0.0 if support else st[SINCE] + dt
+    if support or switch:
+        st[WITHDRAWN] = 0.0
     # grip index: channel estimates between their references, weighted by information
     num = 0.05 * (1.0 if high else 0.0)
     den = 0.05
@@ -292,7 +307,7 @@ def brls_init(config: BRLSConfig) -> BRLSState:
     if ta is None:
         ta = config.lat.ref_high if high else config.lat.ref_low
     return BRLSState(float(tl), config.s0, float(ta), config.s0, high, False, 0.0, 0.0,
-                     (0.0, 0.0, 0.0, 0.0), math.inf)
+                     (0.0, 0.0, 0.0, 0.0), math.inf, False)
 
 
 def brls_step(
@@ -331,7 +346,8 @@ def brls_step(
     idx, wl, wa = _update(st, dt, phi_long, ax, phi_lat, ay, brls_params(config))
     new = _state_from_vector(st)
     excited = (wl >= 0.5 and config.long.enabled) or (wa >= 0.5 and config.lat.enabled)
-    known = new.informed and new.since_support <= (config.hold_high_s if new.high else config.hold_low_s)
+    known = (new.informed and not new.withdrawn
+             and new.since_support <= (config.hold_high_s if new.high else config.hold_low_s))
     cls = str(classes(np.array(new.high), np.array(known)))
     return new, BRLSOutput(cls, float(idx), bool(excited), new.theta_long, new.theta_lat, wl, wa)
 
@@ -376,7 +392,8 @@ def brls_batch(
     st = _state_vector(state if state is not None else brls_init(config))
     sv, idx, wl, wa = _batch(st, *arrs, brls_params(config), float(dt0))
     high = sv[:, HIGH] > 0.5
-    informed = (sv[:, INFORMED] > 0.5) & (sv[:, SINCE] <= np.where(high, config.hold_high_s, config.hold_low_s))
+    informed = ((sv[:, INFORMED] > 0.5) & (sv[:, WITHDRAWN] < 0.5)
+                & (sv[:, SINCE] <= np.where(high, config.hold_high_s, config.hold_low_s)))
     excited = ((wl >= 0.5) & config.long.enabled) | ((wa >= 0.5) & config.lat.enabled)
     out = BRLSOutput(classes(high, informed), idx, excited, sv[:, THETA_LONG],
                      sv[:, THETA_LAT], wl, wa)

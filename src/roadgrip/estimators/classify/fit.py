@@ -26,7 +26,9 @@ settings scored on the labelled drives themselves):
 
 The claim times of a calibrated classifier are :data:`CALIBRATED_HOLD_HIGH_S` for 'high'
 and held for 'low', :data:`BRAKING_ONLY_HOLD_LOW_S` on an all-wheel drive
-(:func:`low_claim_hold`; see :mod:`roadgrip.estimators.classify.brls_config`).
+(:func:`low_claim_hold`; see :mod:`roadgrip.estimators.classify.brls_config`); a 'low'
+older than :data:`~roadgrip.estimators.classify.brls_config.CALIBRATED_REDECIDE_LOW_S`
+is decided afresh by the next evidence (``redecide_low_s``).
 """
 
 from __future__ import annotations
@@ -46,6 +48,7 @@ from roadgrip.estimators.classify.brls import model_regressors
 from roadgrip.estimators.classify.brls_config import (
     BRAKING_ONLY_HOLD_LOW_S,
     CALIBRATED_HOLD_HIGH_S,
+    CALIBRATED_REDECIDE_LOW_S,
     BRLSConfig,
     saturation_config,
 )
@@ -491,9 +494,11 @@ def saturation_calibration(
         )
     hold_low = low_claim_hold(drives[0][0].vehicle.drive)
     cfg = replace(cfg, long=replace(cfg.long, enabled=on["long"]), lat=replace(cfg.lat, enabled=on["lat"]),
-                  hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=hold_low)
+                  hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=hold_low,
+                  redecide_low_s=CALIBRATED_REDECIDE_LOW_S)
     sm = replace(slipmap_saturation(model, hold_high_s=CALIBRATED_HOLD_HIGH_S, hold_low_s=hold_low,
-                                    lateral=on["lat"]), longitudinal=on["long"])
+                                    lateral=on["lat"]), longitudinal=on["long"],
+                 redecide_low_s=CALIBRATED_REDECIDE_LOW_S)
     diag = {"model": "saturation", "labels": "+".join(labels), "grip_fit": fitted, "slip_angle_zero": zero,
             "slip_zero": slip_zero, "wheel_latency": latency_fit,
             "friction": dict(friction), "friction_estimated": bool(estimate_friction),

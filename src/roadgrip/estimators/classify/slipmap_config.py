@@ -74,6 +74,11 @@ class SlipMapConfig:
         index on the class's side); then 'unknown', the index restarts at 1/2
         and a class is claimed again when it leaves the hysteresis band. ``inf``:
         the paper's recursion, which holds its state.
+    redecide_low_s : float
+        A 'low' not supported within this time [s] (below ``hold_low_s``) is still
+        claimed, but decided afresh: the index restarts at 1/2, and only the new
+        evidence taking it out of the hysteresis band supports 'low' again or
+        switches to 'high'. ``inf``: never.
     support_min : float
         Evidence rate (low-passed ``p_high + p_low``, time constant 0.3 s) at
         which the evidence supports the class.
@@ -106,11 +111,12 @@ class SlipMapConfig:
     hold_low_s: float = math.inf
     support_min: float = 0.02
     paced_by_evidence: bool = True
+    redecide_low_s: float = math.inf
 
     def __post_init__(self) -> None:
         if self.model not in SLIPMAP_MODELS:
             raise ValueError(f"model must be one of {SLIPMAP_MODELS}, got {self.model!r}")
-        for name in ("hold_high_s", "hold_low_s", "support_min"):
+        for name in ("hold_high_s", "hold_low_s", "support_min", "redecide_low_s"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
         if self.lateral_acceleration not in LATERAL_ACCELERATION_SOURCES:

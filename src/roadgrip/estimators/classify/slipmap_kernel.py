@@ -21,17 +21,20 @@ from roadgrip.estimators.classify.slipmap_evidence import SlipMapEvidence
 __all__ = ["SlipMapOutput", "SlipMapState", "slipmap_batch", "slipmap_init", "slipmap_step"]
 
 # state vector layout: eq. 16's F, its low-passed value, accumulated weight, class,
-# low-passed evidence rate, time since the class was last supported [s], class claimed
-F, F_LP, INFO, HIGH, RATE, SINCE, KNOWN = range(7)
-STATE_SIZE = 7
+# low-passed evidence rate, time since the class was last supported [s], class claimed,
+# claimed 'low' being decided afresh (redecide_low_s)
+F, F_LP, INFO, HIGH, RATE, SINCE, KNOWN, AFRESH = range(8)
+STATE_SIZE = 8
 RATE_TAU_S = 0.3
 """Time constant of the evidence rate [s]."""
 
 
 class SlipMapState(NamedTuple):
     """Recursion state: ``F`` (eq. 16), its low-passed value, accumulated weight, class,
-    low-passed evidence rate, time since the class was last supported [s] and whether a
-    class is claimed (an expired claim waits for the index to leave the hysteresis band)."""
+    low-passed evidence rate, time since the class was last supported [s], whether a
+    class is claimed (an expired claim waits for the index to leave the hysteresis band)
+    and whether a claimed 'low' is being decided afresh (its index restarted at 1/2 and
+    only leaving the band supports it again: ``redecide_low_s``)."""
 
     f: float
     f_lp: float
@@ -40,6 +43,7 @@ class SlipMapState(NamedTuple):
     rate: float = 0.0
     since: float = math.inf
     known: bool = True
+    afresh: bool = False
 
 
 class SlipMapOutput(NamedTuple):
@@ -54,35 +58,38 @@ class SlipMapOutput(NamedTuple):
 
 def slipmap_init() -> SlipMapState:
     """Agnostic start: ``F = 1/2``, no information."""
-    return SlipMapState(0.5, 0.5, 0.0, True, 0.0, math.inf, True)
+    return SlipMapState(0.5, 0.5, 0.0, True, 0.0, math.inf, True, False)
 
 
 def _state_vector(s: SlipMapState) -> NDArray[np.float64]:
     v = np.empty(STATE_SIZE)
     v[F], v[F_LP], v[INFO], v[HIGH] = s.f, s.f_lp, s.info, float(s.high)
-    v[RATE], v[SINCE], v[KNOWN] = s.rate, s.since, float(s.known)
+    v[RATE], v[SINCE], v[KNOWN], v[AFRESH] = s.rate, s.since, float(s.known), float(s.afresh)
     return v
 
 
 def _state_from_vector(v: NDArray[np.float64]) -> SlipMapState:
     return SlipMapState(float(v[F]), float(v[F_LP]), float(v[INFO]), bool(v[HIGH] > 0.5),
-                        float(v[RATE]), float(v[SINCE]), bool(v[KNOWN] > 0.5))
+                        float(v[RATE]), float(v[SINCE]), bool(v[KNOWN] > 0.5), bool(v[AFRESH] > 0.5))
 
 
 class Holds(NamedTuple):
-    """Claim settings of the recursion: hysteresis, claim times [s], support rate, and
-    whether the output low-pass is paced by the evidence (1.0) or by time (0.0)."""
+    """Claim settings of the recursion: hysteresis, claim times [s], support rate,
+    whether the output low-pass is paced by the evidence (1.0) or by time (0.0), and the
+    age [s] from which a claimed 'low' is decided afresh."""
 
     hyst: float
     hold_high_s: float
     hold_low_s: float
     support_min: float
     paced: float
+    redecide_low_s: float
 
 
 def _holds(config: SlipMapConfig) -> Holds:
     return Holds(float(config.hysteresis), float(config.hold_high_s), float(config.hold_low_s),
-                 float(config.support_min), float(config.paced_by_evidence))
+                 float(config.support_min), float(config.paced_by_evidence),
+                 float(config.redecide_low_s))
 
 
 @numba.njit(cache=True)
@@ -93,6 +100,13 @@ def _recur(st, dt, p_high, p_low, p_old, w_sum, tau, h):  # pragma: no cover - c
     if stale and st[KNOWN] > 0.5:
         # an expired claim: the index forgets the old class, one must be claimed afresh
         st[KNOWN] = 0.0
+        st[AFRESH] = 0.0
+        st[F] = 0.5
+        st[F_LP] = 0.5
+    elif not high and st[KNOWN] > 0.5 and st[AFRESH] < 0.5 and st[SINCE] > h.redecide_low_s:
+        # an old 'low', still claimed, decided afresh: the index forgets it, and only the
+        # new evidence taking it out of the hysteresis band supports it again or switches
+        st[AFRESH] = 1.0
         st[F] = 0.5
         st[F_LP] = 0.5
     st[F] = p_old * st[F] + p_high
@@ -107,18 +121,25 @@ def _recur(st, dt, p_high, p_low, p_old, w_sum, tau, h):  # pragma: no cover - c
     st[F_LP] = st[F_LP] + k * (st[F] - st[F_LP])
     st[INFO] = st[INFO] + w_sum
     st[RATE] = st[RATE] + (1.0 - np.exp(-dt / RATE_TAU_S)) * (p_high + p_low - st[RATE])
+    if st[AFRESH] > 0.5 and st[KNOWN] > 0.5 and st[RATE] >= h.support_min:
+        # the evidence rate on the old 'low' would support a class: no claim unless the
+        # index leaves the band (below)
+        st[KNOWN] = 0.0
     fresh = False
+    afresh = st[AFRESH] > 0.5
     if st[F_LP] > 0.5 + h.hyst:
-        fresh = st[KNOWN] < 0.5 or not high
+        fresh = st[KNOWN] < 0.5 or not high or afresh
         st[HIGH] = 1.0
         st[KNOWN] = 1.0
+        st[AFRESH] = 0.0
     elif st[F_LP] < 0.5 - h.hyst:
-        fresh = st[KNOWN] < 0.5 or high
+        fresh = st[KNOWN] < 0.5 or high or afresh
         st[HIGH] = 0.0
         st[KNOWN] = 1.0
+        st[AFRESH] = 0.0
     high = st[HIGH] > 0.5
     side = st[F_LP] > 0.5 if high else st[F_LP] < 0.5
-    if fresh or (st[RATE] >= h.support_min and side):
+    if fresh or (st[RATE] >= h.support_min and side and st[AFRESH] < 0.5):
         st[SINCE] = 0.0
     else:
         st[SINCE] = st[SINCE] + dt
