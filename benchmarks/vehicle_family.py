@@ -173,6 +173,8 @@ def _cascade_tally(tally: dict) -> str:
 
 FIT_DRIVE = ("dry-gravel-dry", 10, 0.6)
 """The fit's drive: scenario, seed and the ``--mu`` of its linear range (module docstring)."""
+FIT_DURATION = 180.0
+"""Length of the fit's drive [s] (``dry-gravel-dry``)."""
 FIT_LIMITS = {"stiffness": 0.10, "delay": 0.020, "offset": np.radians(0.1)}
 """The issue's bounds: relative stiffness error [-], delay error [s], steering offset error [rad]."""
 
@@ -197,29 +199,21 @@ def _fitted_drive(d, fit):
     return Drive(out.data, replace(out.meta, vehicle=fit.vehicle.replace(name=d.vehicle.name)))
 
 
-def fit_errors(name: str, fit) -> dict[str, float]:
-    """Each fitted quantity's error against the truth (module docstring): stiffnesses
-    relative [-], delays [s], the steering offset [rad]; NaN where undetermined."""
-    from roadgrip.signals import undriven_wheels
+def fit_errors(name: str, fit, duration: float = FIT_DURATION) -> dict[str, float]:
+    """Each fitted quantity's error against the truth
+    (:func:`roadgrip.sim.vehicle_family.fit_truth`): stiffnesses and the gyro's scale relative
+    [-], delays [s], the steering offset and the heading bias [rad], the gyro's bias [rad/s];
+    NaN where undetermined."""
+    from roadgrip.sim.vehicle_family import fit_truth
     from roadgrip.sim.vehicle_family import mb_vehicle as _mb
 
-    v = _mb(name)
-    vp, ch, st = v.params, v.sensors.channels, v.sensors.steering
-    gyro = ch["yaw_rate"].delay
-    speed = ch["omega_fl"].delay if undriven_wheels(vp.drive).any() else ch["vx"].delay
-    truth = {"cornering_stiffness_front": 1.0 / (1.0 / vp.cornering_stiffness_front + st.compliance),
-             "cornering_stiffness_rear": vp.cornering_stiffness_rear,
-             "delay_accelerometer": ch["ay"].delay - gyro, "steer_delay": ch["steer"].delay - gyro,
-             "delay_speed": speed - gyro, "delay_pose": ch["psi"].delay - gyro,
-             "delay_accelerometer_x": ch["ax"].delay - gyro,
-             "steer_offset": -st.offset / (1.0 + st.ratio_error)}
     out = {}
-    for k, true in truth.items():
+    for k, true in fit_truth(_mb(name), duration).items():
         fv = fit.values.get(k)
         if k == "delay_accelerometer_x" and (fv is None or not fv.fitted):
             fv = fit.values.get("delay_accelerometer")  # what the file moves a_x by without it
         val = fv.value if fv is not None and fv.fitted else float("nan")
-        out[k] = (val / true - 1.0) if k.startswith("cornering") else val - true
+        out[k] = (val / true - 1.0) if k.startswith("cornering") or k.endswith("scale") else val - true
     return out
 
 
@@ -234,7 +228,8 @@ def fit_passes(err: dict[str, float]) -> bool:
 def fit_table(names: list[str]) -> None:
     """Print the fit against the truth and the cascade with the fitted car (module docstring)."""
     print(f"{'vehicle':<11} {'drive':<5} {'Cf %':>6} {'Cr %':>6} {'acc ms':>6} {'steer':>6} {'speed':>6} "
-          f"{'pose':>6} {'ax ms':>6} {'off deg':>7} {'pass':>4} | {CASCADE_HEADER}")
+          f"{'pose':>6} {'ax ms':>6} {'off deg':>7} {'pass':>4} {'gyro %':>6} {'mrad/s':>6} {'head':>6} | "
+          f"{CASCADE_HEADER}")
     t_start = time.perf_counter()
     tally: dict = {}
     for name in names:
@@ -244,7 +239,9 @@ def fit_table(names: list[str]) -> None:
                f"{100 * e['cornering_stiffness_rear']:>+6.1f}")
         for k in ("delay_accelerometer", "steer_delay", "delay_speed", "delay_pose", "delay_accelerometer_x"):
             row += f" {1e3 * e[k]:>+6.0f}"
-        row += f" {np.degrees(e['steer_offset']):>+7.3f} {'yes' if fit_passes(e) else 'no':>4} |"
+        row += f" {np.degrees(e['steer_offset']):>+7.3f} {'yes' if fit_passes(e) else 'no':>4}"
+        row += (f" {100 * e['yaw_rate_scale']:>+6.2f} {1e3 * e['yaw_rate_bias']:>+6.2f}"
+                f" {1e3 * e['pose_heading_bias']:>+6.2f} |")
         print(row + _cascade_cells(name, fit, tally), flush=True)
     print(_cascade_tally(tally))
     print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")

@@ -91,3 +91,27 @@ def test_a_x_moves_by_its_own_delay_where_the_file_gives_one(tmp_path: Path):
     only_x = apply_calibration(raw, {"delay_accelerometer_x": 0.03})
     np.testing.assert_allclose(only_x.col("ax"), raw.col("ax")[3:], atol=1e-12)
     np.testing.assert_allclose(only_x.col("ay"), raw.col("ay")[:-3], atol=0)
+
+
+def test_the_gyro_calibration_is_inverted():
+    raw = _drive()
+    d = apply_calibration(raw, {"yaw_rate_scale": 1.02, "yaw_rate_bias": 0.006})
+    np.testing.assert_allclose(d.col("yaw_rate"), (raw.col("yaw_rate") - 0.006) / 1.02, atol=1e-15)
+    np.testing.assert_array_equal(d.col("ay"), raw.col("ay"))
+
+
+def test_the_pose_is_moved_by_its_delay_and_its_heading_unbiased_across_the_wrap():
+    # a heading turning through ±pi, recorded wrapped: moved by 30 ms and less a 0.01 rad bias,
+    # it stays a wrapped heading and is continuous where the recording wraps
+    raw = _drive()
+    truth = np.pi - 1.0 + 0.5 * raw.t  # through pi at t = 2 s
+    df = raw.data.copy()
+    df["x"], df["y"] = np.cos(raw.t), np.sin(raw.t)
+    df["psi"] = (truth + 0.01 + np.pi) % (2 * np.pi) - np.pi
+    d = apply_calibration(Drive(df, raw.meta), {"delay_pose": 0.03, "pose_heading_bias": 0.01})
+    assert d.n == raw.n - 3
+    psi = d.col("psi")
+    assert np.abs(psi).max() <= np.pi
+    np.testing.assert_allclose(np.unwrap(psi), truth[3:], atol=1e-9)
+    np.testing.assert_allclose(d.col("x"), np.cos(raw.t[3:]), atol=1e-3)
+    np.testing.assert_array_equal(d.col("ay"), raw.col("ay")[:-3])

@@ -368,7 +368,7 @@ def test_rear_axle_from_the_pose_against_the_simulated_truth():
     # standard errors of the tire's slope, and a heading bias of 1 deg (v_x times it in v_y)
     # goes into the constant
     d = _sim()
-    inv_cr, var, n = _rear_from_pose(d)
+    inv_cr, var, n, *_ = _rear_from_pose(d)
     _, cr = _true_stiffness(d)
     assert n > 5000
     assert abs(inv_cr * cr - 1.0) <= 2.5 * math.sqrt(var) * cr
@@ -407,3 +407,29 @@ def test_accelerometer_gain_is_not_diluted_by_the_pose():
     assert v["ay_gain"].value == pytest.approx(1.12, rel=0.03)
     assert abs(v["ay_bias"].value - 0.1) < max(0.05, 3 * v["ay_bias"].std)
     assert v["roll_gradient"].fitted
+
+
+def test_gyro_scale_and_bias_against_the_pose():
+    # a gyro reading 2 % high with a 6 mrad/s bias (the sim's own gyro has neither): found
+    # from the pose's heading, and the rest of the fit reads the corrected gyro, so the
+    # stiffnesses and the steering delay are those of the clean gyro's fit
+    d = _injected()
+    df = d.data.copy()
+    df["yaw_rate"] = 1.02 * df["yaw_rate"] + 0.006
+    v = fit_vehicle(Drive(df, d.meta)).values
+    assert v["yaw_rate_scale"].fitted and v["yaw_rate_bias"].fitted
+    assert v["yaw_rate_scale"].value == pytest.approx(1.02, abs=0.005)
+    assert v["yaw_rate_bias"].value == pytest.approx(0.006, abs=0.0005)
+    for name in ("yaw_rate_scale", "yaw_rate_bias"):
+        truth = {"yaw_rate_scale": 1.02, "yaw_rate_bias": 0.006}[name]
+        assert abs(v[name].value - truth) < 4 * v[name].std + 1e-4, v[name]
+    # the corrected gyro is the clean one to 1e-4 (uncorrected: the stiffnesses move ~1 %)
+    np.testing.assert_allclose(_fit_relative(df), _fit_relative(d.data.copy()), atol=1e-4)
+
+
+def test_gyro_without_a_pose_is_undetermined():
+    d = _injected()
+    df = d.data.drop(columns=["x", "y", "psi"])
+    v = fit_vehicle(Drive(df, d.meta)).values
+    for name, neutral in (("yaw_rate_scale", 1.0), ("yaw_rate_bias", 0.0)):
+        assert not v[name].fitted and v[name].value == neutral and "pose" in v[name].note

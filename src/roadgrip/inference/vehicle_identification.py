@@ -16,6 +16,11 @@ accelerometer (a_y) delay    ``a_y`` against ``v_x r`` (+ ``dv_y/dt`` with a pos
 wheel-speed / vx delay       ``d v_x/dt`` against ``a_x + v_y r`` (outside braking), plus
                              ``a_x``'s delay (else ``a_y``'s)
 pose delay                   ``dpsi/dt`` against the gyro
+pose heading bias            the constant of the rear axle's slip against the pose's ``v_y``
+                             (below)
+gyro scale and bias          ``r = s dpsi/dt + b`` against the pose's heading
+                             (:mod:`~roadgrip.inference.gyro_fit`); the rest of the fit
+                             reads the corrected gyro
 steering delay, offset,      the linear single-track identity (below), by least squares
 scale, cornering stiffness   over the linear-range samples, the delay by a profile
 per axle
@@ -86,6 +91,7 @@ from roadgrip.inference.fitted_value import FittedValue
 from roadgrip.inference.fitted_value import describe as _describe
 from roadgrip.inference.fitted_value import fitted as _fitted
 from roadgrip.inference.fitted_value import undetermined as _undetermined
+from roadgrip.inference.gyro_fit import fit_gyro
 from roadgrip.inference.least_squares import (
     eiv_lstsq,
     filter_noise_energy,
@@ -296,9 +302,11 @@ def rear_axle_from_pose(drive: Drive, base: VehicleParams, vx: NDArray, dt: floa
 
     Returns
     -------
-    (inv_cr, var, n) or None
-        ``1/C_r`` [rad/N], its variance (least squares, inflated for correlated residuals)
-        and the samples used; None without a pose, with fewer than :data:`MIN_LINEAR`
+    (inv_cr, var, n, heading_bias, heading_var) or None
+        ``1/C_r`` [rad/N], its variance (least squares, inflated for correlated residuals),
+        the samples used, and the constant [rad] with its variance: the pose's heading bias
+        (a heading ``b`` too large puts ``-v_x b`` into the pose's ``v_y``, ``+b`` into the
+        rear slip angle); None without a pose, with fewer than :data:`MIN_LINEAR`
         linear-range samples or a non-positive slope.
     """
     if not drive.has_pose:
@@ -328,7 +336,7 @@ def rear_axle_from_pose(drive: Drive, base: VehicleParams, vx: NDArray, dt: floa
     beta, cov, _ = lstsq(np.column_stack([force, np.ones(n)]), alpha)
     if not beta[0] > 0:
         return None
-    return float(beta[0]), float(cov[0, 0]), n
+    return float(beta[0]), float(cov[0, 0]), n, float(beta[1]), float(cov[1, 1])
 
 
 def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc_delay: float,
@@ -356,6 +364,7 @@ def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc
         why = (f"{n} linear-range samples above {V_MIN:g} m/s, a_y std {ay_std:.2f} m/s² "
                f"(needs {MIN_LINEAR} and {MIN_AY_STD:g})")
         out = {k: _undetermined(k, u, why, getattr(base, k, math.nan)) for k, u in names.items()}
+        out["pose_heading_bias"] = _undetermined("pose_heading_bias", "rad", why)
         return out, n
     X = np.column_stack([L * r[sel] / vxs[sel], np.ones(n), m * ay[sel] / L, rdot[sel] / L])
     noise = _regressor_noise(drive, L, m / roll, vxs[sel], dt, acc_delay)
@@ -382,6 +391,11 @@ def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc
     if pose_rear is not None:  # 1/C_r = (l_r J/I_z - K)/l, measured again by the pose
         beta, cov = fuse_scalar(beta, cov, lambda b: (base.lr * b[3] / base.yaw_inertia - b[2])
                                 / b[0] / L, pose_rear[0], pose_rear[1])
+        heading = _fitted("pose_heading_bias", pose_rear[3], math.sqrt(pose_rear[4]), "rad",
+                          "the constant of the rear axle's slip against the pose's v_y")
+    else:
+        heading = _undetermined("pose_heading_bias", "rad", "needs a pose with its delay fitted "
+                                "and linear-range turning")
     s = 1.0 / beta[0]
 
     def params(b):
@@ -400,7 +414,7 @@ def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc
         jac[:, k] = (params(bp) - p) / h
     var = np.diag(jac @ cov @ jac.T)
     pstd = np.sqrt(np.maximum(var, 0.0))
-    out: dict[str, FittedValue] = {}
+    out: dict[str, FittedValue] = {"pose_heading_bias": heading}
     at_edge = i in (0, len(rss) - 1)
     if at_edge or not math.isfinite(d_std):
         out["steer_delay"] = _undetermined("steer_delay", "s", "no residual minimum within "
@@ -477,6 +491,11 @@ def fit_vehicle(drive: Drive, base: VehicleParams | None = None, *, mu: float = 
         t = grid
     vx, src = wheel_speed_vx(drive)
     values = _delays(drive, vx, src, dt, base)
+    values.update(fit_gyro(drive, dt, values.get("delay_pose")))
+    if values["yaw_rate_scale"].fitted:  # the rest of the fit reads the corrected gyro
+        df = drive.data.copy()
+        df["yaw_rate"] = (df["yaw_rate"] - values["yaw_rate_bias"].value) / values["yaw_rate_scale"].value
+        drive = Drive(df, drive.meta)
     acc = values["delay_accelerometer"]
     acc_delay = acc.value if acc.fitted else 0.0
     pose = values.get("delay_pose")

@@ -22,17 +22,21 @@ __all__ = ["CALIBRATION", "apply_calibration", "read_calibration", "shift_column
 
 CALIBRATION: dict[str, tuple[str, float]] = {
     "delay_accelerometer": ("s", 1.0), "delay_accelerometer_x": ("s", 1.0), "delay_speed": ("s", 1.0),
+    "delay_pose": ("s", 1.0), "pose_heading_bias": ("rad", 0.5),
     "steer_delay": ("s", 1.0), "steer_scale": ("-", 10.0), "steer_offset": ("rad", 0.5), "ay_bias": ("m/s²", 20.0),
-    "ax_bias": ("m/s²", 20.0),
+    "ax_bias": ("m/s²", 20.0), "yaw_rate_scale": ("-", 2.0), "yaw_rate_bias": ("rad/s", 0.5),
 }  # fmt: skip
 """The sensor calibration a vehicle file carries (``calibration:``): name -> (unit, largest
 magnitude). Delays are against the gyro: ``delay_accelerometer`` moves ``ay``, and ``ax``
 too unless ``delay_accelerometer_x`` (``a_x``'s own, a separate message on some buses) is
 given (a file written before it existed keeps one accelerometer clock); the road-wheel angle
-is ``steer_scale steer + steer_offset``; the biases are subtracted."""
+is ``steer_scale steer + steer_offset``; the biases are subtracted; the yaw rate is
+``(yaw_rate - yaw_rate_bias) / yaw_rate_scale``; ``delay_pose`` moves the pose (``x, y, psi``
+and ``vx_pose, vy_pose``) and ``pose_heading_bias`` is subtracted from ``psi``."""
 
 _DELAYED = {"delay_accelerometer": ("ax", "ay"), "delay_accelerometer_x": ("ax",),
-            "steer_delay": ("steer",), "delay_speed": ("vx", *WHEEL_COLUMNS)}
+            "steer_delay": ("steer",), "delay_speed": ("vx", *WHEEL_COLUMNS),
+            "delay_pose": ("x", "y", "psi", "vx_pose", "vy_pose")}
 """The columns each delay moves; a later entry overrides an earlier one for a column
 (``delay_accelerometer_x`` over ``delay_accelerometer`` for ``ax``)."""
 
@@ -68,10 +72,29 @@ def read_calibration(path: str | Path) -> dict[str, float]:
         if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or abs(v) > big:
             raise ValueError(f"vehicle file {p.name}: calibration {k!r} = {v!r} must be a number "
                              f"within ±{big:g} {unit}")
-        if k == "steer_scale" and v <= 0:
-            raise ValueError(f"vehicle file {p.name}: calibration 'steer_scale' = {v!r} must be > 0")
+        if k in ("steer_scale", "yaw_rate_scale") and v <= 0:
+            raise ValueError(f"vehicle file {p.name}: calibration {k!r} = {v!r} must be > 0")
         out[str(k)] = float(v)
     return out
+
+
+_ANGLES = ("psi",)
+"""Columns that are headings [rad], recorded wrapped to ±pi or continuous."""
+
+
+def _unwrapped(v: np.ndarray) -> np.ndarray:
+    """A heading made continuous over its finite samples (NaN kept)."""
+    out = v.copy()
+    ok = np.isfinite(v)
+    out[ok] = np.unwrap(v[ok])
+    return out
+
+
+def _wrapped_like(orig: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``v`` wrapped to [-pi, pi) where the recorded heading ``orig`` was wrapped, else as is."""
+    if np.nanmax(np.abs(orig), initial=0.0) <= np.pi + 1e-9:
+        return (v + np.pi) % (2.0 * np.pi) - np.pi
+    return v
 
 
 def shift_columns(drive: Drive, shifts: dict[str, float]) -> Drive:
@@ -90,7 +113,11 @@ def shift_columns(drive: Drive, shifts: dict[str, float]) -> Drive:
         k = np.clip(np.searchsorted(t, ts, side="right"), 1, len(t) - 1)
         inside &= (t[k] - t[k - 1]) <= 3.0 * dt
         keep &= inside
-        df[col] = np.interp(ts, t, df[col].to_numpy(float))
+        v = df[col].to_numpy(float)
+        if col in _ANGLES:  # a heading wraps at ±pi: interpolate it unwrapped
+            df[col] = _wrapped_like(v, np.interp(ts, t, _unwrapped(v)))
+        else:
+            df[col] = np.interp(ts, t, v)
     extra = dict(drive.meta.extra or {})
     extra["alignment_s"] = {c: float(d) for c, d in shifts.items() if c in df.columns}
     return Drive(df[keep].reset_index(drop=True), replace(drive.meta, extra=extra))
@@ -102,7 +129,8 @@ def apply_calibration(drive: Drive, calibration: dict[str, float]) -> Drive:
     Each sensor's columns move back by its delay (the accelerometer's ``ay``, and ``ax`` by
     ``delay_accelerometer_x`` where given, else by ``delay_accelerometer``; the speed's ``vx``
     and wheel speeds; ``steer``; the ends without a partner dropped), then
-    ``steer <- steer_scale steer + steer_offset``, ``ay <- ay - ay_bias``, ``ax <- ax - ax_bias``.
+    ``steer <- steer_scale steer + steer_offset``, ``ay <- ay - ay_bias``, ``ax <- ax - ax_bias``,
+    ``yaw_rate <- (yaw_rate - yaw_rate_bias) / yaw_rate_scale``.
     ``meta.extra['calibration']`` records what was applied.
 
     Parameters
@@ -138,6 +166,11 @@ def apply_calibration(drive: Drive, calibration: dict[str, float]) -> Drive:
     for c in ("ay", "ax"):
         if drive.has(c) and f"{c}_bias" in calibration:
             df[c] = df[c] - calibration[f"{c}_bias"]
+    if drive.has("psi") and "pose_heading_bias" in calibration:
+        df["psi"] = _wrapped_like(drive.col("psi"), df["psi"].to_numpy(float) - calibration["pose_heading_bias"])
+    if drive.has("yaw_rate"):
+        df["yaw_rate"] = ((df["yaw_rate"] - calibration.get("yaw_rate_bias", 0.0))
+                          / calibration.get("yaw_rate_scale", 1.0))
     extra = dict(out.meta.extra or {})
     extra["calibration"] = dict(calibration)
     return Drive(df, replace(out.meta, extra=extra))

@@ -51,6 +51,7 @@ __all__ = [
     "FAMILY_RANGES",
     "SENSOR_MODES",
     "axle_peak_slip",
+    "fit_truth",
     "mb_vehicle",
     "parse_vehicle_spec",
     "sample_vehicle",
@@ -237,3 +238,29 @@ def axle_peak_slip(vehicle: MBVehicle, mu: float) -> tuple[float, float]:
         fy = np.array([lateral(a, 0.0, fz, tire)[0] for a in alphas])
         out.append(float(alphas[np.argmax(np.abs(fy))]))
     return out[0], out[1]
+
+
+def fit_truth(vehicle: MBVehicle, duration: float) -> dict[str, float]:
+    """What ``roadgrip vehicle fit`` should find on a drive of ``vehicle`` lasting ``duration`` [s].
+
+    The front cornering stiffness in series with the steering compliance,
+    ``1/(1/C_f + c)``, the rear the tire's [N/rad]; each delay its sensor's latency minus the
+    gyro's [s] (the speed's: the undriven wheels', or the ``vx`` column's on an all-wheel
+    drive; ``a_x``'s its own); the steering offset the road-wheel angle at a zero reading,
+    ``-offset/(1 + ratio_error)`` [rad]; the gyro's scale [-] and bias [rad/s] and the pose's
+    heading bias [rad], each bias at the drive's middle (a sensor's bias drifts linearly).
+    Keyed as :class:`~roadgrip.inference.vehicle_identification.VehicleFit` values.
+    """
+    vp, ch, st = vehicle.params, vehicle.sensors.channels, vehicle.sensors.steering
+    gyro = ch["yaw_rate"].delay
+    speed = ch["vx"].delay if vp.drive == "awd" else ch["omega_fl"].delay  # a free-rolling wheel's
+    mid = 0.5 * duration
+    return {"cornering_stiffness_front": 1.0 / (1.0 / vp.cornering_stiffness_front + st.compliance),
+            "cornering_stiffness_rear": vp.cornering_stiffness_rear,
+            "delay_accelerometer": ch["ay"].delay - gyro, "steer_delay": ch["steer"].delay - gyro,
+            "delay_speed": speed - gyro, "delay_pose": ch["psi"].delay - gyro,
+            "delay_accelerometer_x": ch["ax"].delay - gyro,
+            "steer_offset": -st.offset / (1.0 + st.ratio_error),
+            "yaw_rate_scale": ch["yaw_rate"].scale,
+            "yaw_rate_bias": ch["yaw_rate"].bias + ch["yaw_rate"].drift * mid,
+            "pose_heading_bias": ch["psi"].bias + ch["psi"].drift * mid}
