@@ -15,7 +15,7 @@ caches the drives.
 classifiers calibrated with ``roadgrip calibrate --label high --vehicle car.yaml`` on the dry
 first minute of ``dry-gravel-dry`` seed 10, both drives read with the car's fitted vehicle file
 (``roadgrip vehicle fit`` on :data:`FIT_DRIVE`, the same seed 10: a drive separate from the
-scored one; its delays and accelerometer biases applied, :func:`_fitted_drive`), as the issue
+scored one; its delays and accelerometer biases applied, :meth:`~roadgrip.inference.vehicle_identification.VehicleFit.read`), as the issue
 asks ("plus the fitted vehicle"): the channels on/off, longitudinal/lateral, and the latency
 of the wheel speeds behind the accelerometer the calibration still aligns (``lat ms``; the
 file moves ``a_x`` by its own delay where the fit drive's pose times it), scored on seed 0
@@ -90,7 +90,7 @@ def _understeer(vp) -> float:
 
 def _classifier_cells(name: str, fit=None) -> str:
     """Calibration and both classifiers' scores on one vehicle (``--estimators``); with
-    ``fit``, both drives read with the fitted vehicle file (:func:`_fitted_drive`)."""
+    ``fit``, both drives read with the fitted vehicle file (:meth:`~roadgrip.inference.vehicle_identification.VehicleFit.read`)."""
     from roadgrip.estimators import run_estimator
     from roadgrip.estimators.classify import calibrate
     from roadgrip.evaluate.classification import surface_change_scores
@@ -99,7 +99,7 @@ def _classifier_cells(name: str, fit=None) -> str:
     cal_drive = simulate_scenario("dry-gravel-dry", seed=10, engine="multibody", vehicle=name)
     test = simulate_scenario("dry-gravel-dry", seed=0, engine="multibody", vehicle=name)
     if fit is not None:
-        cal_drive, test = _fitted_drive(cal_drive, fit), _fitted_drive(test, fit)
+        cal_drive, test = fit.read(cal_drive), fit.read(test)
     dry = cal_drive.slice_time(0.0, 60.0)
     try:
         cal = calibrate([(dry, "high")])
@@ -141,7 +141,7 @@ def _cascade_cells(name: str, fit=None, tally: dict | None = None) -> str:
     from roadgrip.mapping import grid_from_estimates
 
     d = simulate_scenario("figure-eight", seed=0, engine="multibody", vehicle=name)
-    run_on = d if fit is None else _fitted_drive(d, fit)
+    run_on = d if fit is None else fit.read(d)
     latency = UNALIGNED_LATENCY_STD if fit is None else ALIGNED_LATENCY_STD
     res = run_estimator("cascade", run_on, {"accel_latency_std": latency})
     score = score_map(run_on, grid_from_estimates(res.table, cell=5.0))
@@ -185,18 +185,6 @@ def fit_family_vehicle(name: str):
 
     scenario, seed, mu = FIT_DRIVE
     return fit_vehicle(simulate_scenario(scenario, seed=seed, engine="multibody", vehicle=name), mu=mu)
-
-
-def _fitted_drive(d, fit):
-    """The drive as ``--vehicle car.yaml`` reads it: calibrated, with the fitted vehicle."""
-    from dataclasses import replace
-
-    from roadgrip.drive import Drive
-    from roadgrip.io.calibration import CALIBRATION, apply_calibration
-
-    cal = {k: v.value for k, v in fit.values.items() if k in CALIBRATION and v.fitted}
-    out = apply_calibration(d, cal)
-    return Drive(out.data, replace(out.meta, vehicle=fit.vehicle.replace(name=d.vehicle.name)))
 
 
 def fit_errors(name: str, fit, duration: float = FIT_DURATION) -> dict[str, float]:
@@ -256,7 +244,7 @@ def _gpssm_cells(name: str, fit=None) -> str:
     from roadgrip.evaluate.honesty import score_result
 
     d = simulate_scenario("snow-slalom", seed=0, engine="multibody", vehicle=name)
-    run_on = d if fit is None else _fitted_drive(d, fit)
+    run_on = d if fit is None else fit.read(d)
     cfg = GPSSMConfig(particles=200)
     table, cv = run_filter(run_on, cfg, seed=0, curve_times=(1e9,),
                            curve_alpha=np.radians(np.linspace(-20, 20, 161)))

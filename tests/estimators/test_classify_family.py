@@ -30,12 +30,9 @@ holds and is asserted here (``docs/validation-classification.md``, family sectio
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 
-from roadgrip.drive import Drive
 from roadgrip.estimators import run_estimator
 from roadgrip.estimators.classify import calibrate
 from roadgrip.evaluate.classification import surface_change_scores
@@ -52,14 +49,6 @@ def _mb(vehicle: str, seed: int):
     return simulate_scenario("dry-gravel-dry", seed=seed, engine="multibody", vehicle=vehicle)
 
 
-def _read_with_fitted_file(drive: Drive, fit) -> Drive:
-    """The drive as ``--vehicle car.yaml`` of ``fit`` reads it (its calibration and vehicle)."""
-    from roadgrip.io.calibration import CALIBRATION, apply_calibration
-
-    out = apply_calibration(drive, {k: v.value for k, v in fit.values.items() if k in CALIBRATION and v.fitted})
-    return Drive(out.data, replace(out.meta, vehicle=fit.vehicle.replace(name=drive.vehicle.name)))
-
-
 def _family(fitted: bool):
     """Per vehicle: None where the calibration fails, else per method (scores, honesty)."""
     from roadgrip.inference.vehicle_identification import fit_vehicle
@@ -69,7 +58,7 @@ def _family(fitted: bool):
         cal_drive, test = _mb(vehicle, 10), _mb(vehicle, 0)
         if fitted:
             fit = fit_vehicle(cal_drive, mu=0.6)
-            cal_drive, test = _read_with_fitted_file(cal_drive, fit), _read_with_fitted_file(test, fit)
+            cal_drive, test = fit.read(cal_drive), fit.read(test)
         dry = cal_drive.slice_time(0.0, 60.0)
         try:
             cal = calibrate([(dry, "high")])

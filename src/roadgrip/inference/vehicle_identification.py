@@ -147,6 +147,22 @@ class VehicleFit:
     samples: int = 0
     notes: tuple[str, ...] = field(default=())
 
+    @property
+    def calibration(self) -> dict[str, float]:
+        """The fitted sensor calibration the vehicle file carries (``calibration:``)."""
+        return {k: v.value for k, v in self.values.items() if k in CALIBRATION and v.fitted}
+
+    def read(self, drive: Drive) -> Drive:
+        """``drive`` as ``--vehicle`` of this fit's file reads it: its sensors calibrated
+        (:func:`~roadgrip.io.calibration.apply_calibration`) and the fitted vehicle, under the
+        drive's vehicle name."""
+        from dataclasses import replace
+
+        from roadgrip.io.calibration import apply_calibration
+
+        out = apply_calibration(drive, self.calibration)
+        return Drive(out.data, replace(out.meta, vehicle=self.vehicle.replace(name=drive.vehicle.name)))
+
     def to_yaml(self) -> str:
         """The vehicle file: every vehicle field, then each identified value as a comment
         with its standard error and status (sensor calibrations are not vehicle fields)."""
@@ -162,7 +178,7 @@ class VehicleFit:
             lines.append(line + (f"  # {_describe(v)}" if v is not None else ""))
         lines.append("# Sensor calibration, applied to every drive read with this file:")
         lines.append(f"{CALIBRATION_KEY}:")
-        fitted = [v for v in self.values.values() if v.name in CALIBRATION and v.fitted]
+        fitted = [v for v in self.values.values() if v.name in self.calibration]
         for v in fitted:
             lines.append(f"  {v.name}: {v.value!r}  # {_describe(v)}")
         if not fitted:
