@@ -57,7 +57,8 @@ its own ``delay_accelerometer_x`` or, where that is undetermined, ``a_y``'s); th
 ``-offset/(1 + ratio_error)``. An undetermined value fails its criterion.
 
 ``--gpssm`` prints the GP-SSM on ``snow-slalom`` seed 0 (200 particles, filter seed 0, as the
-multi-body acceptance runs it) with the fitted vehicle and calibration: per axle the final
+multi-body acceptance runs it; ``--particles`` and ``--filter-seed`` change them) with the
+fitted vehicle and calibration: per axle the final
 curve's MAE and band coverage (:func:`roadgrip.estimators.gpssm.accuracy.honesty_figures`;
 pass: MAE <= 0.02 and coverage >= 0.9 on both axles) and whether the run is honest.
 """
@@ -235,7 +236,7 @@ def fit_table(names: list[str]) -> None:
     print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
 
 
-def _gpssm_cells(name: str, fit=None) -> str:
+def _gpssm_cells(name: str, fit=None, particles: int = 200, seed: int = 0) -> str:
     """The GP-SSM's final curves on the snow slalom and its honesty (``--gpssm``)."""
     from roadgrip.estimators.base import EstimateResult
     from roadgrip.estimators.gpssm import GPSSMConfig, run_filter
@@ -245,8 +246,8 @@ def _gpssm_cells(name: str, fit=None) -> str:
 
     d = simulate_scenario("snow-slalom", seed=0, engine="multibody", vehicle=name)
     run_on = d if fit is None else fit.read(d)
-    cfg = GPSSMConfig(particles=200)
-    table, cv = run_filter(run_on, cfg, seed=0, curve_times=(1e9,),
+    cfg = GPSSMConfig(particles=particles)
+    table, cv = run_filter(run_on, cfg, seed=seed, curve_times=(1e9,),
                            curve_alpha=np.radians(np.linspace(-20, 20, 161)))
     h = honesty_figures(run_on, table, next(iter(cv.values())))
     res = EstimateResult("gpssm", table, {"config": cfg.to_meta(), "summary": summary(table)}, None)
@@ -256,14 +257,14 @@ def _gpssm_cells(name: str, fit=None) -> str:
             f" {'yes' if score_result(res, run_on).honest else 'no':>6}")
 
 
-def gpssm_table(names: list[str]) -> None:
+def gpssm_table(names: list[str], particles: int = 200, seed: int = 0) -> None:
     """Print the GP-SSM's snow-slalom criteria with the fitted car (module docstring)."""
     print(f"{'vehicle':<11} {'drive':<5} {'mae f':>6} {'cov f':>5} {'mae r':>6} {'cov r':>5} {'pass':>4} "
           f"{'honest':>6}")
     t_start = time.perf_counter()
     for name in names:
         fit = fit_family_vehicle(name)
-        print(f"{name:<11} {fit.vehicle.drive:<5}{_gpssm_cells(name, fit)}", flush=True)
+        print(f"{name:<11} {fit.vehicle.drive:<5}{_gpssm_cells(name, fit, particles, seed)}", flush=True)
     print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
 
 
@@ -326,6 +327,8 @@ def main() -> None:
                     help="vehicle fit against the truth and the cascade with the fitted car")
     ap.add_argument("--gpssm", action="store_true",
                     help="the GP-SSM on the snow slalom with the fitted car")
+    ap.add_argument("--particles", type=int, default=200, help="with --gpssm: the particle count")
+    ap.add_argument("--filter-seed", type=int, default=0, help="with --gpssm: the filter's seed")
     ap.add_argument("--no-fit", action="store_true",
                     help="with --estimators: the classifiers on the drives as logged, not read with the fitted car")
     ap.add_argument("--classifiers", action="store_true",
@@ -335,7 +338,7 @@ def main() -> None:
     args = ap.parse_args()
     names = ["ford-escort", "vw-vanagon", *(f"random:{s}" for s in _seeds(args.seeds))]
     if args.gpssm:
-        gpssm_table(names[2:])
+        gpssm_table(names[2:], args.particles, args.filter_seed)
         return
     if args.fit:
         fit_table(names[2:])
