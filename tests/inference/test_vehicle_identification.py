@@ -368,14 +368,21 @@ def test_rear_axle_from_the_pose_against_the_simulated_truth():
     # standard errors of the tire's slope, and a heading bias of 1 deg (v_x times it in v_y)
     # goes into the constant
     d = _sim()
-    inv_cr, var, n, *_ = _rear_from_pose(d)
+    inv_cr, var, n, heading, _ = _rear_from_pose(d)
     _, cr = _true_stiffness(d)
     assert n > 5000
     assert abs(inv_cr * cr - 1.0) <= 2.5 * math.sqrt(var) * cr
     assert math.sqrt(var) * cr < 0.08
     df = d.data.copy()
     df["psi"] += np.deg2rad(1.0)
-    assert _rear_from_pose(Drive(df, d.meta))[0] == pytest.approx(inv_cr, rel=0.005)
+    biased = _rear_from_pose(Drive(df, d.meta))
+    assert biased[0] == pytest.approx(inv_cr, rel=0.005)
+    # the constant moves by the heading's bias (the sim's own heading has none), within
+    # 0.5 mrad and four of its standard errors
+    shift = biased[3] - heading
+    assert shift == pytest.approx(np.deg2rad(1.0), abs=5e-4)
+    assert abs(shift - np.deg2rad(1.0)) <= 4.0 * math.sqrt(biased[4]) + 1e-4
+    assert abs(heading) < 2e-3
     assert _rear_from_pose(Drive(d.data.drop(columns=["x", "y", "psi"]), d.meta)) is None
 
 
