@@ -35,15 +35,20 @@ UNALIGNED_LATENCY_STD = 0.06
 ``0.15 / sqrt(6)``, as ``benchmarks/vehicle_family.py`` states it."""
 
 
+def _scores(d, accel_latency_std: float):
+    """The honesty score of the cascade's run on ``d`` and its 5 m map's score."""
+    res = run_estimator("cascade", d, {"accel_latency_std": accel_latency_std})
+    return score_result(res, d), score_map(d, grid_from_estimates(res.table, cell=5.0))
+
+
+def _figure_eight(vehicle: str):
+    return simulate_scenario("figure-eight", seed=0, engine="multibody", vehicle=vehicle)
+
+
 @pytest.fixture(scope="module")
 def family():
     """Per vehicle: the honesty score of the cascade's run and its 5 m map's score."""
-    out = {}
-    for vehicle in FAMILY:
-        d = simulate_scenario("figure-eight", seed=0, engine="multibody", vehicle=vehicle)
-        res = run_estimator("cascade", d, {"accel_latency_std": UNALIGNED_LATENCY_STD})
-        out[vehicle] = (score_result(res, d), score_map(d, grid_from_estimates(res.table, cell=5.0)))
-    return out
+    return {vehicle: _scores(_figure_eight(vehicle), UNALIGNED_LATENCY_STD) for vehicle in FAMILY}
 
 
 def test_honest_on_the_whole_family(family):
@@ -72,9 +77,7 @@ def family_fitted():
     out = {}
     for vehicle in FAMILY:
         fit = fit_vehicle(simulate_scenario("dry-gravel-dry", seed=10, engine="multibody", vehicle=vehicle), mu=0.6)
-        d = fit.read(simulate_scenario("figure-eight", seed=0, engine="multibody", vehicle=vehicle))
-        res = run_estimator("cascade", d, {"accel_latency_std": ALIGNED_LATENCY_STD})
-        out[vehicle] = (score_result(res, d), score_map(d, grid_from_estimates(res.table, cell=5.0)))
+        out[vehicle] = _scores(fit.read(_figure_eight(vehicle)), ALIGNED_LATENCY_STD)
     return out
 
 

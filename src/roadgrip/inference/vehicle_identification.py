@@ -72,7 +72,7 @@ include the delay's own error through their slope along the delay.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -100,7 +100,7 @@ from roadgrip.inference.least_squares import (
     lstsq,
     n_eff,
 )
-from roadgrip.io.calibration import CALIBRATION
+from roadgrip.io.calibration import CALIBRATION, apply_calibration, corrected_yaw_rate
 from roadgrip.io.derived import body_velocity_from_pose, white_noise_std
 from roadgrip.signals import WHEELS, undriven_wheels, wheel_speed_vx
 from roadgrip.vehicle.params import CALIBRATION_KEY, FIELD_RANGES, VehicleParams
@@ -156,10 +156,6 @@ class VehicleFit:
         """``drive`` as ``--vehicle`` of this fit's file reads it: its sensors calibrated
         (:func:`~roadgrip.io.calibration.apply_calibration`) and the fitted vehicle, under the
         drive's vehicle name."""
-        from dataclasses import replace
-
-        from roadgrip.io.calibration import apply_calibration
-
         out = apply_calibration(drive, self.calibration)
         return Drive(out.data, replace(out.meta, vehicle=self.vehicle.replace(name=drive.vehicle.name)))
 
@@ -178,7 +174,8 @@ class VehicleFit:
             lines.append(line + (f"  # {_describe(v)}" if v is not None else ""))
         lines.append("# Sensor calibration, applied to every drive read with this file:")
         lines.append(f"{CALIBRATION_KEY}:")
-        fitted = [v for v in self.values.values() if v.name in self.calibration]
+        calibration = self.calibration
+        fitted = [v for v in self.values.values() if v.name in calibration]
         for v in fitted:
             lines.append(f"  {v.name}: {v.value!r}  # {_describe(v)}")
         if not fitted:
@@ -510,7 +507,8 @@ def fit_vehicle(drive: Drive, base: VehicleParams | None = None, *, mu: float = 
     values.update(fit_gyro(drive, dt, values.get("delay_pose")))
     if values["yaw_rate_scale"].fitted:  # the rest of the fit reads the corrected gyro
         df = drive.data.copy()
-        df["yaw_rate"] = (df["yaw_rate"] - values["yaw_rate_bias"].value) / values["yaw_rate_scale"].value
+        df["yaw_rate"] = corrected_yaw_rate(drive.col("yaw_rate"), {
+            k: values[k].value for k in ("yaw_rate_bias", "yaw_rate_scale")})
         drive = Drive(df, drive.meta)
     acc = values["delay_accelerometer"]
     acc_delay = acc.value if acc.fitted else 0.0

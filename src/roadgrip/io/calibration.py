@@ -18,7 +18,7 @@ import numpy as np
 from roadgrip.drive import WHEEL_COLUMNS, Drive
 from roadgrip.vehicle.params import CALIBRATION_KEY
 
-__all__ = ["CALIBRATION", "apply_calibration", "read_calibration", "shift_columns"]
+__all__ = ["CALIBRATION", "apply_calibration", "corrected_yaw_rate", "read_calibration", "shift_columns"]
 
 CALIBRATION: dict[str, tuple[str, float]] = {
     "delay_accelerometer": ("s", 1.0), "delay_accelerometer_x": ("s", 1.0), "delay_speed": ("s", 1.0),
@@ -97,6 +97,12 @@ def _wrapped_like(orig: np.ndarray, v: np.ndarray) -> np.ndarray:
     return v
 
 
+def corrected_yaw_rate(yaw_rate: np.ndarray, calibration: dict[str, float]) -> np.ndarray:
+    """The gyro's reading [rad/s] corrected: ``(yaw_rate - yaw_rate_bias) / yaw_rate_scale``
+    (a missing entry: bias 0, scale 1)."""
+    return (yaw_rate - calibration.get("yaw_rate_bias", 0.0)) / calibration.get("yaw_rate_scale", 1.0)
+
+
 def shift_columns(drive: Drive, shifts: dict[str, float]) -> Drive:
     """Columns moved back in time by their shift [s]: ``col_new(t) = col(t + shift)``;
     samples whose shifted time falls outside the drive or inside a gap are dropped.
@@ -168,9 +174,8 @@ def apply_calibration(drive: Drive, calibration: dict[str, float]) -> Drive:
             df[c] = df[c] - calibration[f"{c}_bias"]
     if drive.has("psi") and "pose_heading_bias" in calibration:
         df["psi"] = _wrapped_like(drive.col("psi"), df["psi"].to_numpy(float) - calibration["pose_heading_bias"])
-    if drive.has("yaw_rate"):
-        df["yaw_rate"] = ((df["yaw_rate"] - calibration.get("yaw_rate_bias", 0.0))
-                          / calibration.get("yaw_rate_scale", 1.0))
+    if drive.has("yaw_rate") and {"yaw_rate_bias", "yaw_rate_scale"} & calibration.keys():
+        df["yaw_rate"] = corrected_yaw_rate(df["yaw_rate"].to_numpy(float), calibration)
     extra = dict(out.meta.extra or {})
     extra["calibration"] = dict(calibration)
     return Drive(df, replace(out.meta, extra=extra))
