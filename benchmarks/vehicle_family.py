@@ -61,6 +61,10 @@ multi-body acceptance runs it; ``--particles`` and ``--filter-seed`` change them
 fitted vehicle and calibration: per axle the final
 curve's MAE and band coverage (:func:`roadgrip.estimators.gpssm.accuracy.honesty_figures`;
 pass: MAE <= 0.02 and coverage >= 0.9 on both axles) and whether the run is honest.
+
+``--fit-drive vehicle-id`` (with ``--fit`` or ``--gpssm``) fits each car on the identification
+drive ``vehicle-id`` seed 10 instead (dry only, ``--mu 1.0``: slaloms, a lane change and speed
+steps at 8, 12, 16 and 20 m/s), and prints the count passing at the end.
 """
 
 from __future__ import annotations
@@ -174,18 +178,22 @@ def _cascade_tally(tally: dict) -> str:
 
 FIT_DRIVE = ("dry-gravel-dry", 10, 0.6)
 """The fit's drive: scenario, seed and the ``--mu`` of its linear range (module docstring)."""
+FIT_MU = {"dry-gravel-dry": 0.6, "vehicle-id": 1.0}
+"""``--mu`` of each drive the fit may run on (``--fit-drive``): the lowest friction driven."""
 FIT_DURATION = 180.0
 """Length of the fit's drive [s] (``dry-gravel-dry``)."""
 FIT_LIMITS = {"stiffness": 0.10, "delay": 0.020, "offset": np.radians(0.1)}
 """The issue's bounds: relative stiffness error [-], delay error [s], steering offset error [rad]."""
 
 
-def fit_family_vehicle(name: str):
-    """``roadgrip vehicle fit`` of a family vehicle on :data:`FIT_DRIVE`."""
+def fit_family_vehicle(name: str, scenario: str | None = None):
+    """``roadgrip vehicle fit`` of a family vehicle on :data:`FIT_DRIVE` (or on ``scenario``
+    with its seed and ``--mu``)."""
     from roadgrip.inference.vehicle_identification import fit_vehicle
 
-    scenario, seed, mu = FIT_DRIVE
-    return fit_vehicle(simulate_scenario(scenario, seed=seed, engine="multibody", vehicle=name), mu=mu)
+    scenario = scenario or FIT_DRIVE[0]
+    drive = simulate_scenario(scenario, seed=FIT_DRIVE[1], engine="multibody", vehicle=name)
+    return fit_vehicle(drive, mu=FIT_MU[scenario])
 
 
 def fit_errors(name: str, fit, duration: float = FIT_DURATION) -> dict[str, float]:
@@ -214,24 +222,31 @@ def fit_passes(err: dict[str, float]) -> bool:
                 and abs(err["steer_offset"]) <= lim["offset"])
 
 
-def fit_table(names: list[str]) -> None:
-    """Print the fit against the truth and the cascade with the fitted car (module docstring)."""
+def fit_table(names: list[str], scenario: str | None = None) -> None:
+    """Print the fit against the truth and the cascade with the fitted car (module docstring),
+    the fit on :data:`FIT_DRIVE` or on ``scenario`` (same seed and ``--mu``)."""
+    from roadgrip.sim.scenarios import SCENARIOS as ALL
+
+    duration = FIT_DURATION if scenario is None else float(ALL[scenario].multibody_duration)
     print(f"{'vehicle':<11} {'drive':<5} {'Cf %':>6} {'Cr %':>6} {'acc ms':>6} {'steer':>6} {'speed':>6} "
           f"{'pose':>6} {'ax ms':>6} {'off deg':>7} {'pass':>4} {'gyro %':>6} {'mrad/s':>6} {'head':>6} | "
           f"{CASCADE_HEADER}")
     t_start = time.perf_counter()
     tally: dict = {}
+    n_pass = 0
     for name in names:
-        fit = fit_family_vehicle(name)
-        e = fit_errors(name, fit)
+        fit = fit_family_vehicle(name, scenario)
+        e = fit_errors(name, fit, duration)
         row = (f"{name:<11} {fit.vehicle.drive:<5} {100 * e['cornering_stiffness_front']:>+6.1f} "
                f"{100 * e['cornering_stiffness_rear']:>+6.1f}")
         for k in ("delay_accelerometer", "steer_delay", "delay_speed", "delay_pose", "delay_accelerometer_x"):
             row += f" {1e3 * e[k]:>+6.0f}"
+        n_pass += fit_passes(e)
         row += f" {np.degrees(e['steer_offset']):>+7.3f} {'yes' if fit_passes(e) else 'no':>4}"
         row += (f" {100 * e['yaw_rate_scale']:>+6.2f} {1e3 * e['yaw_rate_bias']:>+6.2f}"
                 f" {1e3 * e['pose_heading_bias']:>+6.2f} |")
         print(row + _cascade_cells(name, fit, tally), flush=True)
+    print(f"fit on {scenario or FIT_DRIVE[0]} seed {FIT_DRIVE[1]}: the whole criterion on {n_pass} of {len(names)}")
     print(_cascade_tally(tally))
     print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
 
@@ -257,14 +272,19 @@ def _gpssm_cells(name: str, fit=None, particles: int = 200, seed: int = 0) -> st
             f" {'yes' if score_result(res, run_on).honest else 'no':>6}")
 
 
-def gpssm_table(names: list[str], particles: int = 200, seed: int = 0) -> None:
-    """Print the GP-SSM's snow-slalom criteria with the fitted car (module docstring)."""
+def gpssm_table(names: list[str], particles: int = 200, seed: int = 0, scenario: str | None = None) -> None:
+    """Print the GP-SSM's snow-slalom criteria with the car fitted on :data:`FIT_DRIVE` or on
+    ``scenario`` (module docstring)."""
     print(f"{'vehicle':<11} {'drive':<5} {'mae f':>6} {'cov f':>5} {'mae r':>6} {'cov r':>5} {'pass':>4} "
           f"{'honest':>6}")
     t_start = time.perf_counter()
+    n_pass = 0
     for name in names:
-        fit = fit_family_vehicle(name)
-        print(f"{name:<11} {fit.vehicle.drive:<5}{_gpssm_cells(name, fit, particles, seed)}", flush=True)
+        fit = fit_family_vehicle(name, scenario)
+        cells = _gpssm_cells(name, fit, particles, seed)
+        n_pass += cells.split()[-2] == "yes"
+        print(f"{name:<11} {fit.vehicle.drive:<5}{cells}", flush=True)
+    print(f"fitted on {scenario or FIT_DRIVE[0]}: the criterion on {n_pass} of {len(names)}")
     print(f"({len(names)} vehicles in {time.perf_counter() - t_start:.0f} s)")
 
 
@@ -327,6 +347,9 @@ def main() -> None:
                     help="vehicle fit against the truth and the cascade with the fitted car")
     ap.add_argument("--gpssm", action="store_true",
                     help="the GP-SSM on the snow slalom with the fitted car")
+    ap.add_argument("--fit-drive", default=None,
+                    help="with --fit or --gpssm: the drive fitted on (default dry-gravel-dry; vehicle-id "
+                         "is the identification drive)", choices=list(FIT_MU))
     ap.add_argument("--particles", type=int, default=200, help="with --gpssm: the particle count")
     ap.add_argument("--filter-seed", type=int, default=0, help="with --gpssm: the filter's seed")
     ap.add_argument("--no-fit", action="store_true",
@@ -338,10 +361,10 @@ def main() -> None:
     args = ap.parse_args()
     names = ["ford-escort", "vw-vanagon", *(f"random:{s}" for s in _seeds(args.seeds))]
     if args.gpssm:
-        gpssm_table(names[2:], args.particles, args.filter_seed)
+        gpssm_table(names[2:], args.particles, args.filter_seed, args.fit_drive)
         return
     if args.fit:
-        fit_table(names[2:])
+        fit_table(names[2:], args.fit_drive)
         return
     if args.classifiers:
         classifier_table(names[2:])

@@ -39,7 +39,7 @@ def _front_nonlinear_fraction(drive) -> float:
 
 def test_registry_and_unknown_name():
     assert set(NAMES) == {"snow-slalom", "dry-gravel-dry", "f1tenth-patches", "straight-cruise", "sine-burst"}
-    assert set(SCENARIOS) == {*NAMES, "figure-eight"}
+    assert set(SCENARIOS) == {*NAMES, "figure-eight", "vehicle-id"}
     for name, sc in SCENARIOS.items():
         assert sc.name == name and sc.duration > 0 and sc.output_rate > 0 and sc.description
         with pytest.raises(AttributeError):

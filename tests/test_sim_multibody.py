@@ -276,3 +276,28 @@ def test_command_line_simulates_on_the_multibody_engine(tmp_path):
     assert "multibody" not in rows["f1tenth-patches"]
     bad = _roadgrip("simulate", "f1tenth-patches", "--engine", "multibody", "-o", str(out))
     assert bad.returncode == 2 and "--engine must be one of planar" in bad.stderr
+
+
+def test_identification_drive_turns_at_every_speed():
+    """``vehicle-id``: both slaloms and the lane change of each block run at its speed of
+    ``VEHICLE_ID_SPEEDS`` (the fit separates the steering's scale from the understeer by the
+    speed), and the plan ends at the last speed."""
+    from roadgrip.sim.mb_scenarios import VEHICLE_ID_SPEEDS, vehicle_id_plan
+
+    for seed in (0, 10):
+        phases, events, length = vehicle_id_plan(seed)
+        assert sum(d for d, _ in phases) == pytest.approx(length)
+        bounds = np.cumsum([0.0, *(d for d, _ in phases)])
+
+        def speed_at(t, bounds=bounds, phases=phases):
+            v = VEHICLE_ID_SPEEDS[0]
+            for (d, a), t0 in zip(phases, bounds[:-1], strict=True):
+                v += a * min(max(t - t0, 0.0), d)
+            return v
+
+        assert len(events) == 3 * len(VEHICLE_ID_SPEEDS)
+        for i, (t0, t1, _kind, _mag, _period) in enumerate(events):
+            want = VEHICLE_ID_SPEEDS[i // 3]
+            # constant speed through the manoeuvre: no speed phase overlaps it
+            assert speed_at(t0) == pytest.approx(want) and speed_at(t1) == pytest.approx(want), (seed, i)
+        assert speed_at(length) == pytest.approx(VEHICLE_ID_SPEEDS[-1])

@@ -17,10 +17,16 @@ figure-eight        laps of a lemniscate (524 m a lap) over dry asphalt (1.0) wi
                     lap the car brakes to 3 m/s on the wet crossing and pulls away
 straight-cruise     20 m/s straight; the friction drops from 1.0 to 0.3 half-way,
                     where nothing excites the tires
+vehicle-id          an identification drive for ``roadgrip vehicle fit``: dry asphalt
+                    (1.0), at each of 8, 12, 16 and 20 m/s a speed pulse, two slaloms
+                    (periods about 2.5 s and 4.5 s, 0.3 g) and a lane change in the
+                    linear range, then a braking and an acceleration step; 100 Hz
 ==================  ==================================================================
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,6 +46,7 @@ __all__ = [
     "FIGURE_EIGHT_PATCHES",
     "MB_BUILDERS",
     "MB_SENSORS",
+    "VEHICLE_ID_SPEEDS",
     "lemniscate",
 ]
 
@@ -100,6 +107,47 @@ def _lane_shape(tau: NDArray, offset: float, change_time: float) -> NDArray:
     return offset * (u - np.sin(2 * np.pi * u) / (2 * np.pi))
 
 
+def _lateral_events(t_of_s: NDArray, t: NDArray, vt: NDArray, events) -> NDArray:
+    """Lateral offset [m] of the path at the points reached at ``t_of_s`` [s], given the
+    planned speed ``vt`` [m/s] over ``t`` [s] and ``events`` ``(t0, t1, kind, magnitude,
+    period)``: a slalom of ``magnitude`` [m/s²] peak lateral acceleration (a full number of
+    periods, faded in and out over half a period), or a lane change of ``magnitude`` [m]."""
+    y = np.zeros_like(t_of_s)
+    for t0, t1, kind, mag, period in events:
+        tau = t_of_s - t0
+        inside = (t_of_s >= t0) & (t_of_s < t1)
+        if kind == "slalom":
+            v_ev = np.interp(t0, t, vt)
+            k = 2 * np.pi / (v_ev * period)
+            amp = mag / (v_ev * k) ** 2
+            n_per = np.floor((t1 - t0) / period + 1e-9)
+            inside &= tau < n_per * period
+            y += np.where(inside, amp * np.sin(2 * np.pi * tau / period)
+                          * np.clip(np.minimum(tau, n_per * period - tau) / (0.5 * period), 0, 1), 0.0)
+        else:
+            hold = (t1 - t0) - 2 * period
+            y += np.where(inside, _lane_shape(tau, mag, period)
+                          - _lane_shape(tau - period - hold, mag, period), 0.0)
+    return y
+
+
+def _path_from_phases(v0: float, phases, events, t_end: float) -> Path:
+    """The path of a straight drive whose speed follows ``phases`` ``(duration [s],
+    acceleration [m/s²])`` from ``v0`` [m/s], with the :func:`_lateral_events` placed where
+    the car is at their times."""
+    t = np.arange(0.0, t_end, 0.01)
+    acc = np.zeros_like(t)
+    tb = 0.0
+    for d, a in phases:
+        acc[(t >= tb) & (t < tb + d)] = a
+        tb += d
+    vt = v0 + np.concatenate([[0.0], np.cumsum(0.5 * (acc[1:] + acc[:-1]) * np.diff(t))])
+    st = np.concatenate([[0.0], np.cumsum(0.5 * (vt[1:] + vt[:-1]) * np.diff(t))])
+    s = np.arange(0.0, st[-1], _DS)
+    t_of_s = np.interp(s, st, t)
+    return Path(s, _lateral_events(t_of_s, t, vt, events), np.interp(t_of_s, t, vt))
+
+
 def _dry_gravel_dry(seed: int, duration: float, progress: bool, vehicle: str | MBVehicle) -> Drive:
     rng = np.random.default_rng([seed, 11])
     labels = ("dry_asphalt", "gravel", "dry_asphalt")
@@ -126,37 +174,10 @@ def _dry_gravel_dry(seed: int, duration: float, progress: bool, vehicle: str | M
             {"t0": t0 + 54.0, "t1": t0 + 57.0, "kind": "braking"},
         ]
     # planned speed over time, then position over time: events in time become places
-    t = np.arange(0.0, len(labels) * DGD_SEGMENT + 60.0, 0.01)
-    acc = np.zeros_like(t)
-    tb = 0.0
-    for d, a in phases:
-        acc[(t >= tb) & (t < tb + d)] = a
-        tb += d
-    vt = v0 + np.concatenate([[0.0], np.cumsum(0.5 * (acc[1:] + acc[:-1]) * np.diff(t))])
-    st = np.concatenate([[0.0], np.cumsum(0.5 * (vt[1:] + vt[:-1]) * np.diff(t))])
-    s = np.arange(0.0, st[-1], _DS)
-    t_of_s = np.interp(s, st, t)
-    y = np.zeros_like(s)
-    for t0, t1, kind, mag, period in events:
-        tau = t_of_s - t0
-        inside = (t_of_s >= t0) & (t_of_s < t1)
-        if kind == "slalom":
-            v_ev = np.interp(t0, t, vt)
-            k = 2 * np.pi / (v_ev * period)
-            amp = mag / (v_ev * k) ** 2
-            # a full number of periods, faded in and out over the first and last half period
-            n_per = np.floor((t1 - t0) / period)
-            inside &= tau < n_per * period
-            y += np.where(inside, amp * np.sin(2 * np.pi * tau / period)
-                          * np.clip(np.minimum(tau, n_per * period - tau) / (0.5 * period), 0, 1), 0.0)
-        else:
-            hold = (t1 - t0) - 2 * period
-            y += np.where(inside, _lane_shape(tau, mag, period)
-                          - _lane_shape(tau - period - hold, mag, period), 0.0)
-    v = np.interp(t_of_s, t, vt)
+    path = _path_from_phases(v0, phases, events, len(labels) * DGD_SEGMENT + 60.0)
     field = PiecewiseTime(tuple(i * DGD_SEGMENT for i in range(len(labels))), labels)
     return simulate_multibody(
-        vehicle, Path(s, y, v), field, {"dry_asphalt": 1.0, "gravel": 0.5}, duration=duration,
+        vehicle, path, field, {"dry_asphalt": 1.0, "gravel": 0.5}, duration=duration,
         output_rate=100.0, sensors=MB_SENSORS, seed=seed, name="dry-gravel-dry", progress=progress,
         truth_extra=dgd_truth(field, labels, excited, duration),
     )
@@ -244,10 +265,65 @@ def _straight_cruise(seed: int, duration: float, progress: bool, vehicle: str | 
     )
 
 
+# ------------------------------------------------------------------------------------
+VEHICLE_ID_SPEEDS = (8.0, 12.0, 16.0, 20.0)
+"""Speeds [m/s] of the ``vehicle-id`` drive's manoeuvres."""
+
+
+def vehicle_id_plan(seed: int) -> tuple[list[tuple[float, float]], list[tuple], float]:
+    """Speed phases ``(duration [s], acceleration [m/s²])``, lateral events (as
+    :func:`_lateral_events`) and length [s] of the ``vehicle-id`` drive.
+
+    At each speed of :data:`VEHICLE_ID_SPEEDS`: a speed pulse (1.5 s at 2 m/s², 2 s held,
+    1.5 s at -2 m/s²), a slalom of four periods of about 2.5 s and one of three periods of
+    about 4.5 s (0.3 g, +-10 % with the seed), a 3.5-m lane change, a 1-s braking step at
+    3.5 m/s² and a 1.75-s acceleration step at 2 m/s² back to the speed; then 2 m/s² to the
+    next speed. Turning at several speeds separates the steering's scale (``L r / v_x``) from
+    the understeer (``a_y = v_x r``); the speed steps, one in every 30 s or so, time the
+    longitudinal channels.
+    """
+    rng = np.random.default_rng([seed, 14])
+    phases: list[tuple[float, float]] = []
+    events: list[tuple] = []
+    t0, v = 0.0, VEHICLE_ID_SPEEDS[0]
+    for i, v_next in enumerate(VEHICLE_ID_SPEEDS):
+        if i:  # to the next speed at 2 m/s²
+            phases.append((abs(v_next - v) / 2.0, math.copysign(2.0, v_next - v)))
+            t0 += abs(v_next - v) / 2.0
+            v = v_next
+        j = rng.uniform(0.9, 1.1, size=3)
+        short, long_ = 2.5 * j[0], 4.5 * j[1]
+        ay = 0.3 * GRAVITY * j[2]
+        phases += [(3.0, 0.0), (1.5, 2.0), (2.0, 0.0), (1.5, -2.0)]
+        t0 += 8.0
+        t1 = t0 + 2.0
+        events.append((t1, t1 + 4 * short, "slalom", ay, short))
+        t1 += 4 * short + 1.0
+        events.append((t1, t1 + 3 * long_, "slalom", ay, long_))
+        t1 += 3 * long_ + 1.0
+        events.append((t1, t1 + 6.0, "lane_change", 3.5, 2.0))
+        t1 += 7.0
+        phases += [(t1 - t0, 0.0), (1.0, -3.5), (3.0, 0.0), (1.75, 2.0), (3.0, 0.0)]
+        t0 = t1 + 8.75
+    phases.append((6.0, 0.0))
+    return phases, events, t0 + 6.0
+
+
+def _vehicle_id(seed: int, duration: float, progress: bool, vehicle: str | MBVehicle) -> Drive:
+    phases, events, length = vehicle_id_plan(seed)
+    path = _path_from_phases(VEHICLE_ID_SPEEDS[0], phases, events, max(length, duration) + 30.0)
+    return simulate_multibody(
+        vehicle, path, ConstantFriction("dry_asphalt"), {"dry_asphalt": 1.0}, duration=duration,
+        output_rate=100.0, sensors=MB_SENSORS, seed=seed, name="vehicle-id", progress=progress,
+        truth_extra={"speeds": list(VEHICLE_ID_SPEEDS), "manoeuvres_end_s": length},
+    )
+
+
 MB_BUILDERS = {
     "snow-slalom": _snow_slalom,
     "dry-gravel-dry": _dry_gravel_dry,
     "figure-eight": _figure_eight,
     "straight-cruise": _straight_cruise,
+    "vehicle-id": _vehicle_id,
 }
 """Scenario name -> ``build(seed, duration, progress, vehicle) -> Drive`` on the multi-body engine."""

@@ -14,6 +14,8 @@ sine-burst          sedan      30 s: four sine-steer bursts at 11 m/s growing to
                                0.87 g on dry asphalt (a short manoeuvre)
 figure-eight        (mb)       laps of a figure-eight with snow, gravel and a wet
                                crossing braked on every second lap
+vehicle-id          (mb)       identification drive for ``roadgrip vehicle fit``: dry,
+                               slaloms and speed steps at 8, 12, 16 and 20 m/s
 ==================  =========  =====================================================
 
 Engines
@@ -348,6 +350,12 @@ SCENARIOS: dict[str, Scenario] = {
             "car lapping a 524 m figure-eight over dry asphalt with snow, gravel and a wet "
             "crossing braked to 3 m/s on every second lap",
             None, ("multibody",), 280.0,
+        ),
+        Scenario(
+            "vehicle-id", "ford-escort", 225.0, 100.0,
+            "identification drive for `roadgrip vehicle fit` on dry asphalt: slaloms, a lane "
+            "change and braking and acceleration steps at 8, 12, 16 and 20 m/s",
+            None, ("multibody",), 225.0,
         ),
     )
 }
