@@ -509,9 +509,7 @@ def single_track_params(name: str, p, *, drive: str | None = None, gradients: tu
     wb = p.a + p.b
     lf = (p.m_s * p.a + p.m_ur * wb) / p.m
     lr = wb - lf
-    # the yaw inertia the engine integrates: its yaw equation (vehicle_dynamics_mb) takes
-    # I_z alone, the unsprung masses do not enter it (as in the package's single-track models)
-    iz = p.I_z
+    iz = p.I_z + p.m_s * (p.a - lf) ** 2 + p.m_uf * lf**2 + p.m_ur * lr**2
     fzf = p.m * GRAVITY * lr / wb
     fzr = p.m * GRAVITY * lf / wb
     ky = abs(p.tire.p_ky1)
@@ -541,10 +539,7 @@ def vehicle_from_commonroad(name: str) -> VehicleParams:
 
     Derived from the package's parameter set, as a user would derive them from
     a data sheet: total mass; CG of the sprung mass and both unsprung masses
-    (at their axles); the yaw inertia a yaw test on the engine's car measures, the
-    package's ``I_z`` (its yaw equation takes ``I_z`` alone: adding the unsprung masses at
-    their axles, 9-13 % more, put 5-7 % of the lateral force on the wrong axle in the
-    transients); the
+    (at their axles); yaw inertia of that rigid assembly about the CG; the
     package's CG height, rolling radius and wheel inertia; the mean of the two
     track widths; axle cornering stiffness ``|p_ky1|`` times the static axle
     load; the driven axle from the engine-torque split ``T_se``; the steering

@@ -320,8 +320,7 @@ PRESET_SOURCES: dict[str, str] = {
     "ford-escort": (
         "CommonRoad vehicle 1 (Ford Escort, multi-body parameters from the US DOT vehicle "
         "dynamics data) as roadgrip.sim.mb_model.vehicle_from_commonroad derives it: total "
-        "mass and CG of the sprung and unsprung masses, the package's yaw inertia I_z (the "
-        "one its yaw equation integrates), CG height, "
+        "mass, CG and yaw inertia of the sprung and unsprung masses, the package's CG height, "
         "rolling radius and wheel inertia, mean track, cornering stiffness |p_ky1| Fz."
     ),
     "vw-vanagon": (
