@@ -440,3 +440,26 @@ def test_gyro_without_a_pose_is_undetermined():
     v = fit_vehicle(Drive(df, d.meta)).values
     for name, neutral in (("yaw_rate_scale", 1.0), ("yaw_rate_bias", 0.0)):
         assert not v[name].fitted and v[name].value == neutral and "pose" in v[name].note
+
+
+def test_turning_at_one_speed_is_named_in_the_scale_and_front_notes():
+    """At one speed the steering's scale trades against the understeer: the fit says so in
+    the notes of the scale and of the front stiffness, and not where the speed varies."""
+    from roadgrip.sim.friction import ConstantFriction, surface_from_preset
+    from roadgrip.sim.maneuvers import ConstantSpeed, Maneuver, RandomSteer
+    from roadgrip.sim.runner import simulate
+    from roadgrip.sim.scenarios import CAR_SENSORS
+
+    man = Maneuver(speed=ConstantSpeed(15.0),
+                   steering=RandomSteer(ay_min=0.5, ay_max=3.5, corr_time=1.0, envelope_period=40.0),
+                   yaw_gain=0.3, sideslip_gain=1.5)
+    one = simulate(PRESETS["sedan"], man, ConstantFriction("dry_asphalt"),
+                   [surface_from_preset("dry_asphalt")], duration=120.0, model="lateral",
+                   output_rate=100.0, sensors=CAR_SENSORS, seed=1, name="one speed")
+    for drive, named in ((one, True), (_sim(), False)):
+        v = fit_vehicle(drive).values
+        assert v["steer_scale"].fitted and ("turning at one speed" in v["steer_scale"].note) == named, (
+            named, v["steer_scale"].note)
+        front = v["cornering_stiffness_front"]  # at one speed possibly undetermined altogether
+        assert not front.fitted or ("turning at one speed" in front.note) == named, (named, front.note)
+        assert "one speed" not in v["cornering_stiffness_rear"].note
