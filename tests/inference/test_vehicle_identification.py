@@ -21,13 +21,14 @@ ACC_LAG = 8  # 80 ms
 
 
 @functools.cache
-def _sim() -> Drive:
+def _sim(speed: float | None = None) -> Drive:
+    """The fit's drive: speed random over 8-25 m/s, or constant ``speed`` [m/s]."""
     from roadgrip.sim.friction import ConstantFriction, surface_from_preset
-    from roadgrip.sim.maneuvers import Maneuver, RandomSpeed, RandomSteer
+    from roadgrip.sim.maneuvers import ConstantSpeed, Maneuver, RandomSpeed, RandomSteer
     from roadgrip.sim.runner import simulate
     from roadgrip.sim.scenarios import CAR_SENSORS
 
-    man = Maneuver(speed=RandomSpeed(8.0, 25.0, corr_time=10.0),
+    man = Maneuver(speed=RandomSpeed(8.0, 25.0, corr_time=10.0) if speed is None else ConstantSpeed(speed),
                    steering=RandomSteer(ay_min=0.5, ay_max=3.5, corr_time=1.0, envelope_period=40.0),
                    yaw_gain=0.3, sideslip_gain=1.5)
     return simulate(PRESETS["sedan"], man, ConstantFriction("dry_asphalt"),
@@ -445,18 +446,7 @@ def test_gyro_without_a_pose_is_undetermined():
 def test_turning_at_one_speed_is_named_in_the_scale_and_front_notes():
     """At one speed the steering's scale trades against the understeer: the fit says so in
     the notes of the scale and of the front stiffness, and not where the speed varies."""
-    from roadgrip.sim.friction import ConstantFriction, surface_from_preset
-    from roadgrip.sim.maneuvers import ConstantSpeed, Maneuver, RandomSteer
-    from roadgrip.sim.runner import simulate
-    from roadgrip.sim.scenarios import CAR_SENSORS
-
-    man = Maneuver(speed=ConstantSpeed(15.0),
-                   steering=RandomSteer(ay_min=0.5, ay_max=3.5, corr_time=1.0, envelope_period=40.0),
-                   yaw_gain=0.3, sideslip_gain=1.5)
-    one = simulate(PRESETS["sedan"], man, ConstantFriction("dry_asphalt"),
-                   [surface_from_preset("dry_asphalt")], duration=120.0, model="lateral",
-                   output_rate=100.0, sensors=CAR_SENSORS, seed=1, name="one speed")
-    for drive, named in ((one, True), (_sim(), False)):
+    for drive, named in ((_sim(15.0), True), (_sim(), False)):
         v = fit_vehicle(drive).values
         assert v["steer_scale"].fitted and ("turning at one speed" in v["steer_scale"].note) == named, (
             named, v["steer_scale"].note)

@@ -120,8 +120,9 @@ MIN_AY_STD = 0.5
 """Least standard deviation [m/s²] of ``a_y`` over the linear-range samples (excitation)."""
 ONE_SPEED_RATIO = 1.3
 """Turning counts as at one speed when the 90th percentile of the speed of the linear-range
-samples with ``|a_y| >= MIN_AY_STD`` is below this times their 10th: the steering's scale (``l r/v_x``) then trades against the
-understeer (``a_y = v_x r``), and the scale's and the front stiffness's notes say so (on the
+samples with ``|a_y| >= MIN_AY_STD`` is below this times their 10th: the steering's scale
+(``l r/v_x``) then trades against the understeer (``a_y = v_x r``), and the scale's and the
+front stiffness's notes say so (on the
 random family's ``dry-gravel-dry``, all turning at 11-12 m/s: scale errors of 2.8 %, front 9.9 %;
 turning at 8-20 m/s on ``vehicle-id``: 0.18 % and 2.0 %)."""
 MAX_REL_STD = 0.25
