@@ -124,3 +124,27 @@ def test_an_undetermined_a_x_delay_is_left_out_of_the_calibration(tmp_path: Path
     cal = read_calibration(car)
     assert "delay_accelerometer_x" not in cal and "delay_accelerometer" in cal
     assert "# delay_accelerometer_x:" in text and "undetermined" in text
+
+
+def _pose_held(d: Drive, every: float = 2.0, hold: float = 0.25) -> Drive:
+    """``d`` with the logger holding the pose (``x, y, psi`` at once) for ``hold`` [s] every
+    ``every`` [s]: 1.2 % of the samples, as a dropping GNSS receiver logs."""
+    df = d.data.copy()
+    n, k = len(df), round(hold / DT)
+    for c in ("x", "y", "psi"):
+        v = df[c].to_numpy().copy()
+        for i in range(100, n - k, round(every / DT)):
+            v[i + 1:i + k] = v[i]
+        df[c] = v
+    return Drive(df, d.meta)
+
+
+def test_a_held_pose_still_times_a_x():
+    """Differentiated, a held pose is a standstill and then a jump; the fit fills the holds
+    (:func:`roadgrip.inference.fit_signals.fill_held`) and finds ``a_x``'s delay as without
+    them."""
+    v = fit_vehicle(_pose_held(_two_clocks())).values
+    acc_x = v["delay_accelerometer_x"]
+    assert acc_x.fitted
+    assert acc_x.value == pytest.approx(AX_LAG * DT, abs=0.005)
+    assert v["delay_pose"].value == pytest.approx(0.0, abs=0.005)

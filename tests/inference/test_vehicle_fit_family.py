@@ -1,26 +1,28 @@
 """``roadgrip vehicle fit`` on the random multi-body vehicle family (issue 29): ``random:100``
-to ``random:119`` with realistic sensors, each fitted on its own ``dry-gravel-dry`` seed 10
-(the whole 180 s at ``mu=0.6``, fixed before measuring: the dry minute alone leaves the
-stiffnesses undetermined even with error-free sensors), against the simulator's truth.
+to ``random:119`` with realistic sensors, each fitted on its own drive (seed 10), against the
+simulator's truth (:func:`roadgrip.sim.vehicle_family.fit_truth`, as
+``benchmarks/vehicle_family.py --fit`` uses them).
 
-Truths: :func:`roadgrip.sim.vehicle_family.fit_truth` (as ``benchmarks/vehicle_family.py
---fit`` uses them).
-
-The issue's criterion (stiffnesses within 10 %, each delay within 20 ms, the steering offset
-within 0.1 deg, on 18 of 20) is reached for every delay (20 of 20) and the offset (20 of 20;
-random:100 at 0.095 deg),
-not for the stiffnesses: the rear within 10 % on 18 of 20 (the pose's lateral velocity measures
-it again), both on 14 of 20, 14 vehicles passing whole (``docs/vehicle-fit.md``). What is
-asserted: those counts, that every fitted stiffness lies within three of its standard
-errors of the truth (the errors are honest where the values miss), and the gyro's scale and
-bias and the pose's heading bias (the truth: the sensors' bias at the drive's middle, their
-drift included) on all 20.
+On the identification drive ``vehicle-id`` (``mu=1.0``; turning at 8-20 m/s) the issue's
+criterion (stiffnesses within 10 %, each delay within 20 ms, the steering offset within
+0.1 deg, on 18 of 20) is met: 18 of 20. On ``dry-gravel-dry`` (the whole 180 s at
+``mu=0.6``; all turning at 11-12 m/s, where the steering's scale trades against the
+understeer) every delay (20 of 20) and the offset (20 of 20; random:100 at 0.095 deg) pass,
+the stiffnesses do not: the rear within 10 % on 18 of 20 (the pose's lateral velocity
+measures it again), both on 14 of 20, as the fit's own standard errors (median 9.9 % at the
+front) lead one to expect (``docs/vehicle-fit.md``). What is asserted: those counts, that
+every stiffness fitted on ``dry-gravel-dry`` lies within three of its standard errors of the
+truth (the errors are honest where the values miss), and the gyro's scale and bias and the
+pose's heading bias (the truth: the sensors' bias at the drive's middle, their drift
+included) on all 20.
 
 The drives come from the drive cache (``ROADGRIP_DRIVE_CACHE``, by default the repository's
 ``.cache/drives`` that ``tests/conftest.py`` names); a drive missing there is simulated.
 """
 
 from __future__ import annotations
+
+import functools
 
 import numpy as np
 import pytest
@@ -35,16 +37,22 @@ FAMILY = tuple(f"random:{s}" for s in range(100, 120))
 DELAYS = ("delay_accelerometer", "delay_accelerometer_x", "steer_delay", "delay_speed", "delay_pose")
 STIFFNESS = ("cornering_stiffness_front", "cornering_stiffness_rear")
 RELATIVE = (*STIFFNESS, "yaw_rate_scale")
-DURATION = 180.0
-"""Length of the fit drive [s] (``dry-gravel-dry``)."""
+FIT_DRIVES = {"dry-gravel-dry": (0.6, 180.0), "vehicle-id": (1.0, 225.0)}
+"""Each fit drive's ``mu`` and length [s]."""
 
 
-def _errors(name: str) -> dict[str, tuple[float, float]]:
+@functools.cache
+def _fit(name: str, scenario: str):
+    drive = simulate_scenario(scenario, seed=10, engine="multibody", vehicle=name)
+    return fit_vehicle(drive, mu=FIT_DRIVES[scenario][0])
+
+
+def _errors(name: str, scenario: str = "dry-gravel-dry") -> dict[str, tuple[float, float]]:
     """Fitted minus true and the standard error, NaN where undetermined (stiffnesses and the
-    gyro's scale relative)."""
-    fit = fit_vehicle(simulate_scenario("dry-gravel-dry", seed=10, engine="multibody", vehicle=name), mu=0.6)
+    gyro's scale relative), the car fitted on ``scenario`` seed 10."""
+    fit = _fit(name, scenario)
     out = {}
-    for k, true in fit_truth(mb_vehicle(name), DURATION).items():
+    for k, true in fit_truth(mb_vehicle(name), FIT_DRIVES[scenario][1]).items():
         fv = fit.values[k]
         val, std = (fv.value, fv.std) if fv.fitted else (float("nan"), float("nan"))
         out[k] = (val / true - 1.0, std / true) if k in RELATIVE else (val - true, std)
@@ -54,6 +62,15 @@ def _errors(name: str) -> dict[str, tuple[float, float]]:
 @pytest.fixture(scope="module")
 def family():
     out = {name: _errors(name) for name in FAMILY}
+    for name, e in out.items():
+        print(name, {k: round(float(x[0]), 4) for k, x in e.items()})
+    return out
+
+
+@pytest.fixture(scope="module")
+def identification():
+    """Each car fitted on its own ``vehicle-id`` drive instead."""
+    out = {name: _errors(name, "vehicle-id") for name in FAMILY}
     for name, e in out.items():
         print(name, {k: round(float(x[0]), 4) for k, x in e.items()})
     return out
@@ -86,9 +103,13 @@ def test_stiffnesses_within_10_percent_on_14_and_honest_on_all(family):
             assert np.isfinite(err) and abs(err) <= 3.0 * std, (name, k, err, std)
 
 
+def _whole(e) -> bool:
+    return (_stiff_ok(e) and abs(e["steer_offset"][0]) <= np.radians(0.1)
+            and all(abs(e[k][0]) <= 0.020 for k in DELAYS))
+
+
 def test_whole_criterion_on_14(family):
-    ok = [n for n, e in family.items() if _stiff_ok(e) and abs(e["steer_offset"][0]) <= np.radians(0.1)
-          and all(abs(e[k][0]) <= 0.020 for k in DELAYS)]
+    ok = [n for n, e in family.items() if _whole(e)]
     assert len(ok) >= 14, sorted(set(FAMILY) - set(ok))
 
 
@@ -102,22 +123,33 @@ def test_gyro_and_pose_heading_on_all(family):
         assert abs(e["pose_heading_bias"][0]) <= 0.0015, (name, e["pose_heading_bias"])
 
 
-def test_identification_drive_pins_the_front_axle_and_the_steering_scale():
+def test_identification_drive_pins_the_front_axle_and_the_steering_scale(identification):
     """Fitted on the ``vehicle-id`` drive (seed 10, ``mu=1.0``: dry only) instead, turning at
     8-20 m/s, the steering's scale is told from the understeer, and with it the front axle.
     Measured (``docs/vehicle-fit.md``): the front within 4.9 % on all 20, standard errors at
     most 2.9 % (median 2.0 %; 9.9 % on ``dry-gravel-dry``, where all turning is at 11-12 m/s), the
-    steering scale's median 0.18 % (2.8 %). The rear reads 6 % high on average there, within
-    three standard errors: not asserted."""
-    front, scale = [], []
-    for name in FAMILY:
-        fit = fit_vehicle(simulate_scenario("vehicle-id", seed=10, engine="multibody", vehicle=name), mu=1.0)
-        true = fit_truth(mb_vehicle(name), 225.0)["cornering_stiffness_front"]
-        fv = fit.values["cornering_stiffness_front"]
-        assert fv.fitted, (name, fv.note)
-        front.append((name, fv.value / true - 1.0, fv.std / true))
+    steering scale's median 0.18 % (2.8 %)."""
+    scale = []
+    for name, e in identification.items():
+        fit = _fit(name, "vehicle-id")
+        assert fit.values["cornering_stiffness_front"].fitted, (name, fit.values["cornering_stiffness_front"].note)
         scale.append(fit.values["steer_scale"].std / fit.values["steer_scale"].value)
         assert "one speed" not in fit.values["steer_scale"].note, fit.values["steer_scale"].note
-    for name, err, std in front:
-        assert abs(err) <= 0.08 and std <= 0.04, (name, err, std)
+        err, std = e["cornering_stiffness_front"]
+        assert abs(err) <= 0.08 and std <= 0.04 and abs(err) <= 3.0 * std, (name, err, std)
     assert np.median(scale) <= 0.005, scale
+
+
+def test_identification_drive_meets_the_criterion_on_18(identification):
+    """The issue's whole criterion on the ``vehicle-id`` fits. Measured: 18 of 20; every delay
+    within 14 ms and the offset within 0.04 deg on all 20 (with the pose's logger holds filled:
+    before, ``a_x``'s delay of the all-wheel drives ``105`` and ``106`` was undetermined and
+    ``a_y``'s, kept for it, 37-70 ms off). The two misses are the rear of ``random:102``
+    (+16 %) and ``112`` (+20 %): the files' yaw inertia is not the engine's
+    (``docs/vehicle-fit.md``)."""
+    for name, e in identification.items():
+        for k in DELAYS:
+            assert abs(e[k][0]) <= 0.020, (name, k, e[k])
+        assert abs(e["steer_offset"][0]) <= np.radians(0.1), (name, e["steer_offset"])
+    ok = [n for n, e in identification.items() if _whole(e)]
+    assert len(ok) >= 18, sorted(set(FAMILY) - set(ok))

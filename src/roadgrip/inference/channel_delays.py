@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from roadgrip.drive import Drive
 from roadgrip.inference.fit_signals import dilate as _dilate
-from roadgrip.inference.fit_signals import pose_velocity, usable
+from roadgrip.inference.fit_signals import fill_held, pose_velocity, usable
 from roadgrip.inference.fit_signals import smooth as _smooth
 from roadgrip.inference.fitted_value import FittedValue
 from roadgrip.inference.fitted_value import fitted as _fitted
@@ -156,7 +156,7 @@ def fit_delays(drive: Drive, vx: NDArray, src: str, dt: float,
             "delay_accelerometer", "s", f"{pair}: peak correlation {acc.peak_corr:.2f}, "
             f"standard error {acc.std:.3g} s (too little turning)")
     if drive.has("psi"):
-        rate = np.gradient(np.unwrap(drive.col("psi")), t)
+        rate = np.gradient(fill_held(t, np.unwrap(drive.col("psi"))), t)
         fit = estimate_delay(t, rate, r, max_lag=1.0)
         if fit.reliable:
             out["delay_pose"] = _fitted("delay_pose", fit.delay, fit.std, "s",

@@ -54,7 +54,7 @@ random family at a 0.15 s filter); the regression is corrected for the measured 
 the gyro and the accelerometer (:func:`~roadgrip.inference.least_squares.eiv_lstsq`).
 
 **Rear axle with a pose.** Where the drive has a pose (its delay fitted), its lateral
-velocity ``v_y`` (:func:`~roadgrip.io.derived.body_velocity_from_pose`) measures the rear
+velocity ``v_y`` (:func:`~roadgrip.inference.fit_signals.pose_velocity`) measures the rear
 slip angle, and ``alpha_r = F_yr/C_r + c``, ``F_yr = (m l_f a_y - I_z r')/l``, measures
 ``1/C_r`` directly (the constant ``c`` takes the pose's heading bias, ``v_x`` times which
 it adds to ``v_y``). The pose's noise is on the dependent side, so it does not dilute. This
@@ -84,6 +84,7 @@ from roadgrip.inference.channel_delays import fit_delays as _delays
 from roadgrip.inference.fit_signals import POSE_WINDOW
 from roadgrip.inference.fit_signals import dilate as _dilate
 from roadgrip.inference.fit_signals import half_width as _half_width
+from roadgrip.inference.fit_signals import pose_velocity as _pose_velocity
 from roadgrip.inference.fit_signals import shifted as _shifted
 from roadgrip.inference.fit_signals import smooth as _smooth
 from roadgrip.inference.fit_signals import uniform_dt as _uniform_dt
@@ -101,7 +102,7 @@ from roadgrip.inference.least_squares import (
     n_eff,
 )
 from roadgrip.io.calibration import CALIBRATION, apply_calibration, corrected_yaw_rate
-from roadgrip.io.derived import body_velocity_from_pose, white_noise_std
+from roadgrip.io.derived import white_noise_std
 from roadgrip.signals import WHEELS, undriven_wheels, wheel_speed_vx
 from roadgrip.vehicle.params import CALIBRATION_KEY, FIELD_RANGES, VehicleParams
 
@@ -240,8 +241,7 @@ def _wheel_radius(drive: Drive, base: VehicleParams, dt: float) -> FittedValue:
     if not drive.has(*cols):
         return _undetermined("wheel_radius", "m", "no wheel speeds", base.wheel_radius)
     if drive.has_pose:
-        vx = body_velocity_from_pose(drive.t, drive.col("x"), drive.col("y"), drive.col("psi"),
-                                     window=0.5)[0]
+        vx = _pose_velocity(drive)[0]
         src = "the pose"
     elif drive.has("vx"):
         vx, src = drive.col("vx"), "the vx column"
@@ -333,8 +333,7 @@ def rear_axle_from_pose(drive: Drive, base: VehicleParams, vx: NDArray, dt: floa
         return None
     t = drive.t
     L, m, Iz = base.wheelbase, base.mass, base.yaw_inertia
-    vy = body_velocity_from_pose(t, drive.col("x"), drive.col("y"), drive.col("psi"),
-                                 window=POSE_WINDOW)[1]
+    vy = _pose_velocity(drive)[1]
     known = _shifted(t, np.isfinite(vy).astype(float), pose_delay) > 0.999
     vy = _shifted(t, np.where(np.isfinite(vy), vy, 0.0), pose_delay)
     roll = 1.0 + GRAVITY * base.roll_gradient
