@@ -37,6 +37,7 @@ def test_fit_writes_a_vehicle_file(drive_file, tmp_path):
 
 @pytest.mark.parametrize(("args", "message"), [
     (["--mu", "0"], "--mu must be in (0, 2]"),
+    (["--roll-lag", "-0.01"], "--roll-lag must be in [0, 0.5] s"),
     (["-o", "car.txt"], "--output must name a .yaml or .yml file"),
 ])
 def test_bad_options_are_named(drive_file, args, message):

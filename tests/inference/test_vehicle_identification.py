@@ -12,6 +12,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from roadgrip.drive import Drive
+from roadgrip.inference.channel_delays import ROLL_LAG
 from roadgrip.inference.vehicle_identification import fit_vehicle
 from roadgrip.vehicle import PRESETS, load_vehicle
 
@@ -264,7 +265,7 @@ def yaml_dump_sedan() -> str:
     return yaml.safe_dump(PRESETS["sedan"].to_dict(), sort_keys=False)
 
 
-def _fit_relative(df, base=None, **patch):
+def _fit_relative(df, base=None, roll_lag=ROLL_LAG, **patch):
     """Steering delay [s] and both stiffnesses relative to the truth of a fit of ``df``;
     ``patch``: module attributes replaced for the fit (to show what a fix changes)."""
     import roadgrip.inference.vehicle_identification as vi
@@ -274,7 +275,7 @@ def _fit_relative(df, base=None, **patch):
     try:
         for k, v in patch.items():
             setattr(vi, k, v)
-        v = fit_vehicle(Drive(df, d.meta), base).values
+        v = fit_vehicle(Drive(df, d.meta), base, roll_lag=roll_lag).values
     finally:
         for k, old in saved.items():
             setattr(vi, k, old)
@@ -329,9 +330,32 @@ def test_accelerometer_roll_reading_is_taken_out():
     d = _injected()
     df = d.data.copy()
     df["ay"] *= 1.0 + 9.80665 * rg
-    rolled = _fit_relative(df, d.vehicle.replace(roll_gradient=rg))
+    # (a roll without lag here: roll_lag 0)
+    rolled = _fit_relative(df, d.vehicle.replace(roll_gradient=rg), roll_lag=0.0)
     plain = _fit_relative(d.data.copy(), d.vehicle.replace(roll_gradient=0.0))
     np.testing.assert_allclose(rolled, plain, rtol=1e-6, atol=1e-9)
+
+
+def test_the_rolls_lag_is_taken_off_the_accelerometers_delay():
+    """A body that rolls 50 ms behind ``a_y``: the reading ``a_y + g rg a_y(t - 0.05)`` looks
+    late by about the roll's share of it (``g rg/(1 + g rg)``) times 50 ms; told that lag, the
+    fit gives the sensor's own delay (0 here), told none, the whole lag."""
+    rg, lag = 0.015, 0.05
+    d = _injected()
+    df = d.data.copy()
+    t, ay = df["t"].to_numpy(), df["ay"].to_numpy()
+    df["ay"] = ay + 9.80665 * rg * np.interp(t - lag, t, ay)
+    base = d.vehicle.replace(roll_gradient=rg)
+    share = 9.80665 * rg / (1.0 + 9.80665 * rg)
+
+    def delay(roll_lag):
+        fv = fit_vehicle(Drive(df, d.meta), base, roll_lag=roll_lag).values["delay_accelerometer"]
+        assert fv.fitted and f"{1e3 * roll_lag:.0f} ms" in fv.note
+        return fv.value
+
+    plain = fit_vehicle(d, d.vehicle.replace(roll_gradient=0.0)).values["delay_accelerometer"].value
+    assert delay(0.0) - plain == pytest.approx(share * lag, abs=0.002)
+    assert delay(lag) - plain == pytest.approx(0.0, abs=0.002)
 
 
 def test_speed_delay_with_the_accelerometer_on_its_own_clock():

@@ -76,6 +76,10 @@ def fit(
     channels: ChannelsOpt = None,
     mu: Annotated[float, typer.Option(
         help="Friction of the road driven [-]: the linear range is |a_y| < 0.4 mu g.")] = 1.0,
+    roll_lag: Annotated[float | None, typer.Option(
+        help="The body's roll behind the lateral acceleration [s], taken off the accelerometer's "
+             "delay in proportion to the roll's share of its reading (from the vehicle's "
+             "roll_gradient); 0: none; default roadgrip.inference.channel_delays.ROLL_LAG.")] = None,
     start: Annotated[float | None, typer.Option(help="Use the samples from this time [s].")] = None,
     end: Annotated[float | None, typer.Option(help="Use the samples before this time [s].")] = None,
     force: Annotated[bool, typer.Option(help="Overwrite an existing file.")] = False,
@@ -94,13 +98,15 @@ def fit(
         raise ValueError(f"{output} exists; pass --force to overwrite it")
     if not (math.isfinite(mu) and 0.0 < mu <= 2.0):
         raise ValueError(f"--mu must be in (0, 2], got {mu!r}")
+    if roll_lag is not None and not (math.isfinite(roll_lag) and 0.0 <= roll_lag <= 0.5):
+        raise ValueError(f"--roll-lag must be in [0, 0.5] s, got {roll_lag!r}")
     drive = load_drive(file, fmt, vehicle, topics, channels)
     t = drive.t
     t0 = t[0] if start is None else start
     t1 = t[-1] + 1.0 if end is None else end
     if start is not None or end is not None:
         drive = drive.slice_time(t0, t1)
-    res = fit_vehicle(drive, mu=mu)
+    res = fit_vehicle(drive, mu=mu) if roll_lag is None else fit_vehicle(drive, mu=mu, roll_lag=roll_lag)
     table = Table(title=f"vehicle fit: {Path(file).name}, {drive.duration:.1f} s, "
                         f"{res.samples} linear-range samples")
     for col in ("quantity", "value", "std. error", "unit", "status"):

@@ -79,7 +79,7 @@ from numpy.typing import NDArray
 
 from roadgrip.constants import GRAVITY
 from roadgrip.drive import Drive
-from roadgrip.inference.channel_delays import MAX_SIDESLIP_LAG, sideslip_lag
+from roadgrip.inference.channel_delays import MAX_SIDESLIP_LAG, ROLL_LAG, sideslip_lag
 from roadgrip.inference.channel_delays import fit_delays as _delays
 from roadgrip.inference.fit_signals import POSE_WINDOW
 from roadgrip.inference.fit_signals import dilate as _dilate
@@ -471,7 +471,8 @@ def _single_track(drive: Drive, base: VehicleParams, vx: NDArray, dt: float, acc
     return out, n
 
 
-def fit_vehicle(drive: Drive, base: VehicleParams | None = None, *, mu: float = 1.0) -> VehicleFit:
+def fit_vehicle(drive: Drive, base: VehicleParams | None = None, *, mu: float = 1.0,
+                roll_lag: float = ROLL_LAG) -> VehicleFit:
     """Identify the vehicle and sensor parameters of a drive (module docstring).
 
     Parameters
@@ -484,6 +485,11 @@ def fit_vehicle(drive: Drive, base: VehicleParams | None = None, *, mu: float = 
         default the drive's vehicle.
     mu : float
         Friction of the road driven [-], for the linear range ``|a_y| < 0.4 mu g``.
+    roll_lag : float
+        The body's roll behind the lateral acceleration [s], taken off the accelerometer's
+        delay in proportion to the roll's share of its reading
+        (:func:`~roadgrip.inference.channel_delays.fit_delays`); default
+        :data:`~roadgrip.inference.channel_delays.ROLL_LAG`.
 
     Returns
     -------
@@ -494,10 +500,13 @@ def fit_vehicle(drive: Drive, base: VehicleParams | None = None, *, mu: float = 
     DriveValidationError
         A required column is missing (named).
     ValueError
-        ``mu`` outside (0, 2], or a drive with fewer than 100 samples.
+        ``mu`` outside (0, 2], ``roll_lag`` outside [0, 0.5] s, or a drive with fewer than
+        100 samples.
     """
     if not (0.0 < mu <= 2.0):
         raise ValueError(f"mu must be in (0, 2], got {mu!r}")
+    if not (0.0 <= roll_lag <= 0.5):
+        raise ValueError(f"roll_lag must be in [0, 0.5] s, got {roll_lag!r}")
     base = drive.vehicle if base is None else base
     drive.require("yaw_rate", "ay", "steer", why="vehicle fit")
     if drive.n < 100:
@@ -514,7 +523,7 @@ def fit_vehicle(drive: Drive, base: VehicleParams | None = None, *, mu: float = 
         drive = Drive(df.reset_index(drop=True), drive.meta)
         t = grid
     vx, src = wheel_speed_vx(drive)
-    values = _delays(drive, vx, src, dt, base)
+    values = _delays(drive, vx, src, dt, base, roll_lag)
     values.update(fit_gyro(drive, dt, values.get("delay_pose")))
     if values["yaw_rate_scale"].fitted:  # the rest of the fit reads the corrected gyro
         df = drive.data.copy()
