@@ -59,6 +59,7 @@ from roadgrip.estimators.gpssm.block_ops import (
     _T,
     _TAIL,
     _UNTIL,
+    _USED_F,
     _VX,
     _flush,
     _grid_features,
@@ -92,7 +93,8 @@ class SC:
     """Slots of the scalar state ``sc``."""
 
     (K, T, STEER, VX, NU, SIGMA_SCALE, P_SCALE, C, SINCE, NHIST, PK_VALID, PAR, SIG,
-     FLOOR, BAD_SINCE, FLAGGED_UNTIL, RESETS, G_HEAD, G_TAIL, FLOOR_ACCEL, SIZE) = range(21)
+     FLOOR, BAD_SINCE, FLAGGED_UNTIL, RESETS, G_HEAD, G_TAIL, FLOOR_ACCEL, USED_FRONT, USED_REAR,
+     SIZE) = range(23)
 
 
 class OUT:
@@ -503,6 +505,8 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
         sc[_RESETS] += 1.0
         sc[_BAD] = np.nan
         sc[_UNTIL] = t + cst.diverge_time
+        sc[_USED_F] = 0.0  # what the wrong lateral state said the axles used
+        sc[_USED_F + 1] = 0.0
     diverged = runaway or lost or t < sc[_UNTIL]
     if diverged and not measured:
         vy_std = max(vy_std, cst.sigma_vy0, abs(e_vy))
@@ -517,9 +521,14 @@ def _guard(p, st, wk, blk, i, dt, cst, rng, row):  # pragma: no cover - compiled
         obs = wk.pk[ax, _PK_OBS] != 0.0
         mu = wk.pk[ax, _PK_MU]
         lo, hi = wk.pk[ax, _PK_LO], wk.pk[ax, _PK_HI]
+        if not diverged:
+            sc[_USED_F + ax] = max(sc[_USED_F + ax], abs(row[8 + ax]))
         if obs and mu < floor_gain - cst.floor_margin:
             obs = False
             hi = cst.peak_max
+        if not obs:
+            # a lower bound no higher than the axle has been estimated to use (guard.guard_step)
+            lo = min(lo, max(sc[_USED_F + ax], floor_gain))
         mu = max(mu, floor_gain)
         if t < sc[_UNTIL] - cst.diverge_time + cst.relearn_time:
             # relearning after a re-initialisation (guard.guard_step)

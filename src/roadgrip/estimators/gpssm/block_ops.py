@@ -20,7 +20,7 @@ from roadgrip.estimators.gpssm.linalg import _fold, _gather_sorted, _rebuild
 
 # slots of the scalar state (block.SC)
 (_K, _T, _STEER, _VX, _NU, _SS, _PS, _C, _SINCE, _NHIST, _PKV, _PAR, _SIG,
- _FLOOR, _BAD, _UNTIL, _RESETS, _HEAD, _TAIL, _FLOOR_ACCEL, _SC_SIZE) = range(21)
+ _FLOOR, _BAD, _UNTIL, _RESETS, _HEAD, _TAIL, _FLOOR_ACCEL, _USED_F, _USED_R, _SC_SIZE) = range(23)
 
 
 @numba.njit(cache=True)

@@ -194,6 +194,7 @@ def advance(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int = 0
     sc[[bk.SC.FLOOR, bk.SC.BAD_SINCE, bk.SC.FLAGGED_UNTIL, bk.SC.RESETS, bk.SC.G_HEAD, bk.SC.G_TAIL]] = (
         g.floor_raw, g.bad_since, g.flagged_until, g.resets, 0, n0)
     sc[bk.SC.FLOOR_ACCEL] = g.floor_accel
+    sc[[bk.SC.USED_FRONT, bk.SC.USED_REAR]] = g.used
     panc = np.ascontiguousarray(lin.panc, np.int64)
     sanc = np.ascontiguousarray(lin.sanc, np.int64)
     x, mu, logw = (np.ascontiguousarray(a) for a in (state.x, state.mu, state.logw))
@@ -229,6 +230,7 @@ def advance(ctx: Context, state: GPSSMState | None, data: NDArray, seed: int = 0
     g.nis = gnis[head:tail].tolist()
     g.floor_raw, g.bad_since = float(sc[bk.SC.FLOOR]), float(sc[bk.SC.BAD_SINCE])
     g.floor_accel = float(sc[bk.SC.FLOOR_ACCEL])
+    g.used = [float(sc[bk.SC.USED_FRONT]), float(sc[bk.SC.USED_REAR])]
     g.flagged_until, g.resets = float(sc[bk.SC.FLAGGED_UNTIL]), int(sc[bk.SC.RESETS])
     new = GPSSMState(
         k=int(sc[bk.SC.K]), t=float(sc[bk.SC.T]), u=sc[[bk.SC.STEER, bk.SC.VX]].copy(), x=x, mu=mu, logw=logw,
