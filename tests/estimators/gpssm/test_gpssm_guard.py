@@ -257,3 +257,52 @@ def test_curves_abstain_while_the_filter_relearns(snow20):
     after = f.curves(alpha)
     np.testing.assert_array_equal(after.lower, -cfg.peak_max)
     np.testing.assert_array_equal(after.upper, cfg.peak_max)
+
+
+def _seen_to_use(table: pd.DataFrame, axle: str) -> np.ndarray:
+    """The running maximum of ``|mu_now|`` over the steps not flagged (a run without
+    re-initialisations), per row."""
+    now = np.where(table["diverged"].to_numpy(bool), 0.0, np.abs(table[f"mu_now_{axle}"].to_numpy(float)))
+    return np.maximum.accumulate(now)
+
+
+def test_a_lower_band_of_a_peak_not_observed_is_at_most_what_the_axle_was_seen_to_use(snow20):
+    """Guard docstring, "Lower band of a peak not observed": no higher than the largest
+    ``|mu_now|`` of the axle so far or the floor over the gain, in the step (reference and
+    compiled, held to each other) and in the compiled block run."""
+    from roadgrip.estimators.gpssm.state import Context
+
+    cfg = _cfg(snow20)
+    *_, stepped = _both_implementations(Context(cfg, snow20.vehicle), _samples(snow20), seed=2)
+    block, _ = run_filter(snow20, cfg, seed=2)
+    for table in (stepped, block):
+        assert not table["diverged"].any()  # no re-initialisation on this drive
+        floor_gain = table["floor"].to_numpy(float) / table["ay_gain"].to_numpy(float)
+        for axle in ("front", "rear"):
+            free = ~table[f"peak_observed_{axle}"].to_numpy(bool)
+            cap = np.maximum(_seen_to_use(table, axle), floor_gain)
+            lower = table[f"mu_{axle}_lower"].to_numpy(float)
+            assert free.any()
+            assert np.all(lower[free] <= cap[free] + 1e-12), axle
+
+
+@pytest.mark.slow
+def test_a_family_car_fitted_and_read_keeps_its_rear_lower_band_on_the_truth():
+    """``random:108``'s snow slalom read with the car ``roadgrip vehicle fit`` found on its
+    ``dry-gravel-dry`` (seed 10, ``mu=0.6``), 200 particles, filter seed 0: before the rule
+    the rear lower band read 0.33-0.345 for 0.8 s against a true peak of 0.30, where the axle
+    was estimated to use at most 0.29 (``docs/validation-gpssm.md``)."""
+    from roadgrip.estimators.base import EstimateResult
+    from roadgrip.estimators.gpssm.estimator import summary
+    from roadgrip.evaluate.honesty import score_result
+    from roadgrip.inference.vehicle_identification import fit_vehicle
+
+    fit = fit_vehicle(simulate_scenario("dry-gravel-dry", seed=10, engine="multibody", vehicle="random:108"),
+                      mu=0.6)
+    d = fit.read(simulate_scenario("snow-slalom", seed=0, engine="multibody", vehicle="random:108"))
+    cfg = GPSSMConfig(particles=200)
+    table, _ = run_filter(d, cfg, seed=0)
+    res = EstimateResult("gpssm", table, {"config": cfg.to_meta(), "summary": summary(table)}, None)
+    assert score_result(res, d).honest
+    rear = table["mu_rear_lower"].to_numpy(float)
+    assert np.max(rear) <= 0.30 + 0.03, np.max(rear)
