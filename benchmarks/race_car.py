@@ -13,7 +13,9 @@ file, for comparison):
 
 - GP-SSM (the matrix's variant): lateral-velocity RMSE against the INS, the share of the
   unflagged samples whose band holds the INS (within 0.1 m/s), the share flagged, and the
-  final peak lower bounds against the sustained ``|a_y|/g`` of the half;
+  final peak lower bounds against the sustained ``|a_y|/g`` of the half (printed also over
+  the upper end of the accelerometer scale's 95 % interval the fit found: the most an honest
+  lower bound can claim from that accelerometer);
 - cascade: the share of excited samples and the honesty rule's cell
   (:func:`roadgrip.evaluate.honesty.score_result`);
 - bRLS and slip map, calibrated on the first half as ``'high'``
@@ -96,6 +98,11 @@ def main() -> None:
     print(f"GP-SSM on the second half with the shipped file (no calibration): vy RMSE "
           f"{np.sqrt(np.mean(err**2)):.2f} m/s")
     print(f"second half: {second.duration:.0f} s, sustained |a_y|/g {floor:.3f}, calibration applied {cal}")
+    kg = fit.values.get("ay_gain")
+    if kg is not None and kg.fitted:
+        # the most a lower bound can claim from the accelerometer whose scale the fit found
+        print(f"sustained |a_y|/g over the fitted accelerometer scale's 95 % upper end "
+              f"({kg.value:.4f} + {Z95:.2f} x {kg.std:.3f}): {floor / (kg.value + Z95 * kg.std):.3f}")
     print()
     rows = []
 

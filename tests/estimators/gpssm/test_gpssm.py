@@ -524,9 +524,43 @@ def test_step_and_run_hold_blas_to_one_thread(snow20, monkeypatch, two_blas_thre
     assert seen == [(1, len(_samples(d.slice_time(0.0, 0.3)))), (1, 1), (1, 1)]
 
 
+def test_curve_band_holds_the_slip_scale_where_vy_is_not_measured(snow20):
+    """Without a measured lateral velocity the slip angles' scale is not identified
+    (GPSSMConfig.slip_scale_sigma): the curve band holds the learned mean curve at
+    ``alpha / (1 + s)`` and ``alpha (1 + s)`` where it rises; the particles and the mean
+    are those of ``s = 0``, whose band holds neither. A measured ``vy`` fixes the scale."""
+    d = snow20.slice_time(0.0, 10.0)
+    a = np.radians(np.linspace(0.4, 1.6, 7))  # the rising part of the snow curve
+    cfg = _cfg(d, "separable-odd:8")
+    assert cfg.slip_scale_sigma == 0.5
+    k = 1.0 + cfg.slip_scale_sigma
+    f, _ = _online(cfg, d)
+    f0, _ = _online(_cfg(d, "separable-odd:8", slip_scale_sigma=0.0), d)
+    c, c0 = f.curves(a), f0.curves(a)
+    np.testing.assert_array_equal(c.mean, c0.mean)
+    below, above = f.curves(a / k).mean, f.curves(a * k).mean
+    assert (np.diff(c.mean, axis=1) > 0).all()
+    assert (c.lower <= below).all() and (c.upper >= above).all()
+    assert not ((c0.lower <= below).all() and (c0.upper >= above).all())
+    assert ((c.upper - c.lower) > (c0.upper - c0.lower)).all()
+    # with the lateral velocity measured the scale is known: slip_scale_sigma is not used
+    rows = drive_inputs(d)
+    rows[:, 5] = d.col("vy_true")
+    bands = []
+    for s in (0.0, 0.5):
+        g = GPSSM(_cfg(d, "separable-odd:8", vy_source="pose", slip_scale_sigma=s), d.vehicle, seed=0)
+        for r in rows:
+            g.step(Sample(*r))
+        cp = g.curves(a)
+        bands.append(np.stack([cp.lower, cp.upper]))
+    np.testing.assert_array_equal(bands[0], bands[1])
+
+
 def test_curve_is_held_flat_beyond_the_slip_limit(snow20):
     d = snow20.slice_time(0.0, 4.0)
-    cfg = _cfg(d, "separable-odd:8")
+    # (the spread over the slip angles' scale, slip_scale_sigma, reaches a multiple of
+    # alpha: the band past the limit is flat from twice it; the test above holds that spread)
+    cfg = _cfg(d, "separable-odd:8", slip_scale_sigma=0.0)
     b = cfg.basis
     assert cfg.alpha_limit == pytest.approx(b.L - 2.0 * b.ell)  # 26 deg
     f, _ = _online(cfg, d)

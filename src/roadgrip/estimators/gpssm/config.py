@@ -133,7 +133,9 @@ class GPSSMConfig(EstimatorConfig):
         2.0 deg at the front) with a particle spread of 0.1-0.2 m/s. The reported ``vy_std``
         therefore holds ``slip_scale_sigma |vy - l_r r|`` in quadrature (the rear axle's
         slip velocity, ``v_x tan(alpha_r)``): 0.5 puts a lateral velocity from half to
-        twice the slip inside the 95 % band. 0 for the particle spread alone.
+        twice the slip inside the 95 % band. The curve band spreads over the same scale
+        (``log k ~ N(0, log(1 + slip_scale_sigma)²)``, :func:`posterior_curves`). 0 for the
+        particle spread alone.
     curve_sigma_floor : float
         Standard deviation [-] added in quadrature to every particle's function posterior
         in the curve band and the peak band: the error of representing a tire curve with a
