@@ -524,6 +524,31 @@ def test_step_and_run_hold_blas_to_one_thread(snow20, monkeypatch, two_blas_thre
     assert seen == [(1, len(_samples(d.slice_time(0.0, 0.3)))), (1, 1), (1, 1)]
 
 
+@pytest.mark.parametrize("dof", [3.0, 40.0, 800.0])
+def test_mixture_quantile_against_root_finding(dof):
+    """The curve band's quantiles of a mixture of t's (normal above 500 degrees of freedom)
+    against scipy's root finder on the mixture's CDF, for smooth mixtures and for mixtures of
+    narrow components whose CDF is a staircase."""
+    from scipy import optimize, stats
+
+    from roadgrip.estimators.gpssm.posterior import mixture_quantile
+
+    rng = np.random.default_rng(7)
+    dist = stats.norm if dof > 500 else stats.t(dof)
+    for width in (0.05, 1e-4):
+        k, n = 60, 9
+        loc = rng.normal(0.3, 0.1, (k, n))
+        scale = width * rng.uniform(0.5, 2.0, (k, n))
+        weight = rng.dirichlet(np.ones(k))
+        for p in (0.025, 0.5, 0.975):
+            got = mixture_quantile(loc, scale, weight, p, dof)
+            for j in range(n):
+                m, sd = loc[:, j], scale[:, j]
+                ref = optimize.brentq(lambda x, m=m, sd=sd, p=p, wt=weight: wt @ dist.cdf((x - m) / sd) - p,
+                                      m.min() - 50 * width, m.max() + 50 * width, xtol=1e-12)
+                assert abs(got[j] - ref) <= 1e-7, (width, p, j, got[j], ref)
+
+
 def test_curve_band_holds_the_slip_scale_where_vy_is_not_measured(snow20):
     """Without a measured lateral velocity the slip angles' scale is not identified
     (GPSSMConfig.slip_scale_sigma): the curve band holds the learned mean curve at
