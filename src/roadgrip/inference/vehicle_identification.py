@@ -124,8 +124,9 @@ ONE_SPEED_RATIO = 1.3
 samples with ``|a_y| >= MIN_AY_STD`` is below this times their 10th: the steering's scale
 (``l r/v_x``) then trades against the understeer (``a_y = v_x r``), and the scale's and the
 front stiffness's notes say so (on the
-random family's ``dry-gravel-dry``, all turning at 11-12 m/s: scale errors of 2.8 %, front 9.9 %;
-turning at 8-20 m/s on ``vehicle-id``: 0.18 % and 2.0 %)."""
+random family's ``dry-gravel-dry``, all turning at 11-12 m/s: median standard errors of the
+scale 2.8 %, of the front stiffness 10.1 %; turning at 8-20 m/s on ``vehicle-id``: 0.18 % and
+2.0 %)."""
 MAX_REL_STD = 0.25
 """Largest relative standard error of a fitted gain, radius or stiffness (2 sigma: within
 +-50 %); the value and its error are reported either way."""
