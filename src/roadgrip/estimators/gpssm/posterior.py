@@ -40,7 +40,6 @@ from roadgrip.truth import true_curve
 __all__ = ["CurvePosterior", "curves_frame", "mixture_quantile", "peak_estimates", "posterior_curves"]
 
 
-
 def mixture_quantile(loc: NDArray, scale: NDArray, weight: NDArray, p: float, dof: float,
                      xtol: float = 1e-7) -> NDArray:
     """The ``p``-quantile of a mixture of Student-t distributions, per column.
@@ -281,10 +280,10 @@ def posterior_curves(
     (``GPSSMConfig.slip_scale_sigma = s``, the same unknown ``vy_std`` holds): the means
     are also taken at ``k alpha + o`` with ``log k ~ N(0, log(1 + s)²)``, independent of
     ``o`` (five components a particle: the three-point rule on each axis, sharing the
-    centre). With the
-    default ``s = 0.5`` the outer nodes are at half and twice the slip angle; on the
-    random family's snow slalom (``random:102``, ``random:109``) the front curves' linear
-    range came out 1.3-1.7 times too shallow, with the band on it missing the truth.
+    centre). With the default ``s = 0.5`` the outer nodes are at half and twice the slip
+    angle; on the random family's snow slalom (``random:102``, ``random:109``) the front
+    curves' linear range came out 1.3-1.7 times too shallow, with the band on it missing
+    the truth.
 
     While the filter relearns after a re-initialisation (``GPSSMConfig.relearn_time``
     after a step flagged ``diverged``, :mod:`~roadgrip.estimators.gpssm.guard`) the
